@@ -1,0 +1,349 @@
+use std::fmt;
+
+use glam::Vec2;
+use serde::{Deserialize, Serialize};
+
+/// A stable name for one agent: assigned on insertion, never reused, unchanged by removals of
+/// other agents and by reordering.
+#[derive(Clone, Copy, Debug, PartialEq, Eq, PartialOrd, Ord, Hash, Serialize, Deserialize)]
+pub struct AgentId(pub u32);
+
+impl fmt::Display for AgentId {
+    fn fmt(&self, f: &mut fmt::Formatter<'_>) -> fmt::Result {
+        write!(f, "#{}", self.0)
+    }
+}
+
+/// The initial state of an agent to add.
+#[derive(Clone, Copy, Debug, PartialEq, Serialize, Deserialize)]
+#[serde(default, deny_unknown_fields)]
+pub struct AgentInit {
+    /// Position in world units. Default: the origin.
+    pub position: Vec2,
+    /// Velocity in units per second. Default: zero.
+    pub velocity: Vec2,
+    /// Orientation in radians, counter-clockwise from +x. Default: 0.
+    pub orientation: f32,
+    /// Angular velocity in radians per second. Default: 0.
+    pub rotation: f32,
+    /// Index of the agent's group. Default: 0.
+    pub group: usize,
+    /// Overrides the group's maximum speed for this agent. Default: none.
+    pub max_speed: Option<f32>,
+    /// Overrides the group's radius for this agent. Default: none.
+    pub radius: Option<f32>,
+}
+
+impl Default for AgentInit {
+    fn default() -> Self {
+        AgentInit {
+            position: Vec2::ZERO,
+            velocity: Vec2::ZERO,
+            orientation: 0.0,
+            rotation: 0.0,
+            group: 0,
+            max_speed: None,
+            radius: None,
+        }
+    }
+}
+
+impl AgentInit {
+    /// An agent of group `group` at `position`, at rest.
+    #[must_use]
+    pub fn at(position: Vec2, group: usize) -> Self {
+        AgentInit { position, group, ..Self::default() }
+    }
+}
+
+const NO_INDEX: u32 = u32::MAX;
+/// Bit set in `overrides` when the agent has its own max speed.
+pub(crate) const OVERRIDE_SPEED: u8 = 1;
+/// Bit set in `overrides` when the agent has its own radius.
+pub(crate) const OVERRIDE_RADIUS: u8 = 2;
+
+/// Structure-of-arrays agent storage.
+///
+/// Index `i` of every buffer describes the same agent; [`Agents::id`] gives its stable id and
+/// [`Agents::index_of`] maps back.
+#[derive(Clone, Debug, Default)]
+pub struct Agents {
+    pub(crate) pos_x: Vec<f32>,
+    pub(crate) pos_y: Vec<f32>,
+    pub(crate) vel_x: Vec<f32>,
+    pub(crate) vel_y: Vec<f32>,
+    pub(crate) orientation: Vec<f32>,
+    pub(crate) rotation: Vec<f32>,
+    /// Wander-circle angle per agent (state of Reynolds' wander).
+    pub(crate) wander: Vec<f32>,
+    pub(crate) group: Vec<u32>,
+    pub(crate) max_speed: Vec<f32>,
+    pub(crate) radius: Vec<f32>,
+    pub(crate) overrides: Vec<u8>,
+    /// Per-agent target point .
+    pub(crate) target_x: Vec<f32>,
+    pub(crate) target_y: Vec<f32>,
+    pub(crate) ids: Vec<AgentId>,
+    /// `index_of[id]` is the agent's storage index, or `NO_INDEX` once removed.
+    index_of: Vec<u32>,
+    scratch_f32: Vec<f32>,
+}
+
+macro_rules! for_each_buffer {
+    ($self:ident, $f:ident) => {
+        $f(&mut $self.pos_x);
+        $f(&mut $self.pos_y);
+        $f(&mut $self.vel_x);
+        $f(&mut $self.vel_y);
+        $f(&mut $self.orientation);
+        $f(&mut $self.rotation);
+        $f(&mut $self.wander);
+        $f(&mut $self.max_speed);
+        $f(&mut $self.radius);
+        $f(&mut $self.target_x);
+        $f(&mut $self.target_y);
+    };
+}
+
+impl Agents {
+    /// An empty store.
+    #[must_use]
+    pub fn new() -> Self {
+        Self::default()
+    }
+
+    /// Number of live agents.
+    #[must_use]
+    pub fn len(&self) -> usize {
+        self.ids.len()
+    }
+
+    /// Whether there are no agents.
+    #[must_use]
+    pub fn is_empty(&self) -> bool {
+        self.ids.is_empty()
+    }
+
+    /// Appends an agent whose values were already validated and resolved; returns its new id.
+    pub(crate) fn push(&mut self, init: &AgentInit, max_speed: f32, radius: f32, wander: f32) -> AgentId {
+        let id = AgentId(u32::try_from(self.index_of.len()).expect("more than 4 billion agents ever added"));
+        let index = u32::try_from(self.ids.len()).expect("more than 4 billion live agents");
+        self.index_of.push(index);
+        self.pos_x.push(init.position.x);
+        self.pos_y.push(init.position.y);
+        self.vel_x.push(init.velocity.x);
+        self.vel_y.push(init.velocity.y);
+        self.orientation.push(init.orientation);
+        self.rotation.push(init.rotation);
+        self.wander.push(wander);
+        self.group.push(init.group as u32);
+        self.max_speed.push(max_speed);
+        self.radius.push(radius);
+        let mut flags = 0;
+        if init.max_speed.is_some() {
+            flags |= OVERRIDE_SPEED;
+        }
+        if init.radius.is_some() {
+            flags |= OVERRIDE_RADIUS;
+        }
+        self.overrides.push(flags);
+        self.target_x.push(init.position.x);
+        self.target_y.push(init.position.y);
+        self.ids.push(id);
+        id
+    }
+
+    /// Removes an agent by storage index, moving the last agent into its place.
+    pub(crate) fn swap_remove(&mut self, index: usize) -> AgentId {
+        let id = self.ids[index];
+        let swap = |v: &mut Vec<f32>| {
+            v.swap_remove(index);
+        };
+        for_each_buffer!(self, swap);
+        self.group.swap_remove(index);
+        self.overrides.swap_remove(index);
+        self.ids.swap_remove(index);
+        self.index_of[id.0 as usize] = NO_INDEX;
+        if index < self.ids.len() {
+            let moved = self.ids[index];
+            self.index_of[moved.0 as usize] = index as u32;
+        }
+        id
+    }
+
+    /// The storage index of a live agent.
+    #[must_use]
+    pub fn index_of(&self, id: AgentId) -> Option<usize> {
+        match self.index_of.get(id.0 as usize) {
+            Some(&i) if i != NO_INDEX => Some(i as usize),
+            _ => None,
+        }
+    }
+
+    /// Whether `id` names a live agent.
+    #[must_use]
+    pub fn contains(&self, id: AgentId) -> bool {
+        self.index_of(id).is_some()
+    }
+
+    /// The id of the agent at storage index `index`.
+    ///
+    /// # Panics
+    /// When `index >= len()`.
+    #[must_use]
+    pub fn id(&self, index: usize) -> AgentId {
+        self.ids[index]
+    }
+
+    /// Ids in storage order.
+    #[must_use]
+    pub fn ids(&self) -> &[AgentId] {
+        &self.ids
+    }
+
+    /// Position x coordinates in storage order.
+    #[must_use]
+    pub fn pos_x(&self) -> &[f32] {
+        &self.pos_x
+    }
+
+    /// Position y coordinates in storage order.
+    #[must_use]
+    pub fn pos_y(&self) -> &[f32] {
+        &self.pos_y
+    }
+
+    /// Velocity x components in storage order.
+    #[must_use]
+    pub fn vel_x(&self) -> &[f32] {
+        &self.vel_x
+    }
+
+    /// Velocity y components in storage order.
+    #[must_use]
+    pub fn vel_y(&self) -> &[f32] {
+        &self.vel_y
+    }
+
+    /// Orientations (radians, in `[0, 2pi)`) in storage order.
+    #[must_use]
+    pub fn orientations(&self) -> &[f32] {
+        &self.orientation
+    }
+
+    /// Angular velocities (radians per second) in storage order.
+    #[must_use]
+    pub fn rotations(&self) -> &[f32] {
+        &self.rotation
+    }
+
+    /// Group indices in storage order.
+    #[must_use]
+    pub fn groups(&self) -> &[u32] {
+        &self.group
+    }
+
+    /// Effective maximum speeds (group value or per-agent override) in storage order.
+    #[must_use]
+    pub fn max_speeds(&self) -> &[f32] {
+        &self.max_speed
+    }
+
+    /// Effective radii (group value or per-agent override) in storage order.
+    #[must_use]
+    pub fn radii(&self) -> &[f32] {
+        &self.radius
+    }
+
+    /// Position of the agent at storage index `i`.
+    #[inline]
+    #[must_use]
+    pub fn position(&self, i: usize) -> Vec2 {
+        Vec2::new(self.pos_x[i], self.pos_y[i])
+    }
+
+    /// Velocity of the agent at storage index `i`.
+    #[inline]
+    #[must_use]
+    pub fn velocity(&self, i: usize) -> Vec2 {
+        Vec2::new(self.vel_x[i], self.vel_y[i])
+    }
+
+    /// Reorders storage so that new index `k` holds the agent that was at `perm[k]`. Ids move with
+    /// their agents. `perm` must be a permutation of `0..len()`.
+    ///
+    /// # Panics
+    /// When `perm.len() != len()` (a debug assertion also checks it is a permutation).
+    pub fn reorder(&mut self, perm: &[u32]) {
+        assert_eq!(perm.len(), self.len(), "permutation length");
+        debug_assert!(is_permutation(perm));
+        let mut scratch = std::mem::take(&mut self.scratch_f32);
+        let mut apply = |v: &mut Vec<f32>| {
+            scratch.clear();
+            scratch.extend(perm.iter().map(|&p| v[p as usize]));
+            std::mem::swap(v, &mut scratch);
+        };
+        for_each_buffer!(self, apply);
+        self.scratch_f32 = scratch;
+        self.group = perm.iter().map(|&p| self.group[p as usize]).collect();
+        self.overrides = perm.iter().map(|&p| self.overrides[p as usize]).collect();
+        self.ids = perm.iter().map(|&p| self.ids[p as usize]).collect();
+        for (k, id) in self.ids.iter().enumerate() {
+            self.index_of[id.0 as usize] = k as u32;
+        }
+    }
+
+    /// Total number of ids ever handed out (live or removed).
+    #[must_use]
+    pub fn ids_issued(&self) -> usize {
+        self.index_of.len()
+    }
+
+    /// Approximate heap bytes held per live agent (buffers' capacity, not length).
+    #[must_use]
+    pub fn heap_bytes(&self) -> usize {
+        let f = self.pos_x.capacity() * 11 * 4;
+        f + self.group.capacity() * 4 + self.overrides.capacity() + self.ids.capacity() * 4 + self.index_of.capacity() * 4
+    }
+}
+
+fn is_permutation(perm: &[u32]) -> bool {
+    let mut seen = vec![false; perm.len()];
+    perm.iter().all(|&p| {
+        let p = p as usize;
+        p < seen.len() && !std::mem::replace(&mut seen[p], true)
+    })
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    fn store(n: usize) -> Agents {
+        let mut a = Agents::new();
+        for i in 0..n {
+            a.push(&AgentInit::at(Vec2::new(i as f32, 0.0), 0), 1.0, 1.0, 0.0);
+        }
+        a
+    }
+
+    #[test]
+    fn ids_survive_removal_and_reorder() {
+        let mut a = store(5);
+        let removed = a.swap_remove(1);
+        assert_eq!(removed, AgentId(1));
+        assert!(!a.contains(AgentId(1)));
+        for id in [0, 2, 3, 4] {
+            let i = a.index_of(AgentId(id)).unwrap();
+            assert_eq!(a.position(i).x, id as f32);
+        }
+        a.reorder(&[3, 2, 1, 0]);
+        for id in [0, 2, 3, 4] {
+            let i = a.index_of(AgentId(id)).unwrap();
+            assert_eq!(a.position(i).x, id as f32);
+            assert_eq!(a.id(i), AgentId(id));
+        }
+        let new = a.push(&AgentInit::default(), 1.0, 1.0, 0.0);
+        assert_eq!(new, AgentId(5), "ids are never reused");
+    }
+}

@@ -1,0 +1,182 @@
+//! The crate's one error type.
+//!
+//! Every builder, mutator, loader and parser validates its input at the boundary and returns a
+//! [`Error`] that names the offending parameter and its value. The hot path (`World::step`) never
+//! fails on data that passed validation, so nothing invalid ever enters the agent buffers.
+
+use crate::agents::AgentId;
+
+/// Errors returned by throng's builders, mutators and loaders.
+#[non_exhaustive]
+#[derive(Debug, thiserror::Error)]
+pub enum Error {
+    /// A number was NaN or infinite.
+    #[error("{name} must be a finite number, got {value}")]
+    NonFinite {
+        /// The parameter's name.
+        name: &'static str,
+        /// The value given.
+        value: f64,
+    },
+    /// A number that must not be negative was negative.
+    #[error("{name} must not be negative, got {value}")]
+    Negative {
+        /// The parameter's name.
+        name: &'static str,
+        /// The value given.
+        value: f64,
+    },
+    /// A number that must be strictly positive was zero or negative.
+    #[error("{name} must be greater than zero, got {value}")]
+    NotPositive {
+        /// The parameter's name.
+        name: &'static str,
+        /// The value given.
+        value: f64,
+    },
+    /// A mass of zero (or less) was given.
+    #[error("mass must be greater than zero, got {value}")]
+    ZeroMass {
+        /// The value given.
+        value: f64,
+    },
+    /// A time step was zero, negative or not finite.
+    #[error("dt must be a finite number greater than zero, got {dt}")]
+    InvalidTimeStep {
+        /// The value given.
+        dt: f64,
+    },
+    /// A number lay outside the range it must lie in.
+    #[error("{name} must lie in {range}, got {value}")]
+    OutOfRange {
+        /// The parameter's name.
+        name: &'static str,
+        /// The value given.
+        value: f64,
+        /// The allowed range, in words (`"[0, 1]"`).
+        range: &'static str,
+    },
+    /// An [`AgentId`] that names no live agent.
+    #[error("unknown agent id {id}")]
+    UnknownAgent {
+        /// The id given.
+        id: AgentId,
+    },
+    /// A group index that names no group.
+    #[error("unknown group {group} (the world has {count} groups)")]
+    UnknownGroup {
+        /// The group index given.
+        group: usize,
+        /// How many groups the world has.
+        count: usize,
+    },
+    /// A parameter was invalid for a reason other than its numeric range.
+    #[error("invalid {name}: {reason}")]
+    Invalid {
+        /// The parameter's name.
+        name: String,
+        /// Why it is invalid.
+        reason: String,
+    },
+    /// A text map (occupancy grid) could not be parsed.
+    #[error("{source_name}:{line}:{column}: {message}")]
+    MapParse {
+        /// The file name, or `<map>` for text given in code.
+        source_name: String,
+        /// 1-based line number.
+        line: usize,
+        /// 1-based column number.
+        column: usize,
+        /// What is wrong there.
+        message: String,
+    },
+    /// A scenario file could not be read or is invalid.
+    #[error("{source_name}{}: {message}", location.map(|(l, c)| format!(":{l}:{c}")).unwrap_or_default())]
+    Scenario {
+        /// The file name, or the built-in scenario's name.
+        source_name: String,
+        /// 1-based line and column, where known.
+        location: Option<(usize, usize)>,
+        /// What is wrong.
+        message: String,
+    },
+    /// A requested movement is impossible for the agent's limits (for example a jump).
+    #[error("impossible: {reason}")]
+    Impossible {
+        /// Why it cannot be done.
+        reason: String,
+    },
+    /// An input or output operation failed.
+    #[error("{path}: {source}")]
+    Io {
+        /// The file involved.
+        path: String,
+        /// The underlying error.
+        #[source]
+        source: std::io::Error,
+    },
+}
+
+/// The crate's result type.
+pub type Result<T, E = Error> = std::result::Result<T, E>;
+
+/// Checks that `value` is finite.
+///
+/// # Errors
+/// [`Error::NonFinite`] when it is NaN or infinite.
+pub fn finite(name: &'static str, value: f32) -> Result<f32> {
+    if value.is_finite() {
+        Ok(value)
+    } else {
+        Err(Error::NonFinite { name, value: f64::from(value) })
+    }
+}
+
+/// Checks that both components of `v` are finite.
+///
+/// # Errors
+/// [`Error::NonFinite`] naming the first bad component.
+pub fn finite_vec(name: &'static str, v: glam::Vec2) -> Result<glam::Vec2> {
+    finite(name, v.x)?;
+    finite(name, v.y)?;
+    Ok(v)
+}
+
+/// Checks that `value` is finite and not negative.
+///
+/// # Errors
+/// [`Error::NonFinite`] or [`Error::Negative`].
+pub fn non_negative(name: &'static str, value: f32) -> Result<f32> {
+    finite(name, value)?;
+    if value < 0.0 {
+        Err(Error::Negative { name, value: f64::from(value) })
+    } else {
+        Ok(value)
+    }
+}
+
+/// Checks that `value` is finite and strictly positive.
+///
+/// # Errors
+/// [`Error::NonFinite`] or [`Error::NotPositive`].
+pub fn positive(name: &'static str, value: f32) -> Result<f32> {
+    finite(name, value)?;
+    if value <= 0.0 {
+        Err(Error::NotPositive { name, value: f64::from(value) })
+    } else {
+        Ok(value)
+    }
+}
+
+/// Checks that `value` is finite and lies in `[lo, hi]`.
+///
+/// # Errors
+/// [`Error::NonFinite`] or [`Error::OutOfRange`].
+pub fn in_range(name: &'static str, value: f32, lo: f32, hi: f32, range: &'static str) -> Result<f32> {
+    finite(name, value)?;
+    if value < lo || value > hi {
+        Err(Error::OutOfRange { name, value: f64::from(value), range })
+    } else {
+        Ok(value)
+    }
+}

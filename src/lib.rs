@@ -1,0 +1,13 @@
+//! # throng
+//!
+//! A data-parallel crowd and flock simulator.
+#![warn(missing_docs)]
+
+pub mod agents;
+pub mod bounds;
+pub mod error;
+pub mod rng;
+
+pub use agents::{AgentId, AgentInit, Agents};
+pub use bounds::Bounds;
+pub use error::{Error, Result};
