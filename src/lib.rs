@@ -1,13 +1,66 @@
 //! # throng
 //!
 //! A data-parallel crowd and flock simulator.
-#![warn(missing_docs)]
+//!
+//! throng keeps agents in structure-of-arrays buffers, steers them with Reynolds' behaviours in
+//! the kinematic and the dynamic (Newton-Euler, force / mass) model, and steps them with a
+//! rayon-parallel steering pass feeding a SIMD integrator. The same seed gives the same bits on
+//! any number of threads.
+//!
+//! ## Quick start
+//! ```
+//! use throng::prelude::*;
+//!
+//! # fn main() -> throng::Result<()> {
+//! let target = Vec2::new(80.0, 20.0);
+//! let arrive = SteeringProfile::single(Behaviour::Arrive { target: Target::Point(target), params: ArriveParams::default() });
+//! let mut world = World::builder()
+//!     .bounds(Bounds::bounded(100.0, 100.0)?)
+//!     .group(GroupParams { max_speed: 5.0, max_acceleration: 10.0, ..GroupParams::dynamic(arrive) })
+//!     .agent(AgentInit::at(Vec2::new(10.0, 10.0), 0))
+//!     .build()?;
+//! for _ in 0..600 {
+//!     world.step(1.0 / 30.0)?;
+//! }
+//! let p = world.agents().position(0);
+//! assert!(p.distance(target) < 0.3);
+//! # Ok(())
+//! # }
+//! ```
+//!
+//! ## Modules
+//! - [`agents`]: SoA storage with stable [`AgentId`]s.
+//! - [`movement`]: the kinematic and dynamic models and the vectorised integrator.
+//! - [`steering`]: behaviours as pure functions and as data, and their combination.
+//! - [`world`]: [`World`], [`WorldBuilder`], [`GroupParams`], the step pipeline and [`StepStats`].
+//! - [`bounds`]: open, walled and wrap-around worlds and their metric.
+//! - [`rng`]: the counter-based random stream keyed by (seed, agent, frame).
+//! - [`error`]: the [`Error`] type.
+//!
+//! ## Features
+//! - `cli` (default): the `throng` command-line program.
+//! - `render` (default): PNG and animated GIF output.
 
 pub mod agents;
 pub mod bounds;
 pub mod error;
+pub mod movement;
 pub mod rng;
+pub mod steering;
+pub mod world;
 
 pub use agents::{AgentId, AgentInit, Agents};
 pub use bounds::Bounds;
 pub use error::{Error, Result};
+pub use world::{GroupParams, StepStats, World, WorldBuilder};
+
+/// The types most programs need, for `use throng::prelude::*`.
+pub mod prelude {
+    pub use crate::agents::{AgentId, AgentInit, Agents};
+    pub use crate::bounds::Bounds;
+    pub use crate::error::{Error, Result};
+    pub use crate::movement::{MovementModel, OrientationMode};
+    pub use crate::steering::{ArriveParams, Behaviour, Combine, Steering, SteeringProfile, Target, WanderParams, Weighted};
+    pub use crate::world::{AgentState, GroupParams, StepStats, World, WorldBuilder};
+    pub use glam::Vec2;
+}

@@ -12,3 +12,8 @@
 mod store;
 
 pub use store::{AgentId, AgentInit, Agents};
+
+/// Flags recording which per-agent overrides are set.
+pub(crate) mod store_flags {
+    pub(crate) use super::store::{OVERRIDE_RADIUS, OVERRIDE_SPEED};
+}

@@ -1,0 +1,332 @@
+//! Behaviours as data: what a group profile or a scenario file names.
+
+use glam::Vec2;
+use serde::{Deserialize, Serialize};
+
+use super::align::AlignParams;
+use crate::agents::AgentId;
+use crate::error::{Error, Result, finite, finite_vec, non_negative, positive};
+
+/// What a behaviour steers relative to.
+#[derive(Clone, Copy, Debug, PartialEq, Serialize, Deserialize)]
+#[serde(rename_all = "snake_case")]
+pub enum Target {
+    /// A fixed point in world coordinates.
+    Point(Vec2),
+    /// Another agent (its position and velocity at the start of the frame). When that agent has
+    /// been removed the behaviour yields nothing.
+    Agent(AgentId),
+    /// Each agent's own target point, set with `World::set_target`.
+    Own,
+}
+
+impl Target {
+    fn validate(&self, name: &'static str) -> Result<()> {
+        if let Target::Point(p) = self {
+            finite_vec(name, *p)?;
+        }
+        Ok(())
+    }
+}
+
+/// Parameters of arrive.
+#[derive(Clone, Copy, Debug, PartialEq, Serialize, Deserialize)]
+#[serde(default, deny_unknown_fields)]
+pub struct ArriveParams {
+    /// Distance within which the agent counts as arrived and comes to rest. Default: 0.25.
+    pub target_radius: f32,
+    /// Distance within which the agent slows down. Default: 3.0.
+    pub slow_radius: f32,
+    /// Seconds over which the wanted velocity is reached. Default: 0.1.
+    pub time_to_target: f32,
+}
+
+impl Default for ArriveParams {
+    fn default() -> Self {
+        ArriveParams { target_radius: 0.25, slow_radius: 3.0, time_to_target: 0.1 }
+    }
+}
+
+impl ArriveParams {
+    /// Checks the numbers.
+    ///
+    /// # Errors
+    /// [`Error::Negative`], [`Error::NotPositive`] or [`Error::NonFinite`].
+    pub fn validate(&self) -> Result<()> {
+        non_negative("arrive.target_radius", self.target_radius)?;
+        positive("arrive.slow_radius", self.slow_radius)?;
+        positive("arrive.time_to_target", self.time_to_target)?;
+        Ok(())
+    }
+}
+
+/// Parameters of Reynolds' wander circle (dynamic model). The kinematic model's wander uses the
+/// group's maximum rotation instead.
+#[derive(Clone, Copy, Debug, PartialEq, Serialize, Deserialize)]
+#[serde(default, deny_unknown_fields)]
+pub struct WanderParams {
+    /// Radius of the wander circle. Default: 1.0.
+    pub radius: f32,
+    /// Distance of the circle's centre ahead of the agent. Default: 2.0.
+    pub distance: f32,
+    /// Largest change of the wander angle per second, radians. Default: 4.0.
+    pub jitter: f32,
+}
+
+impl Default for WanderParams {
+    fn default() -> Self {
+        WanderParams { radius: 1.0, distance: 2.0, jitter: 4.0 }
+    }
+}
+
+/// One steering behaviour with its parameters.
+///
+/// Every behaviour works in both movement models: the world calls the dynamic function (a force)
+/// or the kinematic one (a desired velocity) according to the group's model.
+#[non_exhaustive]
+#[derive(Clone, Debug, PartialEq, Serialize, Deserialize)]
+#[serde(tag = "kind", rename_all = "snake_case", deny_unknown_fields)]
+pub enum Behaviour {
+    /// Full speed towards the target; nothing within `threshold`.
+    Seek {
+        /// What to seek.
+        target: Target,
+        /// Distance at which seeking stops. Default: 0.
+        #[serde(default)]
+        threshold: f32,
+    },
+    /// Full speed away from the target while it is within `panic_distance`.
+    Flee {
+        /// What to flee.
+        target: Target,
+        /// Distance beyond which the target is ignored. Default: infinite.
+        #[serde(default = "infinite")]
+        panic_distance: f32,
+    },
+    /// Slow down and stop at the target.
+    Arrive {
+        /// Where to stop.
+        target: Target,
+        /// Radii and timing.
+        #[serde(flatten)]
+        params: ArriveParams,
+    },
+    /// Random, smooth motion: the kinematic random binomial or the dynamic wander circle.
+    Wander {
+        /// Circle parameters (dynamic model).
+        #[serde(flatten)]
+        params: WanderParams,
+    },
+    /// Seek where the target agent will be.
+    Pursue {
+        /// The agent to catch.
+        target: Target,
+        /// Longest look-ahead, seconds. Default: 1.
+        #[serde(default = "one")]
+        max_prediction: f32,
+    },
+    /// Flee where the pursuer will be, while it is within `panic_distance`.
+    Evade {
+        /// The agent to escape.
+        target: Target,
+        /// Longest look-ahead, seconds. Default: 1.
+        #[serde(default = "one")]
+        max_prediction: f32,
+        /// Distance beyond which the pursuer is ignored. Default: infinite.
+        #[serde(default = "infinite")]
+        panic_distance: f32,
+    },
+    /// Turn to face the target (angular only).
+    Face {
+        /// What to face.
+        target: Target,
+        /// Angular radii and timing.
+        #[serde(flatten)]
+        params: AlignParams,
+    },
+    /// Turn to face the direction of motion (angular only).
+    LookWhereYouAreGoing {
+        /// Angular radii and timing.
+        #[serde(flatten)]
+        params: AlignParams,
+    },
+    /// Match the target agent's velocity.
+    MatchVelocity {
+        /// The agent whose velocity to match.
+        target: Target,
+        /// Seconds over which to match. Default: 0.1.
+        #[serde(default = "tenth")]
+        time_to_target: f32,
+    },
+}
+
+fn infinite() -> f32 {
+    f32::INFINITY
+}
+fn one() -> f32 {
+    1.0
+}
+fn tenth() -> f32 {
+    0.1
+}
+
+fn align_validate(p: &AlignParams) -> Result<()> {
+    non_negative("align.target_radius", p.target_radius)?;
+    positive("align.slow_radius", p.slow_radius)?;
+    positive("align.time_to_target", p.time_to_target)?;
+    Ok(())
+}
+
+fn non_negative_or_inf(name: &'static str, v: f32) -> Result<f32> {
+    if v == f32::INFINITY { Ok(v) } else { non_negative(name, v) }
+}
+
+impl Behaviour {
+    /// The behaviour's name as written in scenario files.
+    #[must_use]
+    pub fn name(&self) -> &'static str {
+        match self {
+            Behaviour::Seek { .. } => "seek",
+            Behaviour::Flee { .. } => "flee",
+            Behaviour::Arrive { .. } => "arrive",
+            Behaviour::Wander { .. } => "wander",
+            Behaviour::Pursue { .. } => "pursue",
+            Behaviour::Evade { .. } => "evade",
+            Behaviour::Face { .. } => "face",
+            Behaviour::LookWhereYouAreGoing { .. } => "look_where_you_are_going",
+            Behaviour::MatchVelocity { .. } => "match_velocity",
+        }
+    }
+
+    /// The behaviour's target, if it has one.
+    #[must_use]
+    pub fn target(&self) -> Option<Target> {
+        match *self {
+            Behaviour::Seek { target, .. }
+            | Behaviour::Flee { target, .. }
+            | Behaviour::Arrive { target, .. }
+            | Behaviour::Pursue { target, .. }
+            | Behaviour::Evade { target, .. }
+            | Behaviour::Face { target, .. }
+            | Behaviour::MatchVelocity { target, .. } => Some(target),
+            Behaviour::Wander { .. } | Behaviour::LookWhereYouAreGoing { .. } => None,
+        }
+    }
+
+    /// Checks every parameter.
+    ///
+    /// # Errors
+    /// The variant naming the first bad parameter.
+    pub fn validate(&self) -> Result<()> {
+        if let Some(t) = self.target() {
+            t.validate("target")?;
+        }
+        match self {
+            Behaviour::Seek { threshold, .. } => {
+                non_negative("seek.threshold", *threshold)?;
+            }
+            Behaviour::Flee { panic_distance, .. } => {
+                non_negative_or_inf("flee.panic_distance", *panic_distance)?;
+            }
+            Behaviour::Arrive { params, .. } => params.validate()?,
+            Behaviour::Wander { params } => {
+                non_negative("wander.radius", params.radius)?;
+                non_negative("wander.distance", params.distance)?;
+                non_negative("wander.jitter", params.jitter)?;
+                if params.radius == 0.0 && params.distance == 0.0 {
+                    return Err(Error::Invalid {
+                        name: "wander".into(),
+                        reason: "radius and distance cannot both be zero".into(),
+                    });
+                }
+            }
+            Behaviour::Pursue { max_prediction, .. } => {
+                positive("pursue.max_prediction", *max_prediction)?;
+            }
+            Behaviour::Evade { max_prediction, panic_distance, .. } => {
+                positive("evade.max_prediction", *max_prediction)?;
+                non_negative_or_inf("evade.panic_distance", *panic_distance)?;
+            }
+            Behaviour::Face { params, .. } | Behaviour::LookWhereYouAreGoing { params } => align_validate(params)?,
+            Behaviour::MatchVelocity { time_to_target, .. } => {
+                positive("match_velocity.time_to_target", *time_to_target)?;
+            }
+        }
+        Ok(())
+    }
+}
+
+/// A behaviour with its weight in the combination.
+#[derive(Clone, Debug, PartialEq, Serialize, Deserialize)]
+#[serde(deny_unknown_fields)]
+pub struct Weighted {
+    /// The behaviour.
+    pub behaviour: Behaviour,
+    /// Its weight. Default: 1.
+    #[serde(default = "one")]
+    pub weight: f32,
+}
+
+impl Weighted {
+    /// `behaviour` with weight `weight`.
+    #[must_use]
+    pub fn new(behaviour: Behaviour, weight: f32) -> Self {
+        Weighted { behaviour, weight }
+    }
+}
+
+/// How the behaviours of a profile are merged.
+#[derive(Clone, Copy, Debug, Default, PartialEq, Eq, Serialize, Deserialize)]
+#[serde(rename_all = "snake_case")]
+pub enum Combine {
+    /// Sum of weighted requests (default).
+    #[default]
+    WeightedSum,
+    /// Prioritised, truncated running sum: behaviours in order, each using what is left of the
+    /// force budget (maximum force, or maximum speed in the kinematic model).
+    Priority,
+}
+
+/// The behaviours of a group and how they combine.
+#[derive(Clone, Debug, Default, PartialEq, Serialize, Deserialize)]
+#[serde(default, deny_unknown_fields)]
+pub struct SteeringProfile {
+    /// Weighted behaviours, in priority order. Default: none (the agents coast or stop).
+    pub behaviours: Vec<Weighted>,
+    /// How to combine them. Default: weighted sum.
+    pub combine: Combine,
+}
+
+impl SteeringProfile {
+    /// A profile of one behaviour with weight 1.
+    #[must_use]
+    pub fn single(behaviour: Behaviour) -> Self {
+        SteeringProfile { behaviours: vec![Weighted::new(behaviour, 1.0)], combine: Combine::WeightedSum }
+    }
+
+    /// Adds a weighted behaviour (builder style).
+    #[must_use]
+    pub fn with(mut self, behaviour: Behaviour, weight: f32) -> Self {
+        self.behaviours.push(Weighted::new(behaviour, weight));
+        self
+    }
+
+    /// Sets the combination mode (builder style).
+    #[must_use]
+    pub fn combined(mut self, combine: Combine) -> Self {
+        self.combine = combine;
+        self
+    }
+
+    /// Checks every behaviour and weight.
+    ///
+    /// # Errors
+    /// The variant naming the first bad parameter.
+    pub fn validate(&self) -> Result<()> {
+        for w in &self.behaviours {
+            finite("weight", w.weight)?;
+            w.behaviour.validate()?;
+        }
+        Ok(())
+    }
+}

@@ -1,0 +1,96 @@
+//! Steering behaviours, as pure functions and as data.
+//!
+//! Each behaviour is a pure function in the OpenSteer manner, usable on its own: it reads the
+//! agent's state and a target and returns a steering request, zero when it has nothing to do.
+//! Two families exist, one per movement model of the reference notes:
+//!
+//! - *dynamic* (steering) functions return a **force** (for the built-in ones, the classic
+//!   `desired_velocity - velocity`); the world divides it by the mass and clamps the resulting
+//!   acceleration to the group's maximum;
+//! - *kinematic* functions (`kinematic_*`) return a **desired velocity** (and a rotation), which the
+//!   integrator sets directly, clamped to the maximum speed.
+//!
+//! [`Behaviour`] describes a behaviour as data (an enum with parameters) for group profiles and
+//! scenario files; [`Combine`] says how the weighted behaviours of a profile are merged: a
+//! weighted sum, or Reynolds' prioritised, truncated running sum ([`combine`]).
+//!
+//! Angles are radians, counter-clockwise from +x; `dt` is seconds; squared quantities end in `_sq`.
+
+mod align;
+mod basis;
+mod behaviour;
+mod combine;
+mod pursuit;
+mod seek;
+mod wander;
+
+pub use align::{AlignParams, align, face, kinematic_face, look_where_you_are_going, velocity_match, wrap_angle};
+pub use basis::Basis;
+pub use behaviour::{ArriveParams, Behaviour, Combine, SteeringProfile, Target, WanderParams, Weighted};
+pub use combine::{priority_sum, weighted_sum};
+pub use pursuit::{evade, predict_position, pursue};
+pub use seek::{arrive, flee, kinematic_arrive, kinematic_flee, kinematic_seek, seek};
+pub use wander::{kinematic_wander, wander};
+
+use glam::Vec2;
+
+/// A steering request: a linear part and an angular part.
+///
+/// In the dynamic model `linear` is a force and `angular` an angular acceleration; in the kinematic
+/// model `linear` is a desired velocity and `angular` a rotation (angular velocity).
+#[derive(Clone, Copy, Debug, Default, PartialEq)]
+pub struct Steering {
+    /// Force (dynamic) or desired velocity (kinematic).
+    pub linear: Vec2,
+    /// Angular acceleration (dynamic) or rotation (kinematic), radians per second (squared).
+    pub angular: f32,
+}
+
+impl Steering {
+    /// No steering at all.
+    pub const ZERO: Steering = Steering { linear: Vec2::ZERO, angular: 0.0 };
+
+    /// A purely linear request.
+    #[must_use]
+    pub const fn linear(linear: Vec2) -> Self {
+        Steering { linear, angular: 0.0 }
+    }
+
+    /// A purely angular request.
+    #[must_use]
+    pub const fn angular(angular: f32) -> Self {
+        Steering { linear: Vec2::ZERO, angular }
+    }
+
+    /// Both parts scaled by `w`.
+    #[must_use]
+    pub fn scaled(self, w: f32) -> Self {
+        Steering { linear: self.linear * w, angular: self.angular * w }
+    }
+}
+
+impl std::ops::Add for Steering {
+    type Output = Steering;
+    fn add(self, o: Steering) -> Steering {
+        Steering { linear: self.linear + o.linear, angular: self.angular + o.angular }
+    }
+}
+
+impl std::ops::AddAssign for Steering {
+    fn add_assign(&mut self, o: Steering) {
+        self.linear += o.linear;
+        self.angular += o.angular;
+    }
+}
+
+/// Returns `v` shortened to at most `max` (unchanged when already shorter).
+#[inline]
+#[must_use]
+pub fn truncate(v: Vec2, max: f32) -> Vec2 {
+    let len_sq = v.length_squared();
+    if len_sq > max * max {
+        v * (max / len_sq.sqrt())
+    } else {
+        v
+    }
+}

@@ -1,0 +1,98 @@
+use std::f32::consts::PI;
+
+use serde::{Deserialize, Serialize};
+
+use crate::error::{Error, Result, non_negative, positive};
+use crate::movement::{IntegrationParams, MovementModel, OrientationMode};
+use crate::steering::SteeringProfile;
+
+/// A group's profile: movement model, limits and behaviours. Agents of a group share it; the
+/// maximum speed and radius can be overridden per agent.
+#[derive(Clone, Debug, PartialEq, Serialize, Deserialize)]
+#[serde(default, deny_unknown_fields)]
+pub struct GroupParams {
+    /// A name for output and scenario files. Default: `"group"`.
+    pub name: String,
+    /// Kinematic or dynamic. Default: dynamic.
+    pub model: MovementModel,
+    /// Whether orientation follows the velocity or integrates the rotation. Default: face velocity.
+    pub orientation: OrientationMode,
+    /// Largest speed, units per second (> 0). Default: 2.
+    pub max_speed: f32,
+    /// Largest linear acceleration, units per second squared (> 0; dynamic model). Default: 4.
+    pub max_acceleration: f32,
+    /// Mass (> 0): acceleration = force / mass. Default: 1.
+    pub mass: f32,
+    /// Largest rotation, radians per second (> 0). Default: pi.
+    pub max_rotation: f32,
+    /// Largest angular acceleration, radians per second squared (> 0; dynamic model). Default: 4 pi.
+    pub max_angular_acceleration: f32,
+    /// Linear drag per second (>= 0; dynamic model): the velocity is scaled by
+    /// `max(0, 1 - drag * dt)` each step. Default: 0.
+    pub drag: f32,
+    /// Agent radius (>= 0), used by separation, obstacles and drawing. Default: 0.5.
+    pub radius: f32,
+    /// The behaviours and how they combine. Default: none.
+    pub steering: SteeringProfile,
+}
+
+impl Default for GroupParams {
+    fn default() -> Self {
+        GroupParams {
+            name: "group".to_string(),
+            model: MovementModel::Dynamic,
+            orientation: OrientationMode::FaceVelocity,
+            max_speed: 2.0,
+            max_acceleration: 4.0,
+            mass: 1.0,
+            max_rotation: PI,
+            max_angular_acceleration: 4.0 * PI,
+            drag: 0.0,
+            radius: 0.5,
+            steering: SteeringProfile::default(),
+        }
+    }
+}
+
+impl GroupParams {
+    /// A dynamic group with default limits and the given profile.
+    #[must_use]
+    pub fn dynamic(steering: SteeringProfile) -> Self {
+        GroupParams { steering, ..Self::default() }
+    }
+
+    /// A kinematic group with default limits and the given profile.
+    #[must_use]
+    pub fn kinematic(steering: SteeringProfile) -> Self {
+        GroupParams { model: MovementModel::Kinematic, steering, ..Self::default() }
+    }
+
+    /// Checks every limit and behaviour.
+    ///
+    /// # Errors
+    /// [`Error::ZeroMass`] for a mass <= 0, otherwise the variant naming the first bad parameter.
+    pub fn validate(&self) -> Result<()> {
+        if !self.mass.is_finite() {
+            return Err(Error::NonFinite { name: "mass", value: f64::from(self.mass) });
+        }
+        if self.mass <= 0.0 {
+            return Err(Error::ZeroMass { value: f64::from(self.mass) });
+        }
+        positive("max_speed", self.max_speed)?;
+        positive("max_acceleration", self.max_acceleration)?;
+        positive("max_rotation", self.max_rotation)?;
+        positive("max_angular_acceleration", self.max_angular_acceleration)?;
+        non_negative("drag", self.drag)?;
+        non_negative("radius", self.radius)?;
+        self.steering.validate()
+    }
+
+    pub(crate) fn integration(&self, dt: f32) -> IntegrationParams {
+        IntegrationParams {
+            kinematic: self.model == MovementModel::Kinematic,
+            damp: if self.drag == 0.0 { 1.0 } else { (1.0 - self.drag * dt).max(0.0) },
+            max_rotation: self.max_rotation,
+            face_velocity: self.orientation == OrientationMode::FaceVelocity,
+        }
+    }
+}

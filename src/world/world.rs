@@ -1,0 +1,244 @@
+use glam::Vec2;
+
+use super::group::GroupParams;
+use super::step::Scratch;
+use crate::agents::{AgentId, AgentInit, Agents};
+use crate::bounds::Bounds;
+use crate::error::{Error, Result, finite, finite_vec, non_negative, positive};
+use crate::movement::wrap_orientation;
+use crate::rng::AgentRng;
+
+/// Stream tag for the initial wander angle of a new agent.
+const STREAM_SPAWN: u32 = 1;
+
+/// A snapshot of one agent's state.
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub struct AgentState {
+    /// The agent's id.
+    pub id: AgentId,
+    /// Position.
+    pub position: Vec2,
+    /// Velocity.
+    pub velocity: Vec2,
+    /// Orientation, radians in `[0, 2pi)`.
+    pub orientation: f32,
+    /// Rotation, radians per second.
+    pub rotation: f32,
+    /// Group index.
+    pub group: usize,
+}
+
+/// A simulated world: agents, their groups, bounds, and the step pipeline.
+#[derive(Debug)]
+pub struct World {
+    pub(crate) agents: Agents,
+    pub(crate) groups: Vec<GroupParams>,
+    pub(crate) bounds: Bounds,
+    pub(crate) seed: u64,
+    pub(crate) frame: u64,
+    pub(crate) time: f64,
+    pub(crate) scratch: Scratch,
+}
+
+impl World {
+    /// A builder for a world.
+    #[must_use]
+    pub fn builder() -> super::WorldBuilder {
+        super::WorldBuilder::new()
+    }
+
+    pub(crate) fn from_parts(groups: Vec<GroupParams>, bounds: Bounds, seed: u64) -> Self {
+        World { agents: Agents::new(), groups, bounds, seed, frame: 0, time: 0.0, scratch: Scratch::default() }
+    }
+
+    /// The agents, in storage order.
+    #[must_use]
+    pub fn agents(&self) -> &Agents {
+        &self.agents
+    }
+
+    /// Number of live agents.
+    #[must_use]
+    pub fn len(&self) -> usize {
+        self.agents.len()
+    }
+
+    /// Whether the world has no agents.
+    #[must_use]
+    pub fn is_empty(&self) -> bool {
+        self.agents.is_empty()
+    }
+
+    /// The groups' profiles.
+    #[must_use]
+    pub fn groups(&self) -> &[GroupParams] {
+        &self.groups
+    }
+
+    /// The world's bounds.
+    #[must_use]
+    pub fn bounds(&self) -> Bounds {
+        self.bounds
+    }
+
+    /// The seed all randomness derives from.
+    #[must_use]
+    pub fn seed(&self) -> u64 {
+        self.seed
+    }
+
+    /// Frames stepped so far.
+    #[must_use]
+    pub fn frame(&self) -> u64 {
+        self.frame
+    }
+
+    /// Simulated seconds so far.
+    #[must_use]
+    pub fn time(&self) -> f64 {
+        self.time
+    }
+
+    /// The state of agent `id`, if it is alive.
+    #[must_use]
+    pub fn agent(&self, id: AgentId) -> Option<AgentState> {
+        let i = self.agents.index_of(id)?;
+        Some(AgentState {
+            id,
+            position: self.agents.position(i),
+            velocity: self.agents.velocity(i),
+            orientation: self.agents.orientation[i],
+            rotation: self.agents.rotation[i],
+            group: self.agents.group[i] as usize,
+        })
+    }
+
+    fn index(&self, id: AgentId) -> Result<usize> {
+        self.agents.index_of(id).ok_or(Error::UnknownAgent { id })
+    }
+
+    fn check_group(&self, group: usize) -> Result<()> {
+        if group < self.groups.len() { Ok(()) } else { Err(Error::UnknownGroup { group, count: self.groups.len() }) }
+    }
+
+    /// Adds a group and returns its index.
+    ///
+    /// # Errors
+    /// The variant naming the first bad parameter of `params`.
+    pub fn add_group(&mut self, params: GroupParams) -> Result<usize> {
+        params.validate()?;
+        self.groups.push(params);
+        Ok(self.groups.len() - 1)
+    }
+
+    /// Replaces a group's profile. Agents without their own maximum speed or radius take the new
+    /// values.
+    ///
+    /// # Errors
+    /// [`Error::UnknownGroup`], or the variant naming the first bad parameter of `params`.
+    pub fn set_group_params(&mut self, group: usize, params: GroupParams) -> Result<()> {
+        self.check_group(group)?;
+        params.validate()?;
+        for i in 0..self.agents.len() {
+            if self.agents.group[i] as usize == group {
+                let o = self.agents.overrides[i];
+                if o & crate::agents::store_flags::OVERRIDE_SPEED == 0 {
+                    self.agents.max_speed[i] = params.max_speed;
+                }
+                if o & crate::agents::store_flags::OVERRIDE_RADIUS == 0 {
+                    self.agents.radius[i] = params.radius;
+                }
+            }
+        }
+        self.groups[group] = params;
+        Ok(())
+    }
+
+    /// Adds an agent and returns its id.
+    ///
+    /// # Errors
+    /// [`Error::UnknownGroup`], [`Error::NonFinite`] for a NaN or infinite number, an error for a
+    /// position outside the world, [`Error::NotPositive`] / [`Error::Negative`] for a bad maximum
+    /// speed or radius override.
+    pub fn add_agent(&mut self, init: AgentInit) -> Result<AgentId> {
+        self.check_group(init.group)?;
+        self.bounds.check_point("position", init.position)?;
+        finite_vec("velocity", init.velocity)?;
+        finite("orientation", init.orientation)?;
+        finite("rotation", init.rotation)?;
+        let g = &self.groups[init.group];
+        let max_speed = match init.max_speed {
+            Some(s) => positive("max_speed", s)?,
+            None => g.max_speed,
+        };
+        let radius = match init.radius {
+            Some(r) => non_negative("radius", r)?,
+            None => g.radius,
+        };
+        let init = AgentInit { orientation: wrap_orientation(init.orientation), ..init };
+        // The initial wander angle is random but keyed by the id the agent will get.
+        let next_id = self.agents.ids_issued() as u32;
+        let wander = AgentRng::new(self.seed, next_id, 0, STREAM_SPAWN).signed() * std::f32::consts::PI;
+        Ok(self.agents.push(&init, max_speed, radius, wander))
+    }
+
+    /// Removes an agent. Other agents keep their ids.
+    ///
+    /// # Errors
+    /// [`Error::UnknownAgent`] when `id` names no live agent.
+    pub fn remove_agent(&mut self, id: AgentId) -> Result<()> {
+        let i = self.index(id)?;
+        self.agents.swap_remove(i);
+        Ok(())
+    }
+
+    /// Sets an agent's own target point (used by behaviours whose target is
+    /// [`crate::steering::Target::Own`]).
+    ///
+    /// # Errors
+    /// [`Error::UnknownAgent`], [`Error::NonFinite`].
+    pub fn set_target(&mut self, id: AgentId, target: Vec2) -> Result<()> {
+        finite_vec("target", target)?;
+        let i = self.index(id)?;
+        self.agents.target_x[i] = target.x;
+        self.agents.target_y[i] = target.y;
+        Ok(())
+    }
+
+    /// Moves an agent.
+    ///
+    /// # Errors
+    /// [`Error::UnknownAgent`], [`Error::NonFinite`], or an error for a point outside the world.
+    pub fn set_position(&mut self, id: AgentId, position: Vec2) -> Result<()> {
+        self.bounds.check_point("position", position)?;
+        let i = self.index(id)?;
+        self.agents.pos_x[i] = position.x;
+        self.agents.pos_y[i] = position.y;
+        Ok(())
+    }
+
+    /// Sets an agent's velocity (clamped to its maximum speed).
+    ///
+    /// # Errors
+    /// [`Error::UnknownAgent`], [`Error::NonFinite`].
+    pub fn set_velocity(&mut self, id: AgentId, velocity: Vec2) -> Result<()> {
+        finite_vec("velocity", velocity)?;
+        let i = self.index(id)?;
+        let v = crate::steering::truncate(velocity, self.agents.max_speed[i]);
+        self.agents.vel_x[i] = v.x;
+        self.agents.vel_y[i] = v.y;
+        Ok(())
+    }
+
+    /// Sets an agent's own maximum speed.
+    ///
+    /// # Errors
+    /// [`Error::UnknownAgent`], [`Error::NotPositive`], [`Error::NonFinite`].
+    pub fn set_max_speed(&mut self, id: AgentId, max_speed: f32) -> Result<()> {
+        positive("max_speed", max_speed)?;
+        let i = self.index(id)?;
+        self.agents.max_speed[i] = max_speed;
+        self.agents.overrides[i] |= crate::agents::store_flags::OVERRIDE_SPEED;
+        Ok(())
+    }
+}
