@@ -12,10 +12,11 @@ use serde::{Deserialize, Serialize};
 use crate::error::{Error, Result, finite, positive};
 
 /// The shape of the world agents live in.
-#[derive(Clone, Copy, Debug, PartialEq, Serialize, Deserialize)]
+#[derive(Clone, Copy, Debug, Default, PartialEq, Serialize, Deserialize)]
 #[serde(tag = "kind", rename_all = "snake_case", deny_unknown_fields)]
 pub enum Bounds {
     /// An unbounded plane: no wrap, no walls.
+    #[default]
     Open,
     /// A rectangle `[0, size.x] x [0, size.y]` whose edges agents are kept inside.
     Bounded {
@@ -29,19 +30,18 @@ pub enum Bounds {
     },
 }
 
-impl Default for Bounds {
-    fn default() -> Self {
-        Bounds::Open
-    }
-}
-
 impl Bounds {
     /// A wrap-around world of `width x height`.
     ///
     /// # Errors
     /// [`Error::NotPositive`] or [`Error::NonFinite`] for a bad side.
     pub fn torus(width: f32, height: f32) -> Result<Self> {
-        Ok(Bounds::Torus { size: Vec2::new(positive("world width", width)?, positive("world height", height)?) })
+        Ok(Bounds::Torus {
+            size: Vec2::new(
+                positive("world width", width)?,
+                positive("world height", height)?,
+            ),
+        })
     }
 
     /// A walled world of `width x height`.
@@ -49,7 +49,12 @@ impl Bounds {
     /// # Errors
     /// [`Error::NotPositive`] or [`Error::NonFinite`] for a bad side.
     pub fn bounded(width: f32, height: f32) -> Result<Self> {
-        Ok(Bounds::Bounded { size: Vec2::new(positive("world width", width)?, positive("world height", height)?) })
+        Ok(Bounds::Bounded {
+            size: Vec2::new(
+                positive("world width", width)?,
+                positive("world height", height)?,
+            ),
+        })
     }
 
     /// Checks the bounds' numbers.
@@ -102,7 +107,10 @@ impl Bounds {
         if self.contains(p) {
             Ok(p)
         } else {
-            Err(Error::Invalid { name: name.to_string(), reason: format!("({}, {}) lies outside the world {self:?}", p.x, p.y) })
+            Err(Error::Invalid {
+                name: name.to_string(),
+                reason: format!("({}, {}) lies outside the world {self:?}", p.x, p.y),
+            })
         }
     }
 
@@ -172,9 +180,18 @@ mod tests {
     #[test]
     fn minimum_image_wraps_across_the_seam() {
         let b = Bounds::torus(10.0, 10.0).unwrap();
-        assert_eq!(b.offset(Vec2::new(9.5, 1.0), Vec2::new(0.5, 1.0)), Vec2::new(1.0, 0.0));
-        assert_eq!(b.offset(Vec2::new(0.5, 0.5), Vec2::new(9.5, 9.5)), Vec2::new(-1.0, -1.0));
-        assert_eq!(b.offset(Vec2::new(0.0, 0.0), Vec2::new(5.0, 0.0)), Vec2::new(5.0, 0.0));
+        assert_eq!(
+            b.offset(Vec2::new(9.5, 1.0), Vec2::new(0.5, 1.0)),
+            Vec2::new(1.0, 0.0)
+        );
+        assert_eq!(
+            b.offset(Vec2::new(0.5, 0.5), Vec2::new(9.5, 9.5)),
+            Vec2::new(-1.0, -1.0)
+        );
+        assert_eq!(
+            b.offset(Vec2::new(0.0, 0.0), Vec2::new(5.0, 0.0)),
+            Vec2::new(5.0, 0.0)
+        );
     }
 
     #[test]
@@ -187,7 +204,13 @@ mod tests {
 
     #[test]
     fn bad_sides_are_rejected() {
-        assert!(matches!(Bounds::torus(0.0, 1.0), Err(Error::NotPositive { .. })));
-        assert!(matches!(Bounds::bounded(f32::NAN, 1.0), Err(Error::NonFinite { .. })));
+        assert!(matches!(
+            Bounds::torus(0.0, 1.0),
+            Err(Error::NotPositive { .. })
+        ));
+        assert!(matches!(
+            Bounds::bounded(f32::NAN, 1.0),
+            Err(Error::NonFinite { .. })
+        ));
     }
 }

@@ -128,7 +128,10 @@ pub fn finite(name: &'static str, value: f32) -> Result<f32> {
     if value.is_finite() {
         Ok(value)
     } else {
-        Err(Error::NonFinite { name, value: f64::from(value) })
+        Err(Error::NonFinite {
+            name,
+            value: f64::from(value),
+        })
     }
 }
 
@@ -149,7 +152,10 @@ pub fn finite_vec(name: &'static str, v: glam::Vec2) -> Result<glam::Vec2> {
 pub fn non_negative(name: &'static str, value: f32) -> Result<f32> {
     finite(name, value)?;
     if value < 0.0 {
-        Err(Error::Negative { name, value: f64::from(value) })
+        Err(Error::Negative {
+            name,
+            value: f64::from(value),
+        })
     } else {
         Ok(value)
     }
@@ -162,7 +168,10 @@ pub fn non_negative(name: &'static str, value: f32) -> Result<f32> {
 pub fn positive(name: &'static str, value: f32) -> Result<f32> {
     finite(name, value)?;
     if value <= 0.0 {
-        Err(Error::NotPositive { name, value: f64::from(value) })
+        Err(Error::NotPositive {
+            name,
+            value: f64::from(value),
+        })
     } else {
         Ok(value)
     }
@@ -172,10 +181,20 @@ pub fn positive(name: &'static str, value: f32) -> Result<f32> {
 ///
 /// # Errors
 /// [`Error::NonFinite`] or [`Error::OutOfRange`].
-pub fn in_range(name: &'static str, value: f32, lo: f32, hi: f32, range: &'static str) -> Result<f32> {
+pub fn in_range(
+    name: &'static str,
+    value: f32,
+    lo: f32,
+    hi: f32,
+    range: &'static str,
+) -> Result<f32> {
     finite(name, value)?;
     if value < lo || value > hi {
-        Err(Error::OutOfRange { name, value: f64::from(value), range })
+        Err(Error::OutOfRange {
+            name,
+            value: f64::from(value),
+            range,
+        })
     } else {
         Ok(value)
     }

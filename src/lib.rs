@@ -46,6 +46,7 @@ pub mod bounds;
 pub mod error;
 pub mod movement;
 pub mod rng;
+pub mod scenario;
 pub mod steering;
 pub mod world;
 
@@ -60,7 +61,13 @@ pub mod prelude {
     pub use crate::bounds::Bounds;
     pub use crate::error::{Error, Result};
     pub use crate::movement::{MovementModel, OrientationMode};
-    pub use crate::steering::{ArriveParams, Behaviour, Combine, Steering, SteeringProfile, Target, WanderParams, Weighted};
+    pub use crate::steering::{
+        ArriveParams, Behaviour, Combine, Steering, SteeringProfile, Target, WanderParams, Weighted,
+    };
     pub use crate::world::{AgentState, GroupParams, StepStats, World, WorldBuilder};
     pub use glam::Vec2;
 }
+
+#[doc = include_str!("../README.md")]
+#[cfg(doctest)]
+pub struct ReadmeDoctests;

@@ -26,7 +26,9 @@ impl AgentRng {
     #[inline]
     #[must_use]
     pub fn new(seed: u64, id: u32, frame: u64, stream: u32) -> Self {
-        let key = mix(seed ^ mix(u64::from(id) | (u64::from(stream) << 32)) ^ mix(frame.wrapping_add(0x9e37_79b9_7f4a_7c15)));
+        let key = mix(seed
+            ^ mix(u64::from(id) | (u64::from(stream) << 32))
+            ^ mix(frame.wrapping_add(0x9e37_79b9_7f4a_7c15)));
         AgentRng { key, counter: 0 }
     }
 
@@ -34,7 +36,9 @@ impl AgentRng {
     #[inline]
     pub fn next_u64(&mut self) -> u64 {
         self.counter = self.counter.wrapping_add(1);
-        mix(self.key.wrapping_add(self.counter.wrapping_mul(0x9e37_79b9_7f4a_7c15)))
+        mix(self
+            .key
+            .wrapping_add(self.counter.wrapping_mul(0x9e37_79b9_7f4a_7c15)))
     }
 
     /// A uniform number in `[0, 1)` with 24 random bits.

@@ -52,7 +52,11 @@ impl AgentInit {
     /// An agent of group `group` at `position`, at rest.
     #[must_use]
     pub fn at(position: Vec2, group: usize) -> Self {
-        AgentInit { position, group, ..Self::default() }
+        AgentInit {
+            position,
+            group,
+            ..Self::default()
+        }
     }
 }
 
@@ -125,8 +129,16 @@ impl Agents {
     }
 
     /// Appends an agent whose values were already validated and resolved; returns its new id.
-    pub(crate) fn push(&mut self, init: &AgentInit, max_speed: f32, radius: f32, wander: f32) -> AgentId {
-        let id = AgentId(u32::try_from(self.index_of.len()).expect("more than 4 billion agents ever added"));
+    pub(crate) fn push(
+        &mut self,
+        init: &AgentInit,
+        max_speed: f32,
+        radius: f32,
+        wander: f32,
+    ) -> AgentId {
+        let id = AgentId(
+            u32::try_from(self.index_of.len()).expect("more than 4 billion agents ever added"),
+        );
         let index = u32::try_from(self.ids.len()).expect("more than 4 billion live agents");
         self.index_of.push(index);
         self.pos_x.push(init.position.x);
@@ -303,7 +315,10 @@ impl Agents {
     #[must_use]
     pub fn heap_bytes(&self) -> usize {
         let f = self.pos_x.capacity() * 11 * 4;
-        f + self.group.capacity() * 4 + self.overrides.capacity() + self.ids.capacity() * 4 + self.index_of.capacity() * 4
+        f + self.group.capacity() * 4
+            + self.overrides.capacity()
+            + self.ids.capacity() * 4
+            + self.index_of.capacity() * 4
     }
 }
 

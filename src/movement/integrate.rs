@@ -68,7 +68,12 @@ pub fn wrap_orientation(a: f32) -> f32 {
 ///
 /// # Panics
 /// When the slices' lengths differ or a group index is outside `params`.
-pub fn integrate(state: MotionState<'_>, steer: SteeringBuffers<'_>, params: &[IntegrationParams], dt: f32) {
+pub fn integrate(
+    state: MotionState<'_>,
+    steer: SteeringBuffers<'_>,
+    params: &[IntegrationParams],
+    dt: f32,
+) {
     let n = state.pos_x.len();
     check_lengths(&state, &steer, n);
     (
@@ -86,8 +91,21 @@ pub fn integrate(state: MotionState<'_>, steer: SteeringBuffers<'_>, params: &[I
     )
         .into_par_iter()
         .for_each(|(px, py, vx, vy, or, rot, lx, ly, ang, ms, grp)| {
-            let chunk_state = MotionState { pos_x: px, pos_y: py, vel_x: vx, vel_y: vy, orientation: or, rotation: rot };
-            let chunk_steer = SteeringBuffers { lin_x: lx, lin_y: ly, ang, max_speed: ms, group: grp };
+            let chunk_state = MotionState {
+                pos_x: px,
+                pos_y: py,
+                vel_x: vx,
+                vel_y: vy,
+                orientation: or,
+                rotation: rot,
+            };
+            let chunk_steer = SteeringBuffers {
+                lin_x: lx,
+                lin_y: ly,
+                ang,
+                max_speed: ms,
+                group: grp,
+            };
             integrate_chunk(chunk_state, chunk_steer, params, dt, true);
         });
 }
@@ -96,7 +114,12 @@ pub fn integrate(state: MotionState<'_>, steer: SteeringBuffers<'_>, params: &[I
 ///
 /// # Panics
 /// When the slices' lengths differ or a group index is outside `params`.
-pub fn integrate_scalar(state: MotionState<'_>, steer: SteeringBuffers<'_>, params: &[IntegrationParams], dt: f32) {
+pub fn integrate_scalar(
+    state: MotionState<'_>,
+    steer: SteeringBuffers<'_>,
+    params: &[IntegrationParams],
+    dt: f32,
+) {
     let n = state.pos_x.len();
     check_lengths(&state, &steer, n);
     integrate_chunk(state, steer, params, dt, false);
@@ -119,7 +142,13 @@ fn check_lengths(state: &MotionState<'_>, steer: &SteeringBuffers<'_>, n: usize)
     }
 }
 
-fn integrate_chunk(s: MotionState<'_>, st: SteeringBuffers<'_>, params: &[IntegrationParams], dt: f32, simd: bool) {
+fn integrate_chunk(
+    s: MotionState<'_>,
+    st: SteeringBuffers<'_>,
+    params: &[IntegrationParams],
+    dt: f32,
+    simd: bool,
+) {
     let n = s.pos_x.len();
     // Angular part first: it reads the pre-update velocity (dynamic model, face velocity).
     for i in 0..n {
@@ -190,7 +219,11 @@ fn integrate_chunk(s: MotionState<'_>, st: SteeringBuffers<'_>, params: &[Integr
         let (vx, vy) = (s.vel_x[i], s.vel_y[i]);
         let (lx, ly) = (st.lin_x[i], st.lin_y[i]);
         let ms = st.max_speed[i];
-        let (mut nvx, mut nvy) = if p.kinematic { (lx, ly) } else { ((vx + lx * dt) * p.damp, (vy + ly * dt) * p.damp) };
+        let (mut nvx, mut nvy) = if p.kinematic {
+            (lx, ly)
+        } else {
+            ((vx + lx * dt) * p.damp, (vy + ly * dt) * p.damp)
+        };
         let sp_sq = nvx * nvx + nvy * nvy;
         if sp_sq > ms * ms {
             let scale = ms / sp_sq.sqrt();

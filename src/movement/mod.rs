@@ -18,7 +18,9 @@
 
 mod integrate;
 
-pub use integrate::{IntegrationParams, MotionState, SteeringBuffers, integrate, integrate_scalar, wrap_orientation};
+pub use integrate::{
+    IntegrationParams, MotionState, SteeringBuffers, integrate, integrate_scalar, wrap_orientation,
+};
 
 use serde::{Deserialize, Serialize};
 

@@ -19,7 +19,11 @@ pub struct AlignParams {
 
 impl Default for AlignParams {
     fn default() -> Self {
-        AlignParams { target_radius: 0.01, slow_radius: 0.5, time_to_target: 0.1 }
+        AlignParams {
+            target_radius: 0.01,
+            slow_radius: 0.5,
+            time_to_target: 0.1,
+        }
     }
 }
 
@@ -40,20 +44,37 @@ pub fn wrap_angle(a: f32) -> f32 {
 /// `target_orientation`, at up to `max_rotation` and slowing inside the slow radius.
 #[inline]
 #[must_use]
-pub fn align(orientation: f32, rotation: f32, target_orientation: f32, max_rotation: f32, p: &AlignParams) -> f32 {
+pub fn align(
+    orientation: f32,
+    rotation: f32,
+    target_orientation: f32,
+    max_rotation: f32,
+    p: &AlignParams,
+) -> f32 {
     let diff = wrap_angle(target_orientation - orientation);
     let size = diff.abs();
     if size < p.target_radius {
         return -rotation / p.time_to_target;
     }
-    let wanted = if size > p.slow_radius { max_rotation } else { max_rotation * size / p.slow_radius };
+    let wanted = if size > p.slow_radius {
+        max_rotation
+    } else {
+        max_rotation * size / p.slow_radius
+    };
     (wanted * diff.signum() - rotation) / p.time_to_target
 }
 
 /// Dynamic face: align with the direction from `position` to `target`.
 #[inline]
 #[must_use]
-pub fn face(position: Vec2, orientation: f32, rotation: f32, target: Vec2, max_rotation: f32, p: &AlignParams) -> f32 {
+pub fn face(
+    position: Vec2,
+    orientation: f32,
+    rotation: f32,
+    target: Vec2,
+    max_rotation: f32,
+    p: &AlignParams,
+) -> f32 {
     let to = target - position;
     if to.length_squared() == 0.0 {
         return -rotation / p.time_to_target;
@@ -65,7 +86,13 @@ pub fn face(position: Vec2, orientation: f32, rotation: f32, target: Vec2, max_r
 /// `time_to_target`, clamped to `max_rotation`.
 #[inline]
 #[must_use]
-pub fn kinematic_face(position: Vec2, orientation: f32, target: Vec2, max_rotation: f32, p: &AlignParams) -> f32 {
+pub fn kinematic_face(
+    position: Vec2,
+    orientation: f32,
+    target: Vec2,
+    max_rotation: f32,
+    p: &AlignParams,
+) -> f32 {
     let to = target - position;
     if to.length_squared() == 0.0 {
         return 0.0;
@@ -80,11 +107,23 @@ pub fn kinematic_face(position: Vec2, orientation: f32, target: Vec2, max_rotati
 /// Dynamic look-where-you-are-going: align with the velocity (no request when at rest).
 #[inline]
 #[must_use]
-pub fn look_where_you_are_going(velocity: Vec2, orientation: f32, rotation: f32, max_rotation: f32, p: &AlignParams) -> f32 {
+pub fn look_where_you_are_going(
+    velocity: Vec2,
+    orientation: f32,
+    rotation: f32,
+    max_rotation: f32,
+    p: &AlignParams,
+) -> f32 {
     if velocity.length_squared() == 0.0 {
         return -rotation / p.time_to_target;
     }
-    align(orientation, rotation, velocity.y.atan2(velocity.x), max_rotation, p)
+    align(
+        orientation,
+        rotation,
+        velocity.y.atan2(velocity.x),
+        max_rotation,
+        p,
+    )
 }
 
 /// Velocity matching: the acceleration that reaches `target_velocity` in `time_to_target` seconds.
@@ -110,7 +149,10 @@ mod tests {
     #[test]
     fn align_turns_the_short_way() {
         let p = AlignParams::default();
-        assert!(align(0.1, 0.0, 6.0, 1.0, &p) < 0.0, "6.0 rad is reached clockwise from 0.1");
+        assert!(
+            align(0.1, 0.0, 6.0, 1.0, &p) < 0.0,
+            "6.0 rad is reached clockwise from 0.1"
+        );
         assert!(align(6.0, 0.0, 0.1, 1.0, &p) > 0.0);
     }
 }

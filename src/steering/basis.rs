@@ -21,7 +21,11 @@ impl Basis {
     pub fn from_orientation(position: Vec2, orientation: f32) -> Self {
         let (s, c) = orientation.sin_cos();
         let heading = Vec2::new(c, s);
-        Basis { heading, side: heading.perp(), position }
+        Basis {
+            heading,
+            side: heading.perp(),
+            position,
+        }
     }
 
     /// The frame of an agent at `position` moving at `velocity`; falls back to `orientation`
@@ -29,7 +33,11 @@ impl Basis {
     #[must_use]
     pub fn from_velocity(position: Vec2, velocity: Vec2, orientation: f32) -> Self {
         match velocity.try_normalize() {
-            Some(heading) => Basis { heading, side: heading.perp(), position },
+            Some(heading) => Basis {
+                heading,
+                side: heading.perp(),
+                position,
+            },
             None => Self::from_orientation(position, orientation),
         }
     }
@@ -77,6 +85,9 @@ mod tests {
         assert!((b.matrix().transform_point2(p) - w).length() < 1e-5);
         let north = Basis::from_orientation(Vec2::ZERO, std::f32::consts::FRAC_PI_2);
         assert!((north.to_world(Vec2::X) - Vec2::Y).length() < 1e-6);
-        assert!((north.to_world(Vec2::Y) + Vec2::X).length() < 1e-6, "side is to the left");
+        assert!(
+            (north.to_world(Vec2::Y) + Vec2::X).length() < 1e-6,
+            "side is to the left"
+        );
     }
 }

@@ -43,7 +43,11 @@ pub struct ArriveParams {
 
 impl Default for ArriveParams {
     fn default() -> Self {
-        ArriveParams { target_radius: 0.25, slow_radius: 3.0, time_to_target: 0.1 }
+        ArriveParams {
+            target_radius: 0.25,
+            slow_radius: 3.0,
+            time_to_target: 0.1,
+        }
     }
 }
 
@@ -75,7 +79,11 @@ pub struct WanderParams {
 
 impl Default for WanderParams {
     fn default() -> Self {
-        WanderParams { radius: 1.0, distance: 2.0, jitter: 4.0 }
+        WanderParams {
+            radius: 1.0,
+            distance: 2.0,
+            jitter: 4.0,
+        }
     }
 }
 
@@ -178,7 +186,11 @@ fn align_validate(p: &AlignParams) -> Result<()> {
 }
 
 fn non_negative_or_inf(name: &'static str, v: f32) -> Result<f32> {
-    if v == f32::INFINITY { Ok(v) } else { non_negative(name, v) }
+    if v == f32::INFINITY {
+        Ok(v)
+    } else {
+        non_negative(name, v)
+    }
 }
 
 impl Behaviour {
@@ -243,11 +255,17 @@ impl Behaviour {
             Behaviour::Pursue { max_prediction, .. } => {
                 positive("pursue.max_prediction", *max_prediction)?;
             }
-            Behaviour::Evade { max_prediction, panic_distance, .. } => {
+            Behaviour::Evade {
+                max_prediction,
+                panic_distance,
+                ..
+            } => {
                 positive("evade.max_prediction", *max_prediction)?;
                 non_negative_or_inf("evade.panic_distance", *panic_distance)?;
             }
-            Behaviour::Face { params, .. } | Behaviour::LookWhereYouAreGoing { params } => align_validate(params)?,
+            Behaviour::Face { params, .. } | Behaviour::LookWhereYouAreGoing { params } => {
+                align_validate(params)?
+            }
             Behaviour::MatchVelocity { time_to_target, .. } => {
                 positive("match_velocity.time_to_target", *time_to_target)?;
             }
@@ -256,11 +274,12 @@ impl Behaviour {
     }
 }
 
-/// A behaviour with its weight in the combination.
+/// A behaviour with its weight in the combination. In scenario files the weight sits beside the
+/// behaviour's own keys: `{ kind = "seek", target = { point = [1, 2] }, weight = 2 }`.
 #[derive(Clone, Debug, PartialEq, Serialize, Deserialize)]
-#[serde(deny_unknown_fields)]
 pub struct Weighted {
     /// The behaviour.
+    #[serde(flatten)]
     pub behaviour: Behaviour,
     /// Its weight. Default: 1.
     #[serde(default = "one")]
@@ -301,7 +320,10 @@ impl SteeringProfile {
     /// A profile of one behaviour with weight 1.
     #[must_use]
     pub fn single(behaviour: Behaviour) -> Self {
-        SteeringProfile { behaviours: vec![Weighted::new(behaviour, 1.0)], combine: Combine::WeightedSum }
+        SteeringProfile {
+            behaviours: vec![Weighted::new(behaviour, 1.0)],
+            combine: Combine::WeightedSum,
+        }
     }
 
     /// Adds a weighted behaviour (builder style).

@@ -7,7 +7,9 @@ use super::{Steering, truncate};
 /// Weighted sum of `(request, weight)` pairs (the vehicle notes average seek and flee this way).
 #[must_use]
 pub fn weighted_sum(parts: impl IntoIterator<Item = (Steering, f32)>) -> Steering {
-    parts.into_iter().fold(Steering::ZERO, |acc, (s, w)| acc + s.scaled(w))
+    parts
+        .into_iter()
+        .fold(Steering::ZERO, |acc, (s, w)| acc + s.scaled(w))
 }
 
 /// Reynolds' prioritised, truncated running sum: requests are taken in order and each may use
@@ -15,7 +17,11 @@ pub fn weighted_sum(parts: impl IntoIterator<Item = (Steering, f32)>) -> Steerin
 /// the force budget first, and a request that does not fit whole is shortened to fit. Angular
 /// parts are summed and clamped to `angular_budget` the same way.
 #[must_use]
-pub fn priority_sum(parts: impl IntoIterator<Item = Steering>, budget: f32, angular_budget: f32) -> Steering {
+pub fn priority_sum(
+    parts: impl IntoIterator<Item = Steering>,
+    budget: f32,
+    angular_budget: f32,
+) -> Steering {
     let mut linear = Vec2::ZERO;
     let mut angular = 0.0_f32;
     for s in parts {
@@ -40,16 +46,37 @@ mod tests {
 
     #[test]
     fn first_request_gets_the_budget() {
-        let s = priority_sum([Steering::linear(Vec2::new(3.0, 0.0)), Steering::linear(Vec2::new(0.0, 10.0))], 4.0, 1.0);
+        let s = priority_sum(
+            [
+                Steering::linear(Vec2::new(3.0, 0.0)),
+                Steering::linear(Vec2::new(0.0, 10.0)),
+            ],
+            4.0,
+            1.0,
+        );
         // The second request gets only the 1 unit of magnitude left over.
         assert_eq!(s.linear, Vec2::new(3.0, 1.0));
-        let t = priority_sum([Steering::linear(Vec2::new(5.0, 0.0)), Steering::linear(Vec2::new(0.0, 10.0))], 4.0, 1.0);
-        assert_eq!(t.linear, Vec2::new(4.0, 0.0), "later requests get nothing once the budget is spent");
+        let t = priority_sum(
+            [
+                Steering::linear(Vec2::new(5.0, 0.0)),
+                Steering::linear(Vec2::new(0.0, 10.0)),
+            ],
+            4.0,
+            1.0,
+        );
+        assert_eq!(
+            t.linear,
+            Vec2::new(4.0, 0.0),
+            "later requests get nothing once the budget is spent"
+        );
     }
 
     #[test]
     fn weighted_sum_averages() {
-        let s = weighted_sum([(Steering::linear(Vec2::X), 0.8), (Steering::linear(Vec2::Y), 0.8)]);
+        let s = weighted_sum([
+            (Steering::linear(Vec2::X), 0.8),
+            (Steering::linear(Vec2::Y), 0.8),
+        ]);
         assert_eq!(s.linear, Vec2::new(0.8, 0.8));
     }
 }

@@ -12,7 +12,7 @@
 //!
 //! [`Behaviour`] describes a behaviour as data (an enum with parameters) for group profiles and
 //! scenario files; [`Combine`] says how the weighted behaviours of a profile are merged: a
-//! weighted sum, or Reynolds' prioritised, truncated running sum ([`combine`]).
+//! weighted sum, or Reynolds' prioritised, truncated running sum ([`priority_sum`]).
 //!
 //! Angles are radians, counter-clockwise from +x; `dt` is seconds; squared quantities end in `_sq`.
 
@@ -24,9 +24,13 @@ mod pursuit;
 mod seek;
 mod wander;
 
-pub use align::{AlignParams, align, face, kinematic_face, look_where_you_are_going, velocity_match, wrap_angle};
+pub use align::{
+    AlignParams, align, face, kinematic_face, look_where_you_are_going, velocity_match, wrap_angle,
+};
 pub use basis::Basis;
-pub use behaviour::{ArriveParams, Behaviour, Combine, SteeringProfile, Target, WanderParams, Weighted};
+pub use behaviour::{
+    ArriveParams, Behaviour, Combine, SteeringProfile, Target, WanderParams, Weighted,
+};
 pub use combine::{priority_sum, weighted_sum};
 pub use pursuit::{evade, predict_position, pursue};
 pub use seek::{arrive, flee, kinematic_arrive, kinematic_flee, kinematic_seek, seek};
@@ -48,31 +52,46 @@ pub struct Steering {
 
 impl Steering {
     /// No steering at all.
-    pub const ZERO: Steering = Steering { linear: Vec2::ZERO, angular: 0.0 };
+    pub const ZERO: Steering = Steering {
+        linear: Vec2::ZERO,
+        angular: 0.0,
+    };
 
     /// A purely linear request.
     #[must_use]
     pub const fn linear(linear: Vec2) -> Self {
-        Steering { linear, angular: 0.0 }
+        Steering {
+            linear,
+            angular: 0.0,
+        }
     }
 
     /// A purely angular request.
     #[must_use]
     pub const fn angular(angular: f32) -> Self {
-        Steering { linear: Vec2::ZERO, angular }
+        Steering {
+            linear: Vec2::ZERO,
+            angular,
+        }
     }
 
     /// Both parts scaled by `w`.
     #[must_use]
     pub fn scaled(self, w: f32) -> Self {
-        Steering { linear: self.linear * w, angular: self.angular * w }
+        Steering {
+            linear: self.linear * w,
+            angular: self.angular * w,
+        }
     }
 }
 
 impl std::ops::Add for Steering {
     type Output = Steering;
     fn add(self, o: Steering) -> Steering {
-        Steering { linear: self.linear + o.linear, angular: self.angular + o.angular }
+        Steering {
+            linear: self.linear + o.linear,
+            angular: self.angular + o.angular,
+        }
     }
 }
 

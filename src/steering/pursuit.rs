@@ -7,17 +7,40 @@ use glam::Vec2;
 /// seconds (Millington's pursue).
 #[inline]
 #[must_use]
-pub fn predict_position(position: Vec2, speed: f32, target: Vec2, target_velocity: Vec2, max_prediction: f32) -> Vec2 {
+pub fn predict_position(
+    position: Vec2,
+    speed: f32,
+    target: Vec2,
+    target_velocity: Vec2,
+    max_prediction: f32,
+) -> Vec2 {
     let distance = (target - position).length();
-    let t = if speed <= distance / max_prediction { max_prediction } else { distance / speed };
+    let t = if speed <= distance / max_prediction {
+        max_prediction
+    } else {
+        distance / speed
+    };
     target + target_velocity * t
 }
 
 /// Dynamic pursue: seek the target's predicted position at full speed.
 #[inline]
 #[must_use]
-pub fn pursue(position: Vec2, velocity: Vec2, target: Vec2, target_velocity: Vec2, max_speed: f32, max_prediction: f32) -> Vec2 {
-    let predicted = predict_position(position, velocity.length(), target, target_velocity, max_prediction);
+pub fn pursue(
+    position: Vec2,
+    velocity: Vec2,
+    target: Vec2,
+    target_velocity: Vec2,
+    max_speed: f32,
+    max_prediction: f32,
+) -> Vec2 {
+    let predicted = predict_position(
+        position,
+        velocity.length(),
+        target,
+        target_velocity,
+        max_prediction,
+    );
     super::seek(position, velocity, predicted, max_speed, 0.0)
 }
 
@@ -38,7 +61,13 @@ pub fn evade(
         return Vec2::ZERO;
     }
     // Predict from the pursuer's point of view: how soon could it reach us?
-    let predicted = predict_position(position, pursuer_velocity.length(), pursuer, pursuer_velocity, max_prediction);
+    let predicted = predict_position(
+        position,
+        pursuer_velocity.length(),
+        pursuer,
+        pursuer_velocity,
+        max_prediction,
+    );
     let away = position - predicted;
     if away.length_squared() == 0.0 {
         // Predicted to land on us: flee the pursuer's present position instead.

@@ -24,7 +24,13 @@ pub fn seek(position: Vec2, velocity: Vec2, target: Vec2, max_speed: f32, thresh
 /// Coincident points give zero (there is no direction to flee in).
 #[inline]
 #[must_use]
-pub fn flee(position: Vec2, velocity: Vec2, threat: Vec2, max_speed: f32, panic_distance: f32) -> Vec2 {
+pub fn flee(
+    position: Vec2,
+    velocity: Vec2,
+    threat: Vec2,
+    max_speed: f32,
+    panic_distance: f32,
+) -> Vec2 {
     let away = position - threat;
     let d_sq = away.length_squared();
     if d_sq >= panic_distance * panic_distance || d_sq == 0.0 {
@@ -37,13 +43,23 @@ pub fn flee(position: Vec2, velocity: Vec2, threat: Vec2, max_speed: f32, panic_
 /// rest inside `target_radius`. The force reaches the wanted velocity in `time_to_target` seconds.
 #[inline]
 #[must_use]
-pub fn arrive(position: Vec2, velocity: Vec2, target: Vec2, max_speed: f32, p: &ArriveParams) -> Vec2 {
+pub fn arrive(
+    position: Vec2,
+    velocity: Vec2,
+    target: Vec2,
+    max_speed: f32,
+    p: &ArriveParams,
+) -> Vec2 {
     let to = target - position;
     let dist = to.length();
     if dist <= p.target_radius {
         return -velocity / p.time_to_target;
     }
-    let speed = if dist > p.slow_radius { max_speed } else { max_speed * dist / p.slow_radius };
+    let speed = if dist > p.slow_radius {
+        max_speed
+    } else {
+        max_speed * dist / p.slow_radius
+    };
     let desired = to * (speed / dist);
     (desired - velocity) / p.time_to_target
 }
@@ -99,20 +115,42 @@ mod tests {
     fn seek_points_at_the_target() {
         let f = seek(Vec2::ZERO, Vec2::ZERO, Vec2::new(10.0, 0.0), 2.0, 0.0);
         assert_eq!(f, Vec2::new(2.0, 0.0));
-        assert_eq!(seek(Vec2::ZERO, Vec2::ZERO, Vec2::new(0.1, 0.0), 2.0, 0.5), Vec2::ZERO);
+        assert_eq!(
+            seek(Vec2::ZERO, Vec2::ZERO, Vec2::new(0.1, 0.0), 2.0, 0.5),
+            Vec2::ZERO
+        );
     }
 
     #[test]
     fn flee_respects_panic_distance() {
-        assert_eq!(flee(Vec2::ZERO, Vec2::ZERO, Vec2::new(10.0, 0.0), 1.0, 5.0), Vec2::ZERO);
-        assert_eq!(flee(Vec2::ZERO, Vec2::ZERO, Vec2::new(1.0, 0.0), 1.0, 5.0), Vec2::new(-1.0, 0.0));
+        assert_eq!(
+            flee(Vec2::ZERO, Vec2::ZERO, Vec2::new(10.0, 0.0), 1.0, 5.0),
+            Vec2::ZERO
+        );
+        assert_eq!(
+            flee(Vec2::ZERO, Vec2::ZERO, Vec2::new(1.0, 0.0), 1.0, 5.0),
+            Vec2::new(-1.0, 0.0)
+        );
     }
 
     #[test]
     fn kinematic_arrive_slows_inside_radius() {
-        let p = ArriveParams { target_radius: 0.1, slow_radius: 4.0, time_to_target: 0.5 };
-        assert_eq!(kinematic_arrive(Vec2::ZERO, Vec2::new(1.0, 0.0), 10.0, &p), Vec2::new(2.0, 0.0));
-        assert_eq!(kinematic_arrive(Vec2::ZERO, Vec2::new(100.0, 0.0), 10.0, &p), Vec2::new(10.0, 0.0));
-        assert_eq!(kinematic_arrive(Vec2::ZERO, Vec2::new(0.05, 0.0), 10.0, &p), Vec2::ZERO);
+        let p = ArriveParams {
+            target_radius: 0.1,
+            slow_radius: 4.0,
+            time_to_target: 0.5,
+        };
+        assert_eq!(
+            kinematic_arrive(Vec2::ZERO, Vec2::new(1.0, 0.0), 10.0, &p),
+            Vec2::new(2.0, 0.0)
+        );
+        assert_eq!(
+            kinematic_arrive(Vec2::ZERO, Vec2::new(100.0, 0.0), 10.0, &p),
+            Vec2::new(10.0, 0.0)
+        );
+        assert_eq!(
+            kinematic_arrive(Vec2::ZERO, Vec2::new(0.05, 0.0), 10.0, &p),
+            Vec2::ZERO
+        );
     }
 }

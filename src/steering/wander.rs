@@ -9,7 +9,12 @@ use crate::rng::AgentRng;
 /// random binomial times `max_rotation`. Returns `(velocity, rotation)`.
 #[inline]
 #[must_use]
-pub fn kinematic_wander(orientation: f32, max_speed: f32, max_rotation: f32, rng: &mut AgentRng) -> (Vec2, f32) {
+pub fn kinematic_wander(
+    orientation: f32,
+    max_speed: f32,
+    max_rotation: f32,
+    rng: &mut AgentRng,
+) -> (Vec2, f32) {
     let (s, c) = orientation.sin_cos();
     (Vec2::new(c, s) * max_speed, rng.binomial() * max_rotation)
 }

@@ -1,5 +1,5 @@
 use super::group::GroupParams;
-use super::world::World;
+use super::state::World;
 use crate::agents::AgentInit;
 use crate::bounds::Bounds;
 use crate::error::Result;

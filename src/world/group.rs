@@ -58,13 +58,20 @@ impl GroupParams {
     /// A dynamic group with default limits and the given profile.
     #[must_use]
     pub fn dynamic(steering: SteeringProfile) -> Self {
-        GroupParams { steering, ..Self::default() }
+        GroupParams {
+            steering,
+            ..Self::default()
+        }
     }
 
     /// A kinematic group with default limits and the given profile.
     #[must_use]
     pub fn kinematic(steering: SteeringProfile) -> Self {
-        GroupParams { model: MovementModel::Kinematic, steering, ..Self::default() }
+        GroupParams {
+            model: MovementModel::Kinematic,
+            steering,
+            ..Self::default()
+        }
     }
 
     /// Checks every limit and behaviour.
@@ -73,10 +80,15 @@ impl GroupParams {
     /// [`Error::ZeroMass`] for a mass <= 0, otherwise the variant naming the first bad parameter.
     pub fn validate(&self) -> Result<()> {
         if !self.mass.is_finite() {
-            return Err(Error::NonFinite { name: "mass", value: f64::from(self.mass) });
+            return Err(Error::NonFinite {
+                name: "mass",
+                value: f64::from(self.mass),
+            });
         }
         if self.mass <= 0.0 {
-            return Err(Error::ZeroMass { value: f64::from(self.mass) });
+            return Err(Error::ZeroMass {
+                value: f64::from(self.mass),
+            });
         }
         positive("max_speed", self.max_speed)?;
         positive("max_acceleration", self.max_acceleration)?;
@@ -90,7 +102,11 @@ impl GroupParams {
     pub(crate) fn integration(&self, dt: f32) -> IntegrationParams {
         IntegrationParams {
             kinematic: self.model == MovementModel::Kinematic,
-            damp: if self.drag == 0.0 { 1.0 } else { (1.0 - self.drag * dt).max(0.0) },
+            damp: if self.drag == 0.0 {
+                1.0
+            } else {
+                (1.0 - self.drag * dt).max(0.0)
+            },
             max_rotation: self.max_rotation,
             face_velocity: self.orientation == OrientationMode::FaceVelocity,
         }

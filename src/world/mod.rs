@@ -15,11 +15,11 @@
 
 mod builder;
 mod group;
+mod state;
 mod stats;
 mod step;
-mod world;
 
 pub use builder::WorldBuilder;
 pub use group::GroupParams;
+pub use state::{AgentState, World};
 pub use stats::{PhaseTimes, StepStats};
-pub use world::{AgentState, World};

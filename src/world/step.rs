@@ -4,8 +4,8 @@ use glam::Vec2;
 use rayon::prelude::*;
 
 use super::group::GroupParams;
+use super::state::World;
 use super::stats::{PhaseTimes, StepStats};
-use super::world::World;
 use crate::agents::Agents;
 use crate::bounds::Bounds;
 use crate::error::{Error, Result};
@@ -30,7 +30,12 @@ pub(crate) struct Scratch {
 
 impl Scratch {
     fn resize(&mut self, n: usize) {
-        for v in [&mut self.lin_x, &mut self.lin_y, &mut self.ang, &mut self.wander] {
+        for v in [
+            &mut self.lin_x,
+            &mut self.lin_y,
+            &mut self.ang,
+            &mut self.wander,
+        ] {
             v.resize(n, 0.0);
         }
     }
@@ -66,7 +71,10 @@ impl SteerCtx<'_> {
                 (a.position(j), a.velocity(j))
             }
         };
-        Some(Resolved { position: position + self.bounds.offset(position, p), velocity: v })
+        Some(Resolved {
+            position: position + self.bounds.offset(position, p),
+            velocity: v,
+        })
     }
 
     /// The steering of agent `i`: `(linear, angular, new wander angle)`, with the linear part a
@@ -88,7 +96,19 @@ impl SteerCtx<'_> {
         let mut count = 0;
         let mut total = Steering::ZERO;
         for (k, w) in g.steering.behaviours.iter().enumerate() {
-            let s = self.behaviour(i, &w.behaviour, g, kinematic, position, velocity, orientation, rotation, max_speed, &mut wander_angle, &mut rng);
+            let s = self.behaviour(
+                i,
+                &w.behaviour,
+                g,
+                kinematic,
+                position,
+                velocity,
+                orientation,
+                rotation,
+                max_speed,
+                &mut wander_angle,
+                &mut rng,
+            );
             match g.steering.combine {
                 Combine::WeightedSum => total += s.scaled(w.weight),
                 Combine::Priority => {
@@ -101,15 +121,27 @@ impl SteerCtx<'_> {
             }
         }
         if g.steering.combine == Combine::Priority {
-            let (budget, ang_budget) =
-                if kinematic { (max_speed, g.max_rotation) } else { (g.max_acceleration * g.mass, g.max_angular_acceleration) };
-            total = steering::priority_sum((0..count).map(|k| parts[k].scaled(weights[k])), budget, ang_budget);
+            let (budget, ang_budget) = if kinematic {
+                (max_speed, g.max_rotation)
+            } else {
+                (g.max_acceleration * g.mass, g.max_angular_acceleration)
+            };
+            total = steering::priority_sum(
+                (0..count).map(|k| parts[k].scaled(weights[k])),
+                budget,
+                ang_budget,
+            );
         }
         let out = if kinematic {
             total
         } else {
             let acc = steering::truncate(total.linear / g.mass, g.max_acceleration);
-            Steering { linear: acc, angular: total.angular.clamp(-g.max_angular_acceleration, g.max_angular_acceleration) }
+            Steering {
+                linear: acc,
+                angular: total
+                    .angular
+                    .clamp(-g.max_angular_acceleration, g.max_angular_acceleration),
+            }
         };
         (out, wander_angle)
     }
@@ -131,55 +163,140 @@ impl SteerCtx<'_> {
     ) -> Steering {
         let target = |t: Target| self.resolve(i, t, position);
         match *b {
-            Behaviour::Seek { target: t, threshold } => match target(t) {
-                Some(r) if kinematic => Steering::linear(steering::kinematic_seek(position, r.position, max_speed, threshold)),
-                Some(r) => Steering::linear(steering::seek(position, velocity, r.position, max_speed, threshold)),
+            Behaviour::Seek {
+                target: t,
+                threshold,
+            } => match target(t) {
+                Some(r) if kinematic => Steering::linear(steering::kinematic_seek(
+                    position, r.position, max_speed, threshold,
+                )),
+                Some(r) => Steering::linear(steering::seek(
+                    position, velocity, r.position, max_speed, threshold,
+                )),
                 None => Steering::ZERO,
             },
-            Behaviour::Flee { target: t, panic_distance } => match target(t) {
-                Some(r) if kinematic => Steering::linear(steering::kinematic_flee(position, r.position, max_speed, panic_distance)),
-                Some(r) => Steering::linear(steering::flee(position, velocity, r.position, max_speed, panic_distance)),
+            Behaviour::Flee {
+                target: t,
+                panic_distance,
+            } => match target(t) {
+                Some(r) if kinematic => Steering::linear(steering::kinematic_flee(
+                    position,
+                    r.position,
+                    max_speed,
+                    panic_distance,
+                )),
+                Some(r) => Steering::linear(steering::flee(
+                    position,
+                    velocity,
+                    r.position,
+                    max_speed,
+                    panic_distance,
+                )),
                 None => Steering::ZERO,
             },
             Behaviour::Arrive { target: t, params } => match target(t) {
-                Some(r) if kinematic => Steering::linear(steering::kinematic_arrive(position, r.position, max_speed, &params)),
-                Some(r) => Steering::linear(steering::arrive(position, velocity, r.position, max_speed, &params)),
+                Some(r) if kinematic => Steering::linear(steering::kinematic_arrive(
+                    position, r.position, max_speed, &params,
+                )),
+                Some(r) => Steering::linear(steering::arrive(
+                    position, velocity, r.position, max_speed, &params,
+                )),
                 None => Steering::ZERO,
             },
             Behaviour::Wander { params } => {
                 if kinematic {
-                    let (v, rot) = steering::kinematic_wander(orientation, max_speed, g.max_rotation, rng);
-                    Steering { linear: v, angular: rot }
+                    let (v, rot) =
+                        steering::kinematic_wander(orientation, max_speed, g.max_rotation, rng);
+                    Steering {
+                        linear: v,
+                        angular: rot,
+                    }
                 } else {
-                    let heading = velocity.try_normalize().unwrap_or_else(|| Vec2::from_angle(orientation));
-                    let (f, angle) = steering::wander(velocity, heading, *wander_angle, max_speed, &params, self.dt, rng);
+                    let heading = velocity
+                        .try_normalize()
+                        .unwrap_or_else(|| Vec2::from_angle(orientation));
+                    let (f, angle) = steering::wander(
+                        velocity,
+                        heading,
+                        *wander_angle,
+                        max_speed,
+                        &params,
+                        self.dt,
+                        rng,
+                    );
                     *wander_angle = angle;
                     Steering::linear(f)
                 }
             }
-            Behaviour::Pursue { target: t, max_prediction } => match target(t) {
+            Behaviour::Pursue {
+                target: t,
+                max_prediction,
+            } => match target(t) {
                 Some(r) => {
-                    let speed = if kinematic { max_speed } else { velocity.length() };
-                    let predicted = steering::predict_position(position, speed, r.position, r.velocity, max_prediction);
-                    if kinematic {
-                        Steering::linear(steering::kinematic_seek(position, predicted, max_speed, 0.0))
+                    let speed = if kinematic {
+                        max_speed
                     } else {
-                        Steering::linear(steering::seek(position, velocity, predicted, max_speed, 0.0))
+                        velocity.length()
+                    };
+                    let predicted = steering::predict_position(
+                        position,
+                        speed,
+                        r.position,
+                        r.velocity,
+                        max_prediction,
+                    );
+                    if kinematic {
+                        Steering::linear(steering::kinematic_seek(
+                            position, predicted, max_speed, 0.0,
+                        ))
+                    } else {
+                        Steering::linear(steering::seek(
+                            position, velocity, predicted, max_speed, 0.0,
+                        ))
                     }
                 }
                 None => Steering::ZERO,
             },
-            Behaviour::Evade { target: t, max_prediction, panic_distance } => match target(t) {
+            Behaviour::Evade {
+                target: t,
+                max_prediction,
+                panic_distance,
+            } => match target(t) {
                 Some(r) => {
-                    let f = steering::evade(position, velocity, r.position, r.velocity, max_speed, max_prediction, panic_distance);
+                    let f = steering::evade(
+                        position,
+                        velocity,
+                        r.position,
+                        r.velocity,
+                        max_speed,
+                        max_prediction,
+                        panic_distance,
+                    );
                     // Kinematic: the desired velocity is the force plus the current velocity.
-                    if kinematic && f != Vec2::ZERO { Steering::linear(f + velocity) } else { Steering::linear(f) }
+                    if kinematic && f != Vec2::ZERO {
+                        Steering::linear(f + velocity)
+                    } else {
+                        Steering::linear(f)
+                    }
                 }
                 None => Steering::ZERO,
             },
             Behaviour::Face { target: t, params } => match target(t) {
-                Some(r) if kinematic => Steering::angular(steering::kinematic_face(position, orientation, r.position, g.max_rotation, &params)),
-                Some(r) => Steering::angular(steering::face(position, orientation, rotation, r.position, g.max_rotation, &params)),
+                Some(r) if kinematic => Steering::angular(steering::kinematic_face(
+                    position,
+                    orientation,
+                    r.position,
+                    g.max_rotation,
+                    &params,
+                )),
+                Some(r) => Steering::angular(steering::face(
+                    position,
+                    orientation,
+                    rotation,
+                    r.position,
+                    g.max_rotation,
+                    &params,
+                )),
                 None => Steering::ZERO,
             },
             Behaviour::LookWhereYouAreGoing { params } => {
@@ -187,15 +304,32 @@ impl SteerCtx<'_> {
                     if velocity == Vec2::ZERO {
                         Steering::ZERO
                     } else {
-                        Steering::angular(steering::kinematic_face(Vec2::ZERO, orientation, velocity, g.max_rotation, &params))
+                        Steering::angular(steering::kinematic_face(
+                            Vec2::ZERO,
+                            orientation,
+                            velocity,
+                            g.max_rotation,
+                            &params,
+                        ))
                     }
                 } else {
-                    Steering::angular(steering::look_where_you_are_going(velocity, orientation, rotation, g.max_rotation, &params))
+                    Steering::angular(steering::look_where_you_are_going(
+                        velocity,
+                        orientation,
+                        rotation,
+                        g.max_rotation,
+                        &params,
+                    ))
                 }
             }
-            Behaviour::MatchVelocity { target: t, time_to_target } => match target(t) {
+            Behaviour::MatchVelocity {
+                target: t,
+                time_to_target,
+            } => match target(t) {
                 Some(r) if kinematic => Steering::linear(r.velocity),
-                Some(r) => Steering::linear(steering::velocity_match(velocity, r.velocity, time_to_target) * g.mass),
+                Some(r) => Steering::linear(
+                    steering::velocity_match(velocity, r.velocity, time_to_target) * g.mass,
+                ),
                 None => Steering::ZERO,
             },
         }
@@ -254,15 +388,16 @@ impl World {
                 dt,
             };
             let s = &mut self.scratch;
-            let kernel = |base: usize, lx: &mut [f32], ly: &mut [f32], an: &mut [f32], wa: &mut [f32]| {
-                for k in 0..lx.len() {
-                    let (st, w) = ctx.steer(base + k);
-                    lx[k] = st.linear.x;
-                    ly[k] = st.linear.y;
-                    an[k] = st.angular;
-                    wa[k] = w;
-                }
-            };
+            let kernel =
+                |base: usize, lx: &mut [f32], ly: &mut [f32], an: &mut [f32], wa: &mut [f32]| {
+                    for k in 0..lx.len() {
+                        let (st, w) = ctx.steer(base + k);
+                        lx[k] = st.linear.x;
+                        ly[k] = st.linear.y;
+                        an[k] = st.angular;
+                        wa[k] = w;
+                    }
+                };
             match exec {
                 Execution::Parallel => {
                     (
@@ -275,7 +410,9 @@ impl World {
                         .enumerate()
                         .for_each(|(c, (lx, ly, an, wa))| kernel(c * STEER_CHUNK, lx, ly, an, wa));
                 }
-                Execution::Sequential => kernel(0, &mut s.lin_x, &mut s.lin_y, &mut s.ang, &mut s.wander),
+                Execution::Sequential => {
+                    kernel(0, &mut s.lin_x, &mut s.lin_y, &mut s.ang, &mut s.wander)
+                }
             }
         }
         std::mem::swap(&mut self.agents.wander, &mut self.scratch.wander);
@@ -284,7 +421,9 @@ impl World {
         // 3. integrate
         let t = Instant::now();
         self.scratch.params.clear();
-        self.scratch.params.extend(self.groups.iter().map(|g| g.integration(dt)));
+        self.scratch
+            .params
+            .extend(self.groups.iter().map(|g| g.integration(dt)));
         {
             let a = &mut self.agents;
             let state = MotionState {
@@ -304,7 +443,9 @@ impl World {
             };
             match exec {
                 Execution::Parallel => movement::integrate(state, steer, &self.scratch.params, dt),
-                Execution::Sequential => movement::integrate_scalar(state, steer, &self.scratch.params, dt),
+                Execution::Sequential => {
+                    movement::integrate_scalar(state, steer, &self.scratch.params, dt)
+                }
             }
         }
         phases.integrate = t.elapsed();
@@ -316,7 +457,13 @@ impl World {
 
         self.frame += 1;
         self.time += f64::from(dt);
-        Ok(StepStats { frame: self.frame, agents: n, total: start.elapsed(), phases, mean_neighbours: 0.0 })
+        Ok(StepStats {
+            frame: self.frame,
+            agents: n,
+            total: start.elapsed(),
+            phases,
+            mean_neighbours: 0.0,
+        })
     }
 }
 

@@ -48,7 +48,15 @@ impl World {
     }
 
     pub(crate) fn from_parts(groups: Vec<GroupParams>, bounds: Bounds, seed: u64) -> Self {
-        World { agents: Agents::new(), groups, bounds, seed, frame: 0, time: 0.0, scratch: Scratch::default() }
+        World {
+            agents: Agents::new(),
+            groups,
+            bounds,
+            seed,
+            frame: 0,
+            time: 0.0,
+            scratch: Scratch::default(),
+        }
     }
 
     /// The agents, in storage order.
@@ -118,7 +126,14 @@ impl World {
     }
 
     fn check_group(&self, group: usize) -> Result<()> {
-        if group < self.groups.len() { Ok(()) } else { Err(Error::UnknownGroup { group, count: self.groups.len() }) }
+        if group < self.groups.len() {
+            Ok(())
+        } else {
+            Err(Error::UnknownGroup {
+                group,
+                count: self.groups.len(),
+            })
+        }
     }
 
     /// Adds a group and returns its index.
@@ -175,10 +190,14 @@ impl World {
             Some(r) => non_negative("radius", r)?,
             None => g.radius,
         };
-        let init = AgentInit { orientation: wrap_orientation(init.orientation), ..init };
+        let init = AgentInit {
+            orientation: wrap_orientation(init.orientation),
+            ..init
+        };
         // The initial wander angle is random but keyed by the id the agent will get.
         let next_id = self.agents.ids_issued() as u32;
-        let wander = AgentRng::new(self.seed, next_id, 0, STREAM_SPAWN).signed() * std::f32::consts::PI;
+        let wander =
+            AgentRng::new(self.seed, next_id, 0, STREAM_SPAWN).signed() * std::f32::consts::PI;
         Ok(self.agents.push(&init, max_speed, radius, wander))
     }
 

@@ -1,5 +1,0 @@
-//! The `throng` command-line program.
-
-fn main() {
-    println!("throng {}", env!("CARGO_PKG_VERSION"));
-}

@@ -1,0 +1,258 @@
+//! The `throng` command-line program: run built-in or file scenarios, print frame timings,
+//! write pictures and trajectories, and benchmark with machine-readable output.
+
+mod output;
+mod timing;
+
+use std::io::IsTerminal;
+use std::path::{Path, PathBuf};
+use std::process::ExitCode;
+use std::time::Instant;
+
+use clap::{Args, Parser, Subcommand};
+use throng::scenario::{self, Scenario};
+use throng::{Error, Result, World};
+
+use crate::output::Outputs;
+use crate::timing::Timings;
+
+/// A data-parallel crowd and flock simulator.
+#[derive(Debug, Parser)]
+#[command(name = "throng", version, about)]
+struct Cli {
+    #[command(subcommand)]
+    command: Command,
+}
+
+#[derive(Debug, Subcommand)]
+enum Command {
+    /// Run a built-in scenario and print frame timings.
+    Demo {
+        /// Built-in scenario name (see `throng list`).
+        scenario: String,
+        #[command(flatten)]
+        run: RunArgs,
+    },
+    /// Run a scenario file (TOML) and print frame timings.
+    Run {
+        /// The scenario file.
+        file: PathBuf,
+        #[command(flatten)]
+        run: RunArgs,
+    },
+    /// Time a scenario and print one JSON object.
+    Bench {
+        /// Built-in scenario name or scenario file.
+        scenario: String,
+        #[command(flatten)]
+        common: CommonArgs,
+        /// Untimed steps before timing.
+        #[arg(long, default_value_t = 10)]
+        warmup: u64,
+        /// Print the result as one JSON object (the only output format).
+        #[arg(long)]
+        json: bool,
+    },
+    /// List the built-in scenarios.
+    List,
+}
+
+/// Options shared by every command that steps a world.
+#[derive(Debug, Args)]
+struct CommonArgs {
+    /// Number of agents (shared among the scenario's groups).
+    #[arg(long)]
+    agents: Option<usize>,
+    /// Number of steps.
+    #[arg(long)]
+    steps: Option<u64>,
+    /// Worker threads (default: all cores).
+    #[arg(long)]
+    threads: Option<usize>,
+    /// Seed of all randomness.
+    #[arg(long)]
+    seed: Option<u64>,
+    /// Time step in seconds.
+    #[arg(long)]
+    dt: Option<f32>,
+    /// Neighbour index backend: grid, kdtree or brute.
+    #[arg(long, value_parser = ["grid", "kdtree", "brute"])]
+    index: Option<String>,
+}
+
+/// Options of `demo` and `run`.
+#[derive(Debug, Args)]
+struct RunArgs {
+    #[command(flatten)]
+    common: CommonArgs,
+    /// Print a timing line (and write trajectory rows and GIF frames) every K frames.
+    #[arg(long)]
+    every: Option<u64>,
+    /// Write an animated GIF (`.gif`) or the last frame as PNG (`.png`).
+    #[arg(long)]
+    render: Option<PathBuf>,
+    /// Write trajectories as long-format CSV: frame,t,id,x,y,vx,vy,heading.
+    #[arg(long)]
+    trajectories: Option<PathBuf>,
+    /// Print only the summary.
+    #[arg(long)]
+    quiet: bool,
+}
+
+fn main() -> ExitCode {
+    let cli = Cli::parse();
+    match dispatch(cli.command) {
+        Ok(()) => ExitCode::SUCCESS,
+        Err(e) => {
+            eprintln!("error: {e}");
+            ExitCode::FAILURE
+        }
+    }
+}
+
+fn dispatch(command: Command) -> Result<()> {
+    match command {
+        Command::List => {
+            for (name, _) in scenario::BUILTIN {
+                let s = scenario::builtin(name)?;
+                println!("{name:<12} {}", s.description);
+            }
+            Ok(())
+        }
+        Command::Demo { scenario, run } => {
+            let s = scenario::builtin(&scenario)?;
+            run_scenario(s, &run)
+        }
+        Command::Run { file, run } => run_scenario(Scenario::load(&file)?, &run),
+        Command::Bench {
+            scenario,
+            common,
+            warmup,
+            json: _,
+        } => bench(load_any(&scenario)?, &common, warmup),
+    }
+}
+
+/// A built-in name, or a path to a TOML file.
+fn load_any(name: &str) -> Result<Scenario> {
+    let path = Path::new(name);
+    if name.ends_with(".toml") || path.exists() {
+        Scenario::load(path)
+    } else {
+        scenario::builtin(name)
+    }
+}
+
+/// Applies the command-line overrides and builds the world.
+fn prepare(mut s: Scenario, c: &CommonArgs) -> Result<(Scenario, World, rayon::ThreadPool, usize)> {
+    if let Some(n) = c.agents {
+        s = s.with_agents(n)?;
+    }
+    if let Some(steps) = c.steps {
+        s.steps = steps;
+    }
+    if let Some(seed) = c.seed {
+        s.seed = seed;
+    }
+    if let Some(dt) = c.dt {
+        if !(dt.is_finite() && dt > 0.0) {
+            return Err(Error::InvalidTimeStep { dt: f64::from(dt) });
+        }
+        s.dt = dt;
+    }
+    let threads = match c.threads {
+        Some(0) => {
+            return Err(Error::NotPositive {
+                name: "threads",
+                value: 0.0,
+            });
+        }
+        Some(t) => t,
+        None => std::thread::available_parallelism().map_or(1, usize::from),
+    };
+    let pool = rayon::ThreadPoolBuilder::new()
+        .num_threads(threads)
+        .build()
+        .map_err(|e| Error::Invalid {
+            name: "threads".into(),
+            reason: e.to_string(),
+        })?;
+    let world = s.build()?;
+    Ok((s, world, pool, threads))
+}
+
+fn run_scenario(s: Scenario, args: &RunArgs) -> Result<()> {
+    let (s, mut world, pool, threads) = prepare(s, &args.common)?;
+    let every = match args.every {
+        Some(0) => {
+            return Err(Error::NotPositive {
+                name: "every",
+                value: 0.0,
+            });
+        }
+        Some(k) => k,
+        None => (s.steps / 20).max(1),
+    };
+    let mut outputs = Outputs::open(args.render.as_deref(), args.trajectories.as_deref(), &world)?;
+    let show_progress = !args.quiet && std::io::stdout().is_terminal() && s.steps >= 200;
+    let progress = show_progress.then(|| indicatif::ProgressBar::new(s.steps));
+    let log = |line: String| match &progress {
+        Some(p) => p.println(line),
+        None => println!("{line}"),
+    };
+    if !args.quiet {
+        log(format!(
+            "throng: scenario {} | {} agents | {} steps | dt {} | {} threads | seed {}",
+            s.name,
+            world.len(),
+            s.steps,
+            s.dt,
+            threads,
+            s.seed
+        ));
+    }
+    outputs.frame(&world)?;
+    let mut timings = Timings::default();
+    let wall = Instant::now();
+    for _ in 0..s.steps {
+        let stats = pool.install(|| world.step(s.dt))?;
+        timings.push(&stats);
+        if stats.frame % every == 0 {
+            if !args.quiet {
+                log(timing::frame_line(&stats));
+            }
+            outputs.frame(&world)?;
+        }
+        if let Some(p) = &progress {
+            p.inc(1);
+        }
+    }
+    if let Some(p) = progress {
+        p.finish_and_clear();
+    }
+    outputs.finish(&world)?;
+    println!("{}", timings.summary(wall.elapsed()));
+    Ok(())
+}
+
+fn bench(s: Scenario, c: &CommonArgs, warmup: u64) -> Result<()> {
+    let (s, mut world, pool, threads) = prepare(s, c)?;
+    let steps = c.steps.unwrap_or(100).max(1);
+    pool.install(|| -> Result<()> {
+        for _ in 0..warmup {
+            world.step(s.dt)?;
+        }
+        Ok(())
+    })?;
+    let mut timings = Timings::default();
+    for _ in 0..steps {
+        let stats = pool.install(|| world.step(s.dt))?;
+        timings.push(&stats);
+    }
+    let index = c.index.clone().unwrap_or_else(|| "grid".to_string());
+    println!(
+        "{}",
+        timings.json(&s.name, world.len(), threads, &index, steps)
+    );
+    Ok(())
+}

@@ -1,0 +1,53 @@
+use super::spec::Scenario;
+use crate::error::{Error, Result};
+
+/// The built-in scenarios: `(name, TOML text)`, in listing order.
+pub const BUILTIN: &[(&str, &str)] = &[
+    ("seek", include_str!("../../scenarios/seek.toml")),
+    ("arrive", include_str!("../../scenarios/arrive.toml")),
+    ("wander", include_str!("../../scenarios/wander.toml")),
+];
+
+/// The names of the built-in scenarios.
+#[must_use]
+pub fn builtin_names() -> Vec<&'static str> {
+    BUILTIN.iter().map(|(n, _)| *n).collect()
+}
+
+/// Parses the built-in scenario `name`.
+///
+/// # Errors
+/// [`Error::Scenario`] when no built-in scenario has that name.
+pub fn builtin(name: &str) -> Result<Scenario> {
+    let (_, text) = BUILTIN
+        .iter()
+        .find(|(n, _)| *n == name)
+        .ok_or_else(|| Error::Scenario {
+            source_name: name.to_string(),
+            location: None,
+            message: format!(
+                "unknown scenario (built-in scenarios: {})",
+                builtin_names().join(", ")
+            ),
+        })?;
+    Scenario::from_toml(text, &format!("scenarios/{name}.toml"))
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn every_builtin_parses_and_builds() {
+        for name in builtin_names() {
+            let s = builtin(name).unwrap_or_else(|e| panic!("{name}: {e}"));
+            assert_eq!(s.name, name);
+            let w = s
+                .with_agents(50)
+                .unwrap()
+                .build()
+                .unwrap_or_else(|e| panic!("{name}: {e}"));
+            assert!(!w.is_empty());
+        }
+    }
+}

@@ -1,0 +1,16 @@
+//! Scenario files: a whole simulation described in TOML, and the built-in scenarios.
+//!
+//! A scenario names the world (bounds, size or a target density), the groups (how many agents,
+//! where they spawn, their movement model, limits and behaviours), the seed, the time step and the
+//! number of steps. Unknown keys are errors, reported with the file, line and column. The
+//! built-in scenarios are the TOML files of the repository's `scenarios/` folder, embedded in the
+//! crate; `docs/SCENARIOS.md` documents every key.
+//!
+//! Agent counts scale: `--agents N` (or [`Scenario::with_agents`]) shares `N` among the groups in
+//! proportion to their `count`s, except groups marked `fixed`.
+
+mod builtin;
+mod spec;
+
+pub use builtin::{BUILTIN, builtin, builtin_names};
+pub use spec::{DensitySpec, GroupSpec, Scenario, Spawn, WorldSpec};

@@ -1,0 +1,492 @@
+use std::f32::consts::PI;
+use std::path::Path;
+
+use glam::Vec2;
+use rand::{RngExt, SeedableRng};
+use rand_chacha::ChaCha8Rng;
+use serde::{Deserialize, Serialize};
+
+use crate::agents::AgentInit;
+use crate::bounds::Bounds;
+use crate::error::{Error, Result, finite, non_negative, positive};
+use crate::world::{GroupParams, World};
+
+/// A whole simulation, as read from a TOML file.
+#[derive(Clone, Debug, PartialEq, Serialize, Deserialize)]
+#[serde(deny_unknown_fields)]
+pub struct Scenario {
+    /// Short name. Default: the file stem.
+    #[serde(default)]
+    pub name: String,
+    /// One line for `throng list`. Default: empty.
+    #[serde(default)]
+    pub description: String,
+    /// Seed of all randomness (spawn positions, wander). Default: 1.
+    #[serde(default = "default_seed")]
+    pub seed: u64,
+    /// Time step, seconds (> 0). Default: 1/30.
+    #[serde(default = "default_dt")]
+    pub dt: f32,
+    /// Steps to run. Default: 300.
+    #[serde(default = "default_steps")]
+    pub steps: u64,
+    /// The world.
+    #[serde(default)]
+    pub world: WorldSpec,
+    /// The groups, in order (group index = position in this list).
+    pub groups: Vec<GroupSpec>,
+}
+
+fn default_seed() -> u64 {
+    1
+}
+fn default_dt() -> f32 {
+    1.0 / 30.0
+}
+fn default_steps() -> u64 {
+    300
+}
+
+/// The world's shape.
+#[derive(Clone, Debug, Default, PartialEq, Serialize, Deserialize)]
+#[serde(default, deny_unknown_fields)]
+pub struct WorldSpec {
+    /// `"torus"`, `"bounded"` or `"open"`. Default: open.
+    pub kind: WorldKind,
+    /// Width and height. Required for torus and bounded worlds unless `density` is given.
+    pub size: Option<Vec2>,
+    /// Size the (square) world from the agent count so that the density stays fixed.
+    pub density: Option<DensitySpec>,
+}
+
+/// The kind of world.
+#[derive(Clone, Copy, Debug, Default, PartialEq, Eq, Serialize, Deserialize)]
+#[serde(rename_all = "snake_case")]
+pub enum WorldKind {
+    /// Unbounded plane.
+    #[default]
+    Open,
+    /// Walled rectangle.
+    Bounded,
+    /// Wrap-around rectangle.
+    Torus,
+}
+
+/// A density target: the world grows with the agent count so that each agent has about
+/// `neighbours` others within `radius` (area = N * pi * radius^2 / neighbours).
+#[derive(Clone, Copy, Debug, PartialEq, Serialize, Deserialize)]
+#[serde(deny_unknown_fields)]
+pub struct DensitySpec {
+    /// Mean neighbours within `radius` (> 0).
+    pub neighbours: f32,
+    /// The radius (> 0).
+    pub radius: f32,
+}
+
+/// Where a group's agents start.
+#[derive(Clone, Debug, Default, PartialEq, Serialize, Deserialize)]
+#[serde(tag = "kind", rename_all = "snake_case", deny_unknown_fields)]
+pub enum Spawn {
+    /// Uniformly over the whole world (torus or bounded worlds only).
+    #[default]
+    Uniform,
+    /// Uniformly in a rectangle.
+    Rect {
+        /// Lower corner.
+        min: Vec2,
+        /// Upper corner.
+        max: Vec2,
+    },
+    /// Uniformly in a disc.
+    Disc {
+        /// Centre.
+        center: Vec2,
+        /// Radius (>= 0).
+        radius: f32,
+    },
+    /// At these points, in order (the group's count is the number of points).
+    Points {
+        /// The points.
+        points: Vec<Vec2>,
+    },
+}
+
+/// One group: its count, spawn region and profile. The profile's keys (`model`, `max_speed`,
+/// `steering`, ...) sit directly in the group's table; unknown keys are errors.
+#[derive(Clone, Debug, PartialEq, Serialize)]
+pub struct GroupSpec {
+    /// Number of agents at the scenario's default size. Default: 1.
+    #[serde(default = "default_count")]
+    pub count: usize,
+    /// Whether `--agents` leaves this group's count alone (a single leader, say). Default: false.
+    #[serde(default)]
+    pub fixed: bool,
+    /// Where the agents start. Default: uniform over the world.
+    #[serde(default)]
+    pub spawn: Spawn,
+    /// Initial speed, in a random direction (>= 0). Default: 0.
+    #[serde(default)]
+    pub initial_speed: f32,
+    /// The profile.
+    #[serde(flatten)]
+    pub params: GroupParams,
+}
+
+fn default_count() -> usize {
+    1
+}
+
+/// The keys of a group's table that are not profile keys.
+#[derive(Deserialize)]
+#[serde(deny_unknown_fields)]
+struct GroupPlacement {
+    #[serde(default = "default_count")]
+    count: usize,
+    #[serde(default)]
+    fixed: bool,
+    #[serde(default)]
+    spawn: Spawn,
+    #[serde(default)]
+    initial_speed: f32,
+}
+
+impl<'de> Deserialize<'de> for GroupSpec {
+    /// Splits the table into placement keys and profile keys so that both reject unknown keys
+    /// (serde's `flatten` would silently ignore them).
+    fn deserialize<D: serde::Deserializer<'de>>(d: D) -> std::result::Result<Self, D::Error> {
+        use serde::de::Error as _;
+        let mut table = toml::Table::deserialize(d)?;
+        let mut placement = toml::Table::new();
+        for key in ["count", "fixed", "spawn", "initial_speed"] {
+            if let Some(v) = table.remove(key) {
+                placement.insert(key.to_string(), v);
+            }
+        }
+        let p = GroupPlacement::deserialize(toml::Value::Table(placement))
+            .map_err(|e| D::Error::custom(e.message()))?;
+        let params = GroupParams::deserialize(toml::Value::Table(table))
+            .map_err(|e| D::Error::custom(e.message()))?;
+        Ok(GroupSpec {
+            count: p.count,
+            fixed: p.fixed,
+            spawn: p.spawn,
+            initial_speed: p.initial_speed,
+            params,
+        })
+    }
+}
+
+/// Byte offset to 1-based (line, column).
+pub(crate) fn line_col(text: &str, offset: usize) -> (usize, usize) {
+    let before = &text[..offset.min(text.len())];
+    let line = before.matches('\n').count() + 1;
+    let col = before
+        .rfind('\n')
+        .map_or(before.len(), |nl| before.len() - nl - 1)
+        + 1;
+    (line, col)
+}
+
+impl Scenario {
+    /// Parses a scenario from TOML text; `source_name` names it in errors.
+    ///
+    /// # Errors
+    /// [`Error::Scenario`] with line and column for a syntax error, an unknown key or a bad
+    /// value; the variant naming the parameter for an out-of-range number.
+    pub fn from_toml(text: &str, source_name: &str) -> Result<Self> {
+        let mut s: Scenario = toml::from_str(text).map_err(|e| Error::Scenario {
+            source_name: source_name.to_string(),
+            location: e.span().map(|sp| line_col(text, sp.start)),
+            message: e.message().trim().to_string(),
+        })?;
+        if s.name.is_empty() {
+            s.name = Path::new(source_name)
+                .file_stem()
+                .map(|f| f.to_string_lossy().into_owned())
+                .unwrap_or_default();
+        }
+        s.validate().map_err(|e| match e {
+            Error::Scenario { .. } => e,
+            other => Error::Scenario {
+                source_name: source_name.to_string(),
+                location: None,
+                message: other.to_string(),
+            },
+        })?;
+        Ok(s)
+    }
+
+    /// Reads and parses a scenario file.
+    ///
+    /// # Errors
+    /// [`Error::Io`] when the file cannot be read, otherwise as [`Scenario::from_toml`].
+    pub fn load(path: &Path) -> Result<Self> {
+        let text = std::fs::read_to_string(path).map_err(|source| Error::Io {
+            path: path.display().to_string(),
+            source,
+        })?;
+        Self::from_toml(&text, &path.display().to_string())
+    }
+
+    /// Checks every value.
+    ///
+    /// # Errors
+    /// The variant naming the first bad value.
+    pub fn validate(&self) -> Result<()> {
+        positive("dt", self.dt)?;
+        if self.groups.is_empty() {
+            return Err(Error::Invalid {
+                name: "groups".into(),
+                reason: "a scenario needs at least one group".into(),
+            });
+        }
+        if let Some(d) = &self.world.density {
+            positive("world.density.neighbours", d.neighbours)?;
+            positive("world.density.radius", d.radius)?;
+        }
+        if let Some(size) = self.world.size {
+            positive("world.size", size.x)?;
+            positive("world.size", size.y)?;
+        }
+        if self.world.kind != WorldKind::Open
+            && self.world.size.is_none()
+            && self.world.density.is_none()
+        {
+            return Err(Error::Invalid {
+                name: "world.size".into(),
+                reason: "a torus or bounded world needs `size` or `density`".into(),
+            });
+        }
+        for g in &self.groups {
+            g.params.validate()?;
+            non_negative("initial_speed", g.initial_speed)?;
+            match &g.spawn {
+                Spawn::Uniform if self.world.kind == WorldKind::Open => {
+                    return Err(Error::Invalid {
+                        name: "spawn".into(),
+                        reason: "uniform spawn needs a torus or bounded world".into(),
+                    });
+                }
+                Spawn::Rect { min, max } => {
+                    for v in [min.x, min.y, max.x, max.y] {
+                        finite("spawn.rect", v)?;
+                    }
+                    if min.x > max.x || min.y > max.y {
+                        return Err(Error::Invalid {
+                            name: "spawn.rect".into(),
+                            reason: "min must not exceed max".into(),
+                        });
+                    }
+                }
+                Spawn::Disc { center, radius } => {
+                    finite("spawn.center", center.x)?;
+                    finite("spawn.center", center.y)?;
+                    non_negative("spawn.radius", *radius)?;
+                }
+                Spawn::Points { points } => {
+                    for p in points {
+                        finite("spawn.points", p.x)?;
+                        finite("spawn.points", p.y)?;
+                    }
+                }
+                Spawn::Uniform => {}
+            }
+        }
+        Ok(())
+    }
+
+    /// The total agent count at the scenario's own size.
+    #[must_use]
+    pub fn agent_count(&self) -> usize {
+        self.groups.iter().map(GroupSpec::count_of).sum()
+    }
+
+    /// The same scenario scaled to `total` agents: scalable groups share what the fixed ones leave,
+    /// in proportion to their counts (each keeps at least one agent).
+    ///
+    /// # Errors
+    /// [`Error::NotPositive`] for `total == 0`; [`Error::Invalid`] when `total` is smaller than
+    /// the fixed groups need.
+    pub fn with_agents(mut self, total: usize) -> Result<Self> {
+        if total == 0 {
+            return Err(Error::NotPositive {
+                name: "agents",
+                value: 0.0,
+            });
+        }
+        let fixed: usize = self
+            .groups
+            .iter()
+            .filter(|g| g.fixed || matches!(g.spawn, Spawn::Points { .. }))
+            .map(GroupSpec::count_of)
+            .sum();
+        let scalable: Vec<usize> = self
+            .groups
+            .iter()
+            .enumerate()
+            .filter(|(_, g)| !(g.fixed || matches!(g.spawn, Spawn::Points { .. })))
+            .map(|(i, _)| i)
+            .collect();
+        if scalable.is_empty() {
+            return Ok(self);
+        }
+        if total < fixed + scalable.len() {
+            return Err(Error::Invalid {
+                name: "agents".into(),
+                reason: format!(
+                    "{total} is too few: this scenario needs at least {}",
+                    fixed + scalable.len()
+                ),
+            });
+        }
+        let left = total - fixed;
+        let weight: usize = scalable.iter().map(|&i| self.groups[i].count.max(1)).sum();
+        let mut given = 0;
+        for (k, &i) in scalable.iter().enumerate() {
+            let n = if k + 1 == scalable.len() {
+                left - given
+            } else {
+                ((left as f64 * self.groups[i].count.max(1) as f64 / weight as f64).round()
+                    as usize)
+                    .clamp(1, left - given - (scalable.len() - k - 1))
+            };
+            self.groups[i].count = n;
+            given += n;
+        }
+        Ok(self)
+    }
+
+    /// The world's bounds for the current agent count.
+    ///
+    /// # Errors
+    /// As [`Bounds::torus`] for a bad size.
+    pub fn bounds(&self) -> Result<Bounds> {
+        let size = match (self.world.size, self.world.density) {
+            (Some(s), _) => s,
+            (None, Some(d)) => {
+                let area = self.agent_count() as f32 * PI * d.radius * d.radius / d.neighbours;
+                Vec2::splat(area.sqrt().max(d.radius))
+            }
+            (None, None) => Vec2::ZERO,
+        };
+        match self.world.kind {
+            WorldKind::Open => Ok(Bounds::Open),
+            WorldKind::Bounded => Bounds::bounded(size.x, size.y),
+            WorldKind::Torus => Bounds::torus(size.x, size.y),
+        }
+    }
+
+    /// Builds the world: groups, then agents spawned group by group from the seed.
+    ///
+    /// # Errors
+    /// The variant naming the first bad value (a spawn region outside the world, say).
+    pub fn build(&self) -> Result<World> {
+        self.validate()?;
+        let bounds = self.bounds()?;
+        let mut world = World::builder().bounds(bounds).seed(self.seed).build()?;
+        for g in &self.groups {
+            world.add_group(g.params.clone())?;
+        }
+        for (gi, g) in self.groups.iter().enumerate() {
+            let mut rng = ChaCha8Rng::seed_from_u64(
+                self.seed ^ (0x5eed_0000_u64 + gi as u64).wrapping_mul(0x9e37_79b9_7f4a_7c15),
+            );
+            let n = g.count_of();
+            for k in 0..n {
+                let position = match &g.spawn {
+                    Spawn::Uniform => {
+                        let size = bounds.size().unwrap_or(Vec2::ONE);
+                        Vec2::new(rng.random::<f32>() * size.x, rng.random::<f32>() * size.y)
+                    }
+                    Spawn::Rect { min, max } => Vec2::new(
+                        min.x + rng.random::<f32>() * (max.x - min.x),
+                        min.y + rng.random::<f32>() * (max.y - min.y),
+                    ),
+                    Spawn::Disc { center, radius } => {
+                        let r = radius * rng.random::<f32>().sqrt();
+                        let a = rng.random::<f32>() * 2.0 * PI;
+                        *center + Vec2::from_angle(a) * r
+                    }
+                    Spawn::Points { points } => points[k],
+                };
+                let position = bounds.wrap(position);
+                let heading = rng.random::<f32>() * 2.0 * PI;
+                let velocity = Vec2::from_angle(heading) * g.initial_speed.min(g.params.max_speed);
+                world.add_agent(AgentInit {
+                    position,
+                    velocity,
+                    orientation: heading,
+                    group: gi,
+                    ..AgentInit::default()
+                })?;
+            }
+        }
+        Ok(world)
+    }
+}
+
+impl GroupSpec {
+    /// The number of agents this group spawns.
+    #[must_use]
+    pub fn count_of(&self) -> usize {
+        match &self.spawn {
+            Spawn::Points { points } => points.len(),
+            _ => self.count,
+        }
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    const SMALL: &str = r#"
+name = "t"
+[world]
+kind = "torus"
+size = [50, 50]
+[[groups]]
+count = 10
+max_speed = 3
+steering = { behaviours = [{ kind = "wander", weight = 1 }] }
+"#;
+
+    #[test]
+    fn parses_and_scales() {
+        let s = Scenario::from_toml(SMALL, "t.toml").unwrap();
+        assert_eq!(s.agent_count(), 10);
+        let s = s.with_agents(123).unwrap();
+        assert_eq!(s.build().unwrap().len(), 123);
+    }
+
+    #[test]
+    fn unknown_keys_name_line_and_column() {
+        let text = SMALL.replace("max_speed = 3", "max_sped = 3");
+        let err = Scenario::from_toml(&text, "t.toml").unwrap_err();
+        let msg = err.to_string();
+        assert!(msg.starts_with("t.toml:"), "{msg}");
+        assert!(msg.contains("max_sped"), "{msg}");
+        match err {
+            Error::Scenario {
+                location: Some((line, _)),
+                ..
+            } => assert!(line >= 5, "line {line}"),
+            other => panic!("{other:?}"),
+        }
+    }
+
+    #[test]
+    fn bad_values_are_errors() {
+        let text = SMALL.replace("max_speed = 3", "max_speed = -3");
+        let msg = Scenario::from_toml(&text, "t.toml")
+            .unwrap_err()
+            .to_string();
+        assert!(msg.contains("max_speed"), "{msg}");
+    }
+
+    #[test]
+    fn line_col_counts_from_one() {
+        assert_eq!(line_col("ab\ncd", 0), (1, 1));
+        assert_eq!(line_col("ab\ncd", 4), (2, 2));
+    }
+}

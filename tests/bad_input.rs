@@ -1,0 +1,236 @@
+//! Every kind of bad value gets its own error variant, and nothing invalid enters the world.
+
+use throng::prelude::*;
+
+fn world() -> World {
+    World::builder()
+        .bounds(Bounds::bounded(10.0, 10.0).unwrap())
+        .group(GroupParams::default())
+        .agent(AgentInit::at(Vec2::new(1.0, 1.0), 0))
+        .build()
+        .unwrap()
+}
+
+#[test]
+fn nan_and_infinite_numbers_are_rejected() {
+    let mut w = world();
+    let err = w
+        .add_agent(AgentInit::at(Vec2::new(f32::NAN, 1.0), 0))
+        .unwrap_err();
+    assert!(
+        matches!(
+            err,
+            Error::NonFinite {
+                name: "position",
+                ..
+            }
+        ),
+        "{err}"
+    );
+    let err = w
+        .add_agent(AgentInit {
+            velocity: Vec2::new(0.0, f32::INFINITY),
+            ..AgentInit::at(Vec2::ONE, 0)
+        })
+        .unwrap_err();
+    assert!(
+        matches!(
+            err,
+            Error::NonFinite {
+                name: "velocity",
+                ..
+            }
+        ),
+        "{err}"
+    );
+    let err = w
+        .set_target(AgentId(0), Vec2::new(f32::NEG_INFINITY, 0.0))
+        .unwrap_err();
+    assert!(matches!(err, Error::NonFinite { .. }));
+    let g = GroupParams {
+        max_speed: f32::NAN,
+        ..GroupParams::default()
+    };
+    assert!(matches!(
+        w.add_group(g),
+        Err(Error::NonFinite {
+            name: "max_speed",
+            ..
+        })
+    ));
+    let seek = SteeringProfile::single(Behaviour::Seek {
+        target: Target::Point(Vec2::new(f32::NAN, 0.0)),
+        threshold: 0.0,
+    });
+    assert!(matches!(
+        w.add_group(GroupParams::dynamic(seek)),
+        Err(Error::NonFinite { name: "target", .. })
+    ));
+    assert_eq!(w.len(), 1, "nothing was added");
+}
+
+#[test]
+fn negative_radii_and_distances_are_rejected() {
+    let mut w = world();
+    let g = GroupParams {
+        radius: -1.0,
+        ..GroupParams::default()
+    };
+    let err = w.add_group(g).unwrap_err();
+    assert!(
+        matches!(err, Error::Negative { name: "radius", .. }),
+        "{err}"
+    );
+    assert!(
+        err.to_string().contains("radius") && err.to_string().contains("-1"),
+        "message names parameter and value: {err}"
+    );
+    let err = w
+        .add_agent(AgentInit {
+            radius: Some(-0.5),
+            ..AgentInit::at(Vec2::ONE, 0)
+        })
+        .unwrap_err();
+    assert!(matches!(err, Error::Negative { name: "radius", .. }));
+    let flee = SteeringProfile::single(Behaviour::Flee {
+        target: Target::Point(Vec2::ZERO),
+        panic_distance: -3.0,
+    });
+    assert!(matches!(
+        w.add_group(GroupParams::dynamic(flee)),
+        Err(Error::Negative {
+            name: "flee.panic_distance",
+            ..
+        })
+    ));
+}
+
+#[test]
+fn zero_or_negative_limits_are_rejected() {
+    let mut w = world();
+    assert!(matches!(
+        w.add_group(GroupParams {
+            max_speed: 0.0,
+            ..GroupParams::default()
+        }),
+        Err(Error::NotPositive {
+            name: "max_speed",
+            ..
+        })
+    ));
+    assert!(matches!(
+        w.add_group(GroupParams {
+            max_acceleration: -1.0,
+            ..GroupParams::default()
+        }),
+        Err(Error::NotPositive {
+            name: "max_acceleration",
+            ..
+        })
+    ));
+    assert!(matches!(
+        w.set_max_speed(AgentId(0), -2.0),
+        Err(Error::NotPositive { .. })
+    ));
+    assert!(matches!(
+        Bounds::torus(-5.0, 5.0),
+        Err(Error::NotPositive { .. })
+    ));
+}
+
+#[test]
+fn zero_mass_is_rejected() {
+    let mut w = world();
+    assert!(matches!(
+        w.add_group(GroupParams {
+            mass: 0.0,
+            ..GroupParams::default()
+        }),
+        Err(Error::ZeroMass { .. })
+    ));
+    let err = World::builder()
+        .group(GroupParams {
+            mass: -1.0,
+            ..GroupParams::default()
+        })
+        .build()
+        .unwrap_err();
+    assert!(matches!(err, Error::ZeroMass { .. }), "{err}");
+}
+
+#[test]
+fn non_positive_time_steps_are_rejected_and_change_nothing() {
+    let mut w = world();
+    for dt in [0.0, -0.1, f32::NAN, f32::INFINITY] {
+        let err = w.step(dt).unwrap_err();
+        assert!(matches!(err, Error::InvalidTimeStep { .. }), "{err}");
+    }
+    assert_eq!(w.frame(), 0);
+}
+
+#[test]
+fn unknown_ids_and_groups_are_rejected() {
+    let mut w = world();
+    assert!(matches!(
+        w.remove_agent(AgentId(7)),
+        Err(Error::UnknownAgent { id: AgentId(7) })
+    ));
+    w.remove_agent(AgentId(0)).unwrap();
+    assert!(
+        matches!(
+            w.set_position(AgentId(0), Vec2::ONE),
+            Err(Error::UnknownAgent { .. })
+        ),
+        "a removed id stays unknown"
+    );
+    assert!(matches!(
+        w.add_agent(AgentInit::at(Vec2::ONE, 3)),
+        Err(Error::UnknownGroup { group: 3, count: 1 })
+    ));
+    assert!(matches!(
+        w.set_group_params(9, GroupParams::default()),
+        Err(Error::UnknownGroup { .. })
+    ));
+}
+
+#[test]
+fn positions_outside_the_world_are_rejected() {
+    let mut w = world();
+    let err = w
+        .add_agent(AgentInit::at(Vec2::new(11.0, 1.0), 0))
+        .unwrap_err();
+    assert!(matches!(err, Error::Invalid { .. }), "{err}");
+    assert_eq!(w.len(), 1);
+}
+
+#[test]
+fn bad_behaviour_parameters_are_rejected() {
+    let mut w = world();
+    let arrive = SteeringProfile::single(Behaviour::Arrive {
+        target: Target::Own,
+        params: ArriveParams {
+            time_to_target: 0.0,
+            ..ArriveParams::default()
+        },
+    });
+    assert!(matches!(
+        w.add_group(GroupParams::dynamic(arrive)),
+        Err(Error::NotPositive {
+            name: "arrive.time_to_target",
+            ..
+        })
+    ));
+    let weight = SteeringProfile {
+        behaviours: vec![Weighted::new(
+            Behaviour::Wander {
+                params: WanderParams::default(),
+            },
+            f32::NAN,
+        )],
+        combine: Combine::WeightedSum,
+    };
+    assert!(matches!(
+        w.add_group(GroupParams::dynamic(weight)),
+        Err(Error::NonFinite { name: "weight", .. })
+    ));
+}

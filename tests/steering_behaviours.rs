@@ -1,0 +1,313 @@
+//! Single-agent behaviours reach, flee, catch and wander as the reference notes say they should.
+
+use throng::prelude::*;
+
+const DT: f32 = 1.0 / 30.0;
+
+fn group(model: MovementModel, steering: SteeringProfile) -> GroupParams {
+    GroupParams {
+        model,
+        max_speed: 5.0,
+        max_acceleration: 10.0,
+        steering,
+        ..GroupParams::default()
+    }
+}
+
+fn open_world(groups: Vec<GroupParams>, agents: Vec<AgentInit>) -> World {
+    let mut b = World::builder().seed(11);
+    for g in groups {
+        b = b.group(g);
+    }
+    b.agents(agents).build().unwrap()
+}
+
+fn pos(w: &World, id: AgentId) -> Vec2 {
+    w.agent(id).unwrap().position
+}
+
+#[test]
+fn seek_reaches_a_static_target_in_both_models() {
+    let target = Vec2::new(40.0, -25.0);
+    for model in [MovementModel::Dynamic, MovementModel::Kinematic] {
+        let seek = SteeringProfile::single(Behaviour::Seek {
+            target: Target::Point(target),
+            threshold: 0.1,
+        });
+        let mut w = open_world(
+            vec![group(model, seek)],
+            vec![AgentInit::at(Vec2::new(-10.0, 5.0), 0)],
+        );
+        let id = w.agents().id(0);
+        let mut best = f32::INFINITY;
+        for _ in 0..1000 {
+            w.step(DT).unwrap();
+            best = best.min(pos(&w, id).distance(target));
+        }
+        assert!(best < 0.5, "{model:?}: closest approach {best}");
+    }
+}
+
+#[test]
+fn arrive_stops_inside_the_radius_without_overshoot_or_jitter() {
+    let target = Vec2::new(30.0, 20.0);
+    let start = Vec2::new(0.0, 0.0);
+    let approach = (target - start).normalize();
+    let params = ArriveParams {
+        target_radius: 0.25,
+        slow_radius: 4.0,
+        time_to_target: 0.1,
+    };
+    for model in [MovementModel::Dynamic, MovementModel::Kinematic] {
+        let arrive = SteeringProfile::single(Behaviour::Arrive {
+            target: Target::Point(target),
+            params,
+        });
+        let mut w = open_world(vec![group(model, arrive)], vec![AgentInit::at(start, 0)]);
+        let id = w.agents().id(0);
+        let mut max_overshoot = f32::NEG_INFINITY;
+        for _ in 0..600 {
+            w.step(DT).unwrap();
+            max_overshoot = max_overshoot.max((pos(&w, id) - target).dot(approach));
+        }
+        let rest = pos(&w, id);
+        assert!(
+            rest.distance(target) <= params.target_radius,
+            "{model:?}: rests at {rest}, {} away",
+            rest.distance(target)
+        );
+        assert!(
+            max_overshoot <= 0.05,
+            "{model:?}: overshot the target by {max_overshoot}"
+        );
+        for _ in 0..200 {
+            w.step(DT).unwrap();
+            let s = w.agent(id).unwrap();
+            assert!(
+                s.velocity.length() < 1e-3,
+                "{model:?}: moving at {} while at rest",
+                s.velocity.length()
+            );
+            assert!(
+                s.position.distance(rest) < 1e-3,
+                "{model:?}: drifted from {rest} to {}",
+                s.position
+            );
+        }
+    }
+}
+
+#[test]
+fn flee_acts_only_inside_the_panic_distance() {
+    let threat = Vec2::ZERO;
+    for model in [MovementModel::Dynamic, MovementModel::Kinematic] {
+        let flee = SteeringProfile::single(Behaviour::Flee {
+            target: Target::Point(threat),
+            panic_distance: 10.0,
+        });
+        let mut w = open_world(
+            vec![group(model, flee)],
+            vec![
+                AgentInit::at(Vec2::new(3.0, 4.0), 0),
+                AgentInit::at(Vec2::new(30.0, 0.0), 0),
+            ],
+        );
+        let (near, far) = (w.agents().id(0), w.agents().id(1));
+        let mut last = pos(&w, near).length();
+        let mut steps = 0;
+        while last < 9.5 {
+            w.step(DT).unwrap();
+            steps += 1;
+            let d = pos(&w, near).length();
+            // The dynamic model moves by the pre-update velocity, so its first step starts from rest.
+            let grew = if model == MovementModel::Dynamic && steps == 1 {
+                d >= last
+            } else {
+                d > last
+            };
+            assert!(grew, "{model:?}: distance went from {last} to {d}");
+            last = d;
+            assert_eq!(
+                pos(&w, far),
+                Vec2::new(30.0, 0.0),
+                "{model:?}: an agent outside the panic distance moved"
+            );
+        }
+    }
+}
+
+/// Steps until the chaser is within 0.5 of the runner; returns the number of steps.
+fn steps_to_catch(chase: Behaviour) -> usize {
+    let runner = group(
+        MovementModel::Kinematic,
+        SteeringProfile::single(Behaviour::Seek {
+            target: Target::Point(Vec2::new(1e6, 0.0)),
+            threshold: 0.0,
+        }),
+    );
+    let runner = GroupParams {
+        max_speed: 3.0,
+        ..runner
+    };
+    let chaser = group(MovementModel::Dynamic, SteeringProfile::single(chase));
+    let mut w = open_world(
+        vec![runner, chaser],
+        vec![
+            AgentInit::at(Vec2::new(0.0, 20.0), 0),
+            AgentInit::at(Vec2::new(0.0, 0.0), 1),
+        ],
+    );
+    let (r, c) = (w.agents().id(0), w.agents().id(1));
+    for step in 1..5000 {
+        w.step(DT).unwrap();
+        if pos(&w, r).distance(pos(&w, c)) < 0.5 {
+            return step;
+        }
+    }
+    usize::MAX
+}
+
+#[test]
+fn pursue_catches_a_straight_runner_sooner_than_seek() {
+    let runner = AgentId(0);
+    let pursue = steps_to_catch(Behaviour::Pursue {
+        target: Target::Agent(runner),
+        max_prediction: 2.0,
+    });
+    let seek = steps_to_catch(Behaviour::Seek {
+        target: Target::Agent(runner),
+        threshold: 0.0,
+    });
+    assert!(pursue < usize::MAX, "pursue never caught the runner");
+    assert!(pursue < seek, "pursue took {pursue} steps, seek {seek}");
+}
+
+#[test]
+fn evade_keeps_the_distance_growing_against_an_equal_pursuer() {
+    let chaser_id = AgentId(1);
+    let runner_id = AgentId(0);
+    let evade = group(
+        MovementModel::Dynamic,
+        SteeringProfile::single(Behaviour::Evade {
+            target: Target::Agent(chaser_id),
+            max_prediction: 1.0,
+            panic_distance: f32::INFINITY,
+        }),
+    );
+    let pursue = group(
+        MovementModel::Dynamic,
+        SteeringProfile::single(Behaviour::Pursue {
+            target: Target::Agent(runner_id),
+            max_prediction: 1.0,
+        }),
+    );
+    // The pursuer starts at full speed, but across the line to the runner, so it has to turn.
+    let chaser = AgentInit {
+        velocity: Vec2::new(0.0, 5.0),
+        ..AgentInit::at(Vec2::ZERO, 1)
+    };
+    let mut w = open_world(
+        vec![evade, pursue],
+        vec![AgentInit::at(Vec2::new(6.0, 0.0), 0), chaser],
+    );
+    let start = pos(&w, runner_id).distance(pos(&w, chaser_id));
+    let mut min = start;
+    let mut last = start;
+    for _ in 0..600 {
+        w.step(DT).unwrap();
+        last = pos(&w, runner_id).distance(pos(&w, chaser_id));
+        min = min.min(last);
+    }
+    // Equal top speeds: once both run flat out the gap holds; it must never close meanwhile.
+    assert!(
+        min > 0.8 * start,
+        "the pursuer closed in to {min} from {start}"
+    );
+    assert!(last > start, "distance {start} -> {last}");
+}
+
+#[test]
+fn wander_holds_max_speed_and_turns() {
+    // Kinematic: the random-binomial form of the notes (orientation integrates the rotation).
+    let kin = GroupParams {
+        orientation: OrientationMode::Integrate,
+        max_rotation: 2.0,
+        ..group(
+            MovementModel::Kinematic,
+            SteeringProfile::single(Behaviour::Wander {
+                params: WanderParams::default(),
+            }),
+        )
+    };
+    // Dynamic: Reynolds' wander circle.
+    let dynamic = group(
+        MovementModel::Dynamic,
+        SteeringProfile::single(Behaviour::Wander {
+            params: WanderParams::default(),
+        }),
+    );
+    let mut w = open_world(
+        vec![kin, dynamic],
+        vec![
+            AgentInit::at(Vec2::ZERO, 0),
+            AgentInit {
+                velocity: Vec2::new(5.0, 0.0),
+                ..AgentInit::at(Vec2::ZERO, 1)
+            },
+        ],
+    );
+    let (k, d) = (w.agents().id(0), w.agents().id(1));
+    let (mut k_turn, mut d_min_dir, mut d_max_dir) = (0.0_f32, f32::INFINITY, f32::NEG_INFINITY);
+    let mut k_last = w.agent(k).unwrap().orientation;
+    for step in 0..600 {
+        w.step(DT).unwrap();
+        let ks = w.agent(k).unwrap();
+        assert!(
+            (ks.velocity.length() - 5.0).abs() < 1e-4,
+            "kinematic wander speed {}",
+            ks.velocity.length()
+        );
+        k_turn += throng::steering::wrap_angle(ks.orientation - k_last).abs();
+        k_last = ks.orientation;
+        let ds = w.agent(d).unwrap();
+        if step > 60 {
+            assert!(
+                ds.velocity.length() > 0.9 * 5.0,
+                "dynamic wander slowed to {}",
+                ds.velocity.length()
+            );
+        }
+        let dir = ds.velocity.y.atan2(ds.velocity.x);
+        d_min_dir = d_min_dir.min(dir);
+        d_max_dir = d_max_dir.max(dir);
+    }
+    assert!(k_turn > 1.0, "kinematic wander turned only {k_turn} rad");
+    assert!(
+        d_max_dir - d_min_dir > 0.5,
+        "dynamic wander heading spanned only {} rad",
+        d_max_dir - d_min_dir
+    );
+}
+
+#[test]
+fn face_turns_towards_the_target() {
+    let face = GroupParams {
+        orientation: OrientationMode::Integrate,
+        ..group(
+            MovementModel::Dynamic,
+            SteeringProfile::single(Behaviour::Face {
+                target: Target::Point(Vec2::new(0.0, 10.0)),
+                params: Default::default(),
+            }),
+        )
+    };
+    let mut w = open_world(vec![face], vec![AgentInit::at(Vec2::ZERO, 0)]);
+    for _ in 0..300 {
+        w.step(DT).unwrap();
+    }
+    let o = w.agents().orientations()[0];
+    assert!(
+        (o - std::f32::consts::FRAC_PI_2).abs() < 0.02,
+        "orientation {o}"
+    );
+}
