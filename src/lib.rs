@@ -47,12 +47,14 @@ pub mod error;
 pub mod movement;
 pub mod rng;
 pub mod scenario;
+pub mod spatial;
 pub mod steering;
 pub mod world;
 
 pub use agents::{AgentId, AgentInit, Agents};
 pub use bounds::Bounds;
 pub use error::{Error, Result};
+pub use spatial::{BruteIndex, GridIndex, IndexKind, KdTreeIndex, Neighbour, NeighbourIndex, SpatialIndex};
 pub use world::{GroupParams, StepStats, World, WorldBuilder};
 
 /// The types most programs need, for `use throng::prelude::*`.

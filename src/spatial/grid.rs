@@ -1,0 +1,722 @@
+//! A uniform grid of cell lists, rebuilt by a counting sort in O(N).
+//!
+//! # Layout
+//!
+//! Cells are numbered row-major: cell `(cx, cy)` is `cy * cells_x + cx`. After a rebuild,
+//! [`GridIndex::order`] lists the point indices sorted by cell, and ascending by index within a
+//! cell (the sort is stable); [`GridIndex::cell_start`] holds the prefix sums, so cell `c` owns
+//! `order[cell_start[c]..cell_start[c + 1]]`; [`GridIndex::sorted_x`] and
+//! [`GridIndex::sorted_y`] hold the positions in that same order. The cells `x0..=x1` of one row
+//! are therefore one contiguous run of points, which is what a SIMD kernel wants to read.
+//!
+//! # Geometry
+//!
+//! * Torus `W x H`: origin `(0, 0)`, `cells_x = max(1, floor(W / max_radius))`, cell width
+//!   `W / cells_x` (so cells tile the world exactly and every cell is at least `max_radius` wide).
+//! * Walled world: the rectangle `[0, W] x [0, H]`, square cells of side `max_radius`.
+//! * Open world: the bounding box of the points, square cells of side `max_radius`.
+//!
+//! Points outside the grid's rectangle are clamped into its edge cells ([`GridIndex::cell_of`]).
+//! The total number of cells is capped at `clamp(4 N, 64, 2^22)`: when `max_radius` is tiny
+//! compared to the world the cells grow instead, so memory stays bounded. Cells are never smaller
+//! than `max_radius`; a query of any radius stays exact (it visits more rings of cells).
+//!
+//! # Rebuild
+//!
+//! The counting sort runs in three passes: compute each point's cell (parallel over chunks of
+//! points), count points per cell and take the prefix sums, and scatter. For large N the count and
+//! the scatter split the *cells* into blocks, one per worker: each worker scans all cell ids and
+//! handles the points of its own cells, writing only its own disjoint range of the output. So the
+//! parallel result is identical to the sequential one, with no locks and no unsafe code. Buffers
+//! are reused: once warm, a rebuild of the same size allocates nothing.
+
+use std::ops::Range;
+
+use glam::Vec2;
+use rayon::prelude::*;
+
+use super::{Neighbour, NeighbourIndex, coordinate_scale, exact, gather_radius, to_u32};
+use crate::bounds::Bounds;
+
+/// Below this many points the rebuild runs on the calling thread.
+const PARALLEL_MIN_POINTS: usize = 32 * 1024;
+/// Points per work item in the parallel cell-id pass.
+const CHUNK: usize = 8 * 1024;
+/// The largest number of cells a grid ever has.
+const MAX_CELLS: usize = 1 << 22;
+
+/// A uniform-grid neighbour index. See the [module docs](self) for its layout.
+#[derive(Clone, Debug)]
+pub struct GridIndex {
+    bounds: Bounds,
+    origin: Vec2,
+    cell_size: Vec2,
+    inv_cell: Vec2,
+    cells_x: u32,
+    cells_y: u32,
+    scale: f32,
+    /// Positions by point index.
+    xs: Vec<f32>,
+    ys: Vec<f32>,
+    /// Cell id of each point.
+    cell: Vec<u32>,
+    /// Prefix sums, `cells + 1` long.
+    cell_start: Vec<u32>,
+    /// Scratch write cursors, one per cell.
+    cursor: Vec<u32>,
+    order: Vec<u32>,
+    sorted_x: Vec<f32>,
+    sorted_y: Vec<f32>,
+    /// Scratch: first cell of each worker's block, then the cell count.
+    blocks: Vec<u32>,
+}
+
+impl Default for GridIndex {
+    fn default() -> Self {
+        GridIndex {
+            bounds: Bounds::Open,
+            origin: Vec2::ZERO,
+            cell_size: Vec2::ONE,
+            inv_cell: Vec2::ONE,
+            cells_x: 1,
+            cells_y: 1,
+            scale: 0.0,
+            xs: Vec::new(),
+            ys: Vec::new(),
+            cell: Vec::new(),
+            cell_start: vec![0, 0],
+            cursor: Vec::new(),
+            order: Vec::new(),
+            sorted_x: Vec::new(),
+            sorted_y: Vec::new(),
+            blocks: Vec::new(),
+        }
+    }
+}
+
+/// Up to two column (or row) intervals, ascending and disjoint.
+#[derive(Clone, Copy)]
+struct Spans {
+    spans: [(u32, u32); 2],
+    len: usize,
+}
+
+impl Spans {
+    fn one(lo: u32, hi: u32) -> Self {
+        Spans {
+            spans: [(lo, hi), (0, 0)],
+            len: 1,
+        }
+    }
+
+    fn as_slice(&self) -> &[(u32, u32)] {
+        &self.spans[..self.len]
+    }
+}
+
+/// Cell index of coordinate `x` on an axis of `n` cells, clamped to `0..n`.
+#[inline]
+fn axis_cell(x: f32, origin: f32, inv: f32, n: u32) -> u32 {
+    let f = ((x - origin) * inv).floor();
+    if f >= 0.0 {
+        // `as` saturates, and `n as f32` is exact for n <= 2^22.
+        if f >= n as f32 { n - 1 } else { f as u32 }
+    } else {
+        0
+    }
+}
+
+impl GridIndex {
+    /// Number of cell columns.
+    #[must_use]
+    pub fn cells_x(&self) -> u32 {
+        self.cells_x
+    }
+
+    /// Number of cell rows.
+    #[must_use]
+    pub fn cells_y(&self) -> u32 {
+        self.cells_y
+    }
+
+    /// Width and height of one cell; at least the `max_radius` of the last rebuild.
+    #[must_use]
+    pub fn cell_size(&self) -> Vec2 {
+        self.cell_size
+    }
+
+    /// World position of the lower corner of cell `(0, 0)`.
+    #[must_use]
+    pub fn origin(&self) -> Vec2 {
+        self.origin
+    }
+
+    /// The cell `(column, row)` holding `p`, clamped into the grid.
+    #[must_use]
+    pub fn cell_of(&self, p: Vec2) -> (u32, u32) {
+        (
+            axis_cell(p.x, self.origin.x, self.inv_cell.x, self.cells_x),
+            axis_cell(p.y, self.origin.y, self.inv_cell.y, self.cells_y),
+        )
+    }
+
+    /// Prefix sums over the row-major cells, `cells_x * cells_y + 1` long: cell `c` holds the
+    /// points `order()[cell_start()[c]..cell_start()[c + 1]]`.
+    #[must_use]
+    pub fn cell_start(&self) -> &[u32] {
+        &self.cell_start
+    }
+
+    /// Point indices sorted by cell, ascending by index within a cell.
+    ///
+    /// A permutation of `0..len()`: reordering agent storage by it puts agents of one cell next
+    /// to each other in memory.
+    #[must_use]
+    pub fn order(&self) -> &[u32] {
+        &self.order
+    }
+
+    /// x coordinates in [`order`](Self::order).
+    #[must_use]
+    pub fn sorted_x(&self) -> &[f32] {
+        &self.sorted_x
+    }
+
+    /// y coordinates in [`order`](Self::order).
+    #[must_use]
+    pub fn sorted_y(&self) -> &[f32] {
+        &self.sorted_y
+    }
+
+    /// The world the grid was built for.
+    #[must_use]
+    pub fn bounds(&self) -> Bounds {
+        self.bounds
+    }
+
+    /// Calls `visit` with ranges into [`order`](Self::order), [`sorted_x`](Self::sorted_x) and
+    /// [`sorted_y`](Self::sorted_y) that together hold every point within `r` of `p` (and some
+    /// farther ones), each point in at most one range.
+    ///
+    /// A range is a run of cells of one row (on a torus, cells left and right of the seam come as
+    /// separate ranges). Callers filter the candidates by
+    /// `bounds.offset(p, q).length_squared() <= r * r`; this is how the grid's own queries work,
+    /// and how a vectorised kernel can read neighbour cells as contiguous slices.
+    pub fn for_each_run(&self, p: Vec2, r: f32, mut visit: impl FnMut(Range<usize>)) {
+        if self.order.is_empty() {
+            return;
+        }
+        let rg = gather_radius(r, self.scale);
+        let side = self.bounds.size().filter(|_| self.bounds.is_torus());
+        let cols = self.spans(
+            p.x,
+            rg,
+            self.origin.x,
+            self.inv_cell.x,
+            self.cells_x,
+            side.map(|s| s.x),
+        );
+        let rows = self.spans(
+            p.y,
+            rg,
+            self.origin.y,
+            self.inv_cell.y,
+            self.cells_y,
+            side.map(|s| s.y),
+        );
+        let cx = self.cells_x as usize;
+        for &(r0, r1) in rows.as_slice() {
+            for row in r0 as usize..=r1 as usize {
+                for &(c0, c1) in cols.as_slice() {
+                    let a = self.cell_start[row * cx + c0 as usize] as usize;
+                    let b = self.cell_start[row * cx + c1 as usize + 1] as usize;
+                    if a < b {
+                        visit(a..b);
+                    }
+                }
+            }
+        }
+    }
+
+    /// The cell intervals along one axis that hold every point within `rg` of `c`.
+    fn spans(
+        &self,
+        c: f32,
+        rg: f32,
+        origin: f32,
+        inv: f32,
+        n: u32,
+        torus_side: Option<f32>,
+    ) -> Spans {
+        let cell = |x: f32| axis_cell(x, origin, inv, n);
+        let Some(side) = torus_side else {
+            return Spans::one(cell(c - rg), cell(c + rg));
+        };
+        if rg.is_nan() || 2.0 * rg >= side {
+            return Spans::one(0, n - 1);
+        }
+        let (lo, hi) = (cell(c - rg), cell(c + rg));
+        if c - rg < 0.0 {
+            // The window also covers [c - rg + side, side): the high end of the axis.
+            let wrap_lo = cell(c - rg + side).max(hi + 1);
+            if wrap_lo < n {
+                return Spans {
+                    spans: [(lo, hi), (wrap_lo, n - 1)],
+                    len: 2,
+                };
+            }
+        } else if c + rg >= side {
+            // The window also covers [0, c + rg - side]: the low end of the axis.
+            let wrap_hi = cell(c + rg - side);
+            if wrap_hi < lo {
+                return Spans {
+                    spans: [(0, wrap_hi), (lo, hi)],
+                    len: 2,
+                };
+            }
+            return Spans::one(0, hi);
+        }
+        Spans::one(lo, hi)
+    }
+
+    fn gather(&self, p: Vec2, r: f32, skip: usize, out: &mut Vec<Neighbour>) {
+        out.clear();
+        let r_sq = r * r;
+        self.for_each_run(p, r, |run| {
+            for k in run {
+                let j = self.order[k];
+                if j as usize != skip
+                    && let Some(n) = exact(
+                        &self.bounds,
+                        p,
+                        Vec2::new(self.sorted_x[k], self.sorted_y[k]),
+                        j,
+                        r_sq,
+                    )
+                {
+                    out.push(n);
+                }
+            }
+        });
+        out.sort_unstable_by_key(|n| n.index);
+    }
+
+    /// Chooses origin, cell size and cell counts for `n` points.
+    fn plan(&mut self, bounds: Bounds, max_radius: f32) {
+        let n = self.xs.len();
+        let (origin, extent) = match bounds {
+            Bounds::Bounded { size } | Bounds::Torus { size } => (Vec2::ZERO, size),
+            Bounds::Open => {
+                let (lo, hi) = bounding_box(&self.xs, &self.ys);
+                (lo, hi - lo)
+            }
+        };
+        let max_cells = (4 * n).clamp(64, MAX_CELLS);
+        // Smallest cell side s with (ex / s + 1) * (ey / s + 1) <= max_cells.
+        let (ex, ey) = (f64::from(extent.x), f64::from(extent.y));
+        let m = max_cells as f64 - 1.0;
+        let b = ex + ey;
+        let cap_side = (b + (b * b + 4.0 * m * ex * ey).sqrt()) / (2.0 * m);
+        let mut side = f64::from(max_radius.max(0.0)).max(cap_side);
+        if side <= 0.0 || !side.is_finite() {
+            side = 1.0;
+        }
+        let (nx, ny, cell_size) = if bounds.is_torus() {
+            let count = |len: f32| {
+                let mut c = ((f64::from(len) / side).floor() as u32).clamp(1, MAX_CELLS as u32);
+                // Rounding must not make a cell narrower than max_radius.
+                while c > 1 && len / (c as f32) < max_radius {
+                    c -= 1;
+                }
+                c
+            };
+            let (nx, ny) = (count(extent.x), count(extent.y));
+            (
+                nx,
+                ny,
+                Vec2::new(extent.x / nx as f32, extent.y / ny as f32),
+            )
+        } else {
+            let s = side as f32;
+            let count = |len: f32| {
+                ((f64::from(len) / side).floor() as u32)
+                    .saturating_add(1)
+                    .clamp(1, MAX_CELLS as u32)
+            };
+            (count(extent.x), count(extent.y), Vec2::splat(s))
+        };
+        self.bounds = bounds;
+        self.origin = origin;
+        self.cells_x = nx;
+        self.cells_y = ny;
+        debug_assert!(
+            nx as usize * ny as usize <= max_cells,
+            "{nx} x {ny} cells exceed the cap {max_cells}"
+        );
+        self.cell_size = cell_size;
+        self.inv_cell = cell_size.recip();
+    }
+
+    /// Rebuild using `parts` workers (1 = sequential); the result does not depend on `parts`.
+    fn rebuild_with(
+        &mut self,
+        xs: &[f32],
+        ys: &[f32],
+        bounds: Bounds,
+        max_radius: f32,
+        parts: usize,
+    ) {
+        assert_eq!(xs.len(), ys.len(), "xs and ys must have the same length");
+        let n = xs.len();
+        to_u32(n);
+        let parts = parts.clamp(1, 64);
+
+        self.xs.clear();
+        self.xs.extend_from_slice(xs);
+        self.ys.clear();
+        self.ys.extend_from_slice(ys);
+        self.scale = coordinate_scale(xs, ys, &bounds);
+        self.plan(bounds, max_radius);
+        let cells = self.cells_x as usize * self.cells_y as usize;
+
+        // Pass 1: cell id of every point.
+        self.cell.resize(n, 0);
+        let (origin, inv, cx, cy) = (self.origin, self.inv_cell, self.cells_x, self.cells_y);
+        let cell_id = |x: f32, y: f32| {
+            axis_cell(y, origin.y, inv.y, cy) * cx + axis_cell(x, origin.x, inv.x, cx)
+        };
+        if parts > 1 {
+            self.cell
+                .par_chunks_mut(CHUNK)
+                .zip(xs.par_chunks(CHUNK).zip(ys.par_chunks(CHUNK)))
+                .for_each(|(c, (x, y))| {
+                    for ((c, &x), &y) in c.iter_mut().zip(x).zip(y) {
+                        *c = cell_id(x, y);
+                    }
+                });
+        } else {
+            for ((c, &x), &y) in self.cell.iter_mut().zip(xs).zip(ys) {
+                *c = cell_id(x, y);
+            }
+        }
+
+        // Pass 2: counts per cell, then prefix sums.
+        self.cell_start.resize(cells + 1, 0);
+        self.cell_start[0] = 0;
+        count_cells(&mut self.cell_start[1..], 0, &self.cell, parts);
+        let mut sum = 0u32;
+        for c in &mut self.cell_start[1..] {
+            sum += *c;
+            *c = sum;
+        }
+
+        // Pass 3: scatter, cells split into blocks of about n / parts points each.
+        self.blocks.clear();
+        self.blocks.push(0);
+        for t in 1..parts {
+            let target = (n * t / parts) as u32;
+            let c = self.cell_start.partition_point(|&s| s < target).min(cells);
+            self.blocks
+                .push((c as u32).max(*self.blocks.last().unwrap_or(&0)));
+        }
+        self.blocks.push(cells as u32);
+        self.cursor.resize(cells, 0);
+        self.order.resize(n, 0);
+        self.sorted_x.resize(n, 0.0);
+        self.sorted_y.resize(n, 0.0);
+        scatter(
+            &self.blocks,
+            &self.cell_start,
+            Scatter {
+                cursor: &mut self.cursor,
+                order: &mut self.order,
+                sorted_x: &mut self.sorted_x,
+                sorted_y: &mut self.sorted_y,
+            },
+            &self.cell,
+            xs,
+            ys,
+        );
+    }
+}
+
+/// Writes into `counts` (the cells `first..first + counts.len()`) how many entries of `cell` fall
+/// in each, splitting the cells over `parts` workers.
+fn count_cells(counts: &mut [u32], first: u32, cell: &[u32], parts: usize) {
+    if parts <= 1 || counts.len() < 2 {
+        counts.fill(0);
+        let len = counts.len() as u32;
+        for &c in cell {
+            let k = c.wrapping_sub(first);
+            if k < len {
+                counts[k as usize] += 1;
+            }
+        }
+        return;
+    }
+    let half = parts / 2;
+    let mid = counts.len() * half / parts;
+    let (a, b) = counts.split_at_mut(mid);
+    rayon::join(
+        || count_cells(a, first, cell, half),
+        || count_cells(b, first + mid as u32, cell, parts - half),
+    );
+}
+
+/// Output slices of the scatter for a block of cells.
+struct Scatter<'a> {
+    cursor: &'a mut [u32],
+    order: &'a mut [u32],
+    sorted_x: &'a mut [f32],
+    sorted_y: &'a mut [f32],
+}
+
+impl Scatter<'_> {
+    fn split_at(self, cell: usize, point: usize) -> (Self, Self) {
+        let (c0, c1) = self.cursor.split_at_mut(cell);
+        let (o0, o1) = self.order.split_at_mut(point);
+        let (x0, x1) = self.sorted_x.split_at_mut(point);
+        let (y0, y1) = self.sorted_y.split_at_mut(point);
+        (
+            Scatter {
+                cursor: c0,
+                order: o0,
+                sorted_x: x0,
+                sorted_y: y0,
+            },
+            Scatter {
+                cursor: c1,
+                order: o1,
+                sorted_x: x1,
+                sorted_y: y1,
+            },
+        )
+    }
+}
+
+/// Places every point of the cells `blocks[0]..blocks[last]` into `out`, which covers exactly
+/// those cells' output range; splits the blocks between workers.
+fn scatter(
+    blocks: &[u32],
+    cell_start: &[u32],
+    out: Scatter<'_>,
+    cell: &[u32],
+    xs: &[f32],
+    ys: &[f32],
+) {
+    let (first, last) = (blocks[0] as usize, blocks[blocks.len() - 1] as usize);
+    if blocks.len() > 2 {
+        let m = blocks.len() / 2;
+        let mid = blocks[m] as usize;
+        let (a, b) = out.split_at(mid - first, (cell_start[mid] - cell_start[first]) as usize);
+        rayon::join(
+            || scatter(&blocks[..=m], cell_start, a, cell, xs, ys),
+            || scatter(&blocks[m..], cell_start, b, cell, xs, ys),
+        );
+        return;
+    }
+    let base = cell_start[first];
+    for (cur, &start) in out.cursor.iter_mut().zip(&cell_start[first..last]) {
+        *cur = start - base;
+    }
+    let len = (last - first) as u32;
+    for (i, &c) in cell.iter().enumerate() {
+        let k = c.wrapping_sub(first as u32);
+        if k < len {
+            let slot = &mut out.cursor[k as usize];
+            let at = *slot as usize;
+            *slot += 1;
+            out.order[at] = i as u32;
+            out.sorted_x[at] = xs[i];
+            out.sorted_y[at] = ys[i];
+        }
+    }
+}
+
+/// Lower and upper corners of the points' bounding box (zero when there are none).
+fn bounding_box(xs: &[f32], ys: &[f32]) -> (Vec2, Vec2) {
+    if xs.is_empty() {
+        return (Vec2::ZERO, Vec2::ZERO);
+    }
+    let fold = |(lo, hi): (f32, f32), &v: &f32| (lo.min(v), hi.max(v));
+    let init = (f32::INFINITY, f32::NEG_INFINITY);
+    let ((x0, x1), (y0, y1)) = if xs.len() >= PARALLEL_MIN_POINTS {
+        let axis = |v: &[f32]| {
+            v.par_chunks(CHUNK)
+                .map(|c| c.iter().fold(init, fold))
+                .reduce(|| init, |a, b| (a.0.min(b.0), a.1.max(b.1)))
+        };
+        rayon::join(|| axis(xs), || axis(ys))
+    } else {
+        (xs.iter().fold(init, fold), ys.iter().fold(init, fold))
+    };
+    (Vec2::new(x0, y0), Vec2::new(x1, y1))
+}
+
+impl NeighbourIndex for GridIndex {
+    /// Rebuilds the grid by counting sort; in parallel on the current rayon pool for large N.
+    fn rebuild(&mut self, xs: &[f32], ys: &[f32], bounds: Bounds, max_radius: f32) {
+        let parts = if xs.len() >= PARALLEL_MIN_POINTS {
+            rayon::current_num_threads()
+        } else {
+            1
+        };
+        self.rebuild_with(xs, ys, bounds, max_radius, parts);
+    }
+
+    fn neighbours_of(&self, i: usize, r: f32, out: &mut Vec<Neighbour>) {
+        self.gather(Vec2::new(self.xs[i], self.ys[i]), r, i, out);
+    }
+
+    fn neighbours_at(&self, p: Vec2, r: f32, out: &mut Vec<Neighbour>) {
+        self.gather(p, r, usize::MAX, out);
+    }
+
+    fn len(&self) -> usize {
+        self.xs.len()
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    fn points(n: usize, w: f32, seed: u64) -> (Vec<f32>, Vec<f32>) {
+        // A small xorshift: deterministic and dependency-free.
+        let mut s = seed | 1;
+        let mut next = || {
+            s ^= s << 13;
+            s ^= s >> 7;
+            s ^= s << 17;
+            (s >> 40) as f32 / (1u64 << 24) as f32 * w
+        };
+        (0..n).map(|_| (next(), next())).unzip()
+    }
+
+    fn check_layout(g: &GridIndex, xs: &[f32], ys: &[f32]) {
+        let n = xs.len();
+        let cells = (g.cells_x() * g.cells_y()) as usize;
+        assert_eq!(g.cell_start().len(), cells + 1);
+        assert_eq!(g.cell_start()[0], 0);
+        assert_eq!(g.cell_start()[cells] as usize, n);
+        assert!(g.cell_start().windows(2).all(|w| w[0] <= w[1]));
+        let mut seen = vec![false; n];
+        for &i in g.order() {
+            assert!(!seen[i as usize], "index {i} twice");
+            seen[i as usize] = true;
+        }
+        assert!(seen.iter().all(|&s| s), "order is not a permutation");
+        for c in 0..cells {
+            let run = g.cell_start()[c] as usize..g.cell_start()[c + 1] as usize;
+            let ids = &g.order()[run.clone()];
+            assert!(
+                ids.windows(2).all(|w| w[0] < w[1]),
+                "cell {c} not ascending"
+            );
+            for k in run {
+                let i = g.order()[k] as usize;
+                let (x, y) = g.cell_of(Vec2::new(xs[i], ys[i]));
+                assert_eq!((y * g.cells_x() + x) as usize, c);
+                assert_eq!(g.sorted_x()[k].to_bits(), xs[i].to_bits());
+                assert_eq!(g.sorted_y()[k].to_bits(), ys[i].to_bits());
+            }
+        }
+    }
+
+    #[test]
+    fn counting_sort_is_a_stable_permutation() {
+        for (n, bounds) in [
+            (0, Bounds::Open),
+            (1, Bounds::Open),
+            (1000, Bounds::torus(100.0, 50.0).unwrap()),
+            (5000, Bounds::bounded(100.0, 100.0).unwrap()),
+            (777, Bounds::Open),
+        ] {
+            let (xs, ys) = points(n, 50.0, n as u64 + 7);
+            let mut g = GridIndex::default();
+            g.rebuild(&xs, &ys, bounds, 3.0);
+            check_layout(&g, &xs, &ys);
+        }
+    }
+
+    #[test]
+    fn parallel_rebuild_equals_sequential() {
+        let (xs, ys) = points(100_000, 300.0, 42);
+        let bounds = Bounds::torus(300.0, 300.0).unwrap();
+        let mut seq = GridIndex::default();
+        seq.rebuild_with(&xs, &ys, bounds, 2.0, 1);
+        check_layout(&seq, &xs, &ys);
+        for parts in [2, 3, 4, 7] {
+            let mut par = GridIndex::default();
+            par.rebuild_with(&xs, &ys, bounds, 2.0, parts);
+            assert_eq!(par.cell_start, seq.cell_start, "{parts} parts");
+            assert_eq!(par.order, seq.order, "{parts} parts");
+            assert_eq!(par.sorted_x, seq.sorted_x);
+            assert_eq!(par.sorted_y, seq.sorted_y);
+        }
+        // Through the public entry point on a pool of 4 threads.
+        let pool = rayon::ThreadPoolBuilder::new()
+            .num_threads(4)
+            .build()
+            .unwrap();
+        let mut par = GridIndex::default();
+        pool.install(|| par.rebuild(&xs, &ys, bounds, 2.0));
+        assert_eq!(par.order, seq.order);
+    }
+
+    #[test]
+    fn all_points_in_one_cell_still_split_between_workers() {
+        let xs = vec![5.0; 50_000];
+        let ys = vec![5.0; 50_000];
+        let mut g = GridIndex::default();
+        g.rebuild_with(&xs, &ys, Bounds::Open, 1.0, 4);
+        check_layout(&g, &xs, &ys);
+        assert_eq!(g.order().to_vec(), (0..50_000).collect::<Vec<u32>>());
+    }
+
+    #[test]
+    fn cell_geometry() {
+        let (xs, ys) = points(10_000, 100.0, 3);
+        let mut g = GridIndex::default();
+        g.rebuild(&xs, &ys, Bounds::torus(100.0, 60.0).unwrap(), 3.0);
+        assert_eq!((g.cells_x(), g.cells_y()), (33, 20));
+        assert!(g.cell_size().x >= 3.0 && g.cell_size().y >= 3.0);
+        assert_eq!(g.cell_of(Vec2::new(99.99, 59.99)), (32, 19));
+        assert_eq!(g.cell_of(Vec2::new(-1.0, 1000.0)), (0, 19));
+        // A tiny radius is capped: at most 4 N cells.
+        g.rebuild(
+            &xs[..100],
+            &ys[..100],
+            Bounds::torus(100.0, 60.0).unwrap(),
+            1e-6,
+        );
+        assert!(g.cells_x() * g.cells_y() <= 400);
+        g.rebuild(&xs[..100], &ys[..100], Bounds::Open, 0.0);
+        assert!(g.cells_x() * g.cells_y() <= 400);
+        check_layout(&g, &xs[..100], &ys[..100]);
+    }
+
+    #[test]
+    fn warm_rebuild_keeps_its_buffers() {
+        let (xs, ys) = points(50_000, 200.0, 9);
+        let bounds = Bounds::torus(200.0, 200.0).unwrap();
+        let mut g = GridIndex::default();
+        g.rebuild(&xs, &ys, bounds, 2.0);
+        let ptrs = (
+            g.order.as_ptr(),
+            g.cell_start.as_ptr(),
+            g.sorted_x.as_ptr(),
+            g.cell.as_ptr(),
+        );
+        g.rebuild(&xs, &ys, bounds, 2.0);
+        assert_eq!(
+            ptrs,
+            (
+                g.order.as_ptr(),
+                g.cell_start.as_ptr(),
+                g.sorted_x.as_ptr(),
+                g.cell.as_ptr()
+            )
+        );
+    }
+}
