@@ -54,7 +54,9 @@ pub mod world;
 pub use agents::{AgentId, AgentInit, Agents};
 pub use bounds::Bounds;
 pub use error::{Error, Result};
-pub use spatial::{BruteIndex, GridIndex, IndexKind, KdTreeIndex, Neighbour, NeighbourIndex, SpatialIndex};
+pub use spatial::{
+    BruteIndex, GridIndex, IndexKind, KdTreeIndex, Neighbour, NeighbourIndex, SpatialIndex,
+};
 pub use world::{GroupParams, StepStats, World, WorldBuilder};
 
 /// The types most programs need, for `use throng::prelude::*`.
@@ -64,7 +66,8 @@ pub mod prelude {
     pub use crate::error::{Error, Result};
     pub use crate::movement::{MovementModel, OrientationMode};
     pub use crate::steering::{
-        ArriveParams, Behaviour, Combine, Steering, SteeringProfile, Target, WanderParams, Weighted,
+        ArriveParams, Behaviour, Combine, Neighbourhood, Steering, SteeringProfile, Target,
+        WanderParams, Weighted,
     };
     pub use crate::world::{AgentState, GroupParams, StepStats, World, WorldBuilder};
     pub use glam::Vec2;

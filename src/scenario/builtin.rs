@@ -6,6 +6,7 @@ pub const BUILTIN: &[(&str, &str)] = &[
     ("seek", include_str!("../../scenarios/seek.toml")),
     ("arrive", include_str!("../../scenarios/arrive.toml")),
     ("wander", include_str!("../../scenarios/wander.toml")),
+    ("flock", include_str!("../../scenarios/flock.toml")),
 ];
 
 /// The names of the built-in scenarios.

@@ -9,6 +9,7 @@ use serde::{Deserialize, Serialize};
 use crate::agents::AgentInit;
 use crate::bounds::Bounds;
 use crate::error::{Error, Result, finite, non_negative, positive};
+use crate::spatial::IndexKind;
 use crate::world::{GroupParams, World};
 
 /// A whole simulation, as read from a TOML file.
@@ -57,6 +58,10 @@ pub struct WorldSpec {
     pub size: Option<Vec2>,
     /// Size the (square) world from the agent count so that the density stays fixed.
     pub density: Option<DensitySpec>,
+    /// Neighbour-index backend: `"grid"`, `"kdtree"` or `"brute"`. Default: grid.
+    pub index: IndexKind,
+    /// Reorder agents by grid cell every this many frames (0: never). Default: 4.
+    pub reorder_every: Option<u32>,
 }
 
 /// The kind of world.
@@ -384,6 +389,10 @@ impl Scenario {
         self.validate()?;
         let bounds = self.bounds()?;
         let mut world = World::builder().bounds(bounds).seed(self.seed).build()?;
+        world.set_index(self.world.index);
+        if let Some(k) = self.world.reorder_every {
+            world.set_reorder_every(k);
+        }
         for g in &self.groups {
             world.add_group(g.params.clone())?;
         }

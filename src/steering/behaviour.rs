@@ -166,6 +166,79 @@ pub enum Behaviour {
         #[serde(default = "tenth")]
         time_to_target: f32,
     },
+    /// Reynolds' separation: steer away from neighbours within `radius`, each pushing with
+    /// weight 1 / distance.
+    Separation {
+        /// Neighbourhood.
+        #[serde(flatten)]
+        hood: Neighbourhood,
+    },
+    /// Reynolds' alignment: steer towards the mean velocity of neighbours within `radius`.
+    Alignment {
+        /// Neighbourhood.
+        #[serde(flatten)]
+        hood: Neighbourhood,
+    },
+    /// Reynolds' cohesion: steer towards the centre of neighbours within `radius`.
+    Cohesion {
+        /// Neighbourhood.
+        #[serde(flatten)]
+        hood: Neighbourhood,
+    },
+    /// Other agents as repelling gravity points (document 000): each neighbour within `radius`
+    /// pushes with `strength / distance^exponent` along the bearing away from it.
+    Repulsion {
+        /// Force at distance 1 (> 0).
+        strength: f32,
+        /// The `n` of `strength / distance^n` (>= 0). Default: 2.
+        #[serde(default = "two")]
+        exponent: f32,
+        /// Cut-off radius (> 0): farther agents are ignored.
+        radius: f32,
+    },
+}
+
+/// Which neighbours a flocking behaviour sees.
+#[derive(Clone, Copy, Debug, PartialEq, Serialize, Deserialize)]
+#[serde(deny_unknown_fields)]
+pub struct Neighbourhood {
+    /// Neighbours farther than this are ignored (> 0).
+    pub radius: f32,
+    /// Cosine of the half view angle: a neighbour counts when the angle between the agent's
+    /// heading and the offset to it is at most `acos(view_cos)`. -1 sees all around. Default: -1.
+    #[serde(default = "minus_one")]
+    pub view_cos: f32,
+    /// Only neighbours of the agent's own group count. Default: true.
+    #[serde(default = "yes")]
+    pub same_group: bool,
+}
+
+impl Neighbourhood {
+    /// All-round view of radius `radius`, own group only.
+    #[must_use]
+    pub fn radius(radius: f32) -> Self {
+        Neighbourhood {
+            radius,
+            view_cos: -1.0,
+            same_group: true,
+        }
+    }
+
+    fn validate(&self, name: &'static str) -> Result<()> {
+        positive(name, self.radius)?;
+        crate::error::in_range("view_cos", self.view_cos, -1.0, 1.0, "[-1, 1]")?;
+        Ok(())
+    }
+}
+
+fn two() -> f32 {
+    2.0
+}
+fn minus_one() -> f32 {
+    -1.0
+}
+fn yes() -> bool {
+    true
 }
 
 fn infinite() -> f32 {
@@ -207,6 +280,10 @@ impl Behaviour {
             Behaviour::Face { .. } => "face",
             Behaviour::LookWhereYouAreGoing { .. } => "look_where_you_are_going",
             Behaviour::MatchVelocity { .. } => "match_velocity",
+            Behaviour::Separation { .. } => "separation",
+            Behaviour::Alignment { .. } => "alignment",
+            Behaviour::Cohesion { .. } => "cohesion",
+            Behaviour::Repulsion { .. } => "repulsion",
         }
     }
 
@@ -221,7 +298,12 @@ impl Behaviour {
             | Behaviour::Evade { target, .. }
             | Behaviour::Face { target, .. }
             | Behaviour::MatchVelocity { target, .. } => Some(target),
-            Behaviour::Wander { .. } | Behaviour::LookWhereYouAreGoing { .. } => None,
+            Behaviour::Wander { .. }
+            | Behaviour::LookWhereYouAreGoing { .. }
+            | Behaviour::Separation { .. }
+            | Behaviour::Alignment { .. }
+            | Behaviour::Cohesion { .. }
+            | Behaviour::Repulsion { .. } => None,
         }
     }
 
@@ -268,6 +350,18 @@ impl Behaviour {
             }
             Behaviour::MatchVelocity { time_to_target, .. } => {
                 positive("match_velocity.time_to_target", *time_to_target)?;
+            }
+            Behaviour::Separation { hood } => hood.validate("separation.radius")?,
+            Behaviour::Alignment { hood } => hood.validate("alignment.radius")?,
+            Behaviour::Cohesion { hood } => hood.validate("cohesion.radius")?,
+            Behaviour::Repulsion {
+                strength,
+                exponent,
+                radius,
+            } => {
+                positive("repulsion.strength", *strength)?;
+                non_negative("repulsion.exponent", *exponent)?;
+                positive("repulsion.radius", *radius)?;
             }
         }
         Ok(())

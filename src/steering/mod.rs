@@ -20,6 +20,7 @@ mod align;
 mod basis;
 mod behaviour;
 mod combine;
+mod flocking;
 mod pursuit;
 mod seek;
 mod wander;
@@ -29,9 +30,11 @@ pub use align::{
 };
 pub use basis::Basis;
 pub use behaviour::{
-    ArriveParams, Behaviour, Combine, SteeringProfile, Target, WanderParams, Weighted,
+    ArriveParams, Behaviour, Combine, Neighbourhood, SteeringProfile, Target, WanderParams,
+    Weighted,
 };
 pub use combine::{priority_sum, weighted_sum};
+pub use flocking::{NeighbourSums, alignment, cohesion, desired, polarisation, separation};
 pub use pursuit::{evade, predict_position, pursue};
 pub use seek::{arrive, flee, kinematic_arrive, kinematic_flee, kinematic_seek, seek};
 pub use wander::{kinematic_wander, wander};

@@ -34,6 +34,9 @@ pub struct GroupParams {
     pub radius: f32,
     /// The behaviours and how they combine. Default: none.
     pub steering: SteeringProfile,
+    /// Neighbour cap (in the manner of RVO2's `maxNeighbors`): flocking and repulsion consider
+    /// only the nearest this many neighbours. Default: none (every neighbour in range).
+    pub max_neighbours: Option<u32>,
 }
 
 impl Default for GroupParams {
@@ -50,6 +53,7 @@ impl Default for GroupParams {
             drag: 0.0,
             radius: 0.5,
             steering: SteeringProfile::default(),
+            max_neighbours: None,
         }
     }
 }
@@ -96,6 +100,12 @@ impl GroupParams {
         positive("max_angular_acceleration", self.max_angular_acceleration)?;
         non_negative("drag", self.drag)?;
         non_negative("radius", self.radius)?;
+        if self.max_neighbours == Some(0) {
+            return Err(Error::NotPositive {
+                name: "max_neighbours",
+                value: 0.0,
+            });
+        }
         self.steering.validate()
     }
 

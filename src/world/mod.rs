@@ -15,6 +15,7 @@
 
 mod builder;
 mod group;
+mod neighbours;
 mod state;
 mod stats;
 mod step;

@@ -7,6 +7,10 @@ use crate::bounds::Bounds;
 use crate::error::{Error, Result, finite, finite_vec, non_negative, positive};
 use crate::movement::wrap_orientation;
 use crate::rng::AgentRng;
+use crate::spatial::{IndexKind, SpatialIndex};
+
+/// Default reordering period, frames.
+pub const DEFAULT_REORDER_EVERY: u32 = 4;
 
 /// Stream tag for the initial wander angle of a new agent.
 const STREAM_SPAWN: u32 = 1;
@@ -38,6 +42,9 @@ pub struct World {
     pub(crate) frame: u64,
     pub(crate) time: f64,
     pub(crate) scratch: Scratch,
+    pub(crate) index: SpatialIndex,
+    /// Reorder agents by grid cell every this many frames (0: never).
+    pub(crate) reorder_every: u32,
 }
 
 impl World {
@@ -56,7 +63,35 @@ impl World {
             frame: 0,
             time: 0.0,
             scratch: Scratch::default(),
+            index: SpatialIndex::new(IndexKind::Grid),
+            reorder_every: DEFAULT_REORDER_EVERY,
         }
+    }
+
+    /// The neighbour-index backend in use.
+    #[must_use]
+    pub fn index_kind(&self) -> IndexKind {
+        self.index.kind()
+    }
+
+    /// Chooses the neighbour-index backend (the grid by default). Flocking sums agree across
+    /// backends to rounding.
+    pub fn set_index(&mut self, kind: IndexKind) {
+        if self.index.kind() != kind {
+            self.index = SpatialIndex::new(kind);
+        }
+    }
+
+    /// How often (in frames) agents are reordered by grid cell for cache locality; 0 never.
+    #[must_use]
+    pub fn reorder_every(&self) -> u32 {
+        self.reorder_every
+    }
+
+    /// Sets how often agents are reordered by grid cell (0: never). Ids are unaffected; only the
+    /// storage order changes.
+    pub fn set_reorder_every(&mut self, frames: u32) {
+        self.reorder_every = frames;
     }
 
     /// The agents, in storage order.

@@ -4,6 +4,7 @@ use glam::Vec2;
 use rayon::prelude::*;
 
 use super::group::GroupParams;
+use super::neighbours::{self, FlockSpec, Querier, SortedCopies};
 use super::state::World;
 use super::stats::{PhaseTimes, StepStats};
 use crate::agents::Agents;
@@ -11,7 +12,8 @@ use crate::bounds::Bounds;
 use crate::error::{Error, Result};
 use crate::movement::{self, IntegrationParams, MotionState, MovementModel, SteeringBuffers};
 use crate::rng::AgentRng;
-use crate::steering::{self, Behaviour, Combine, Steering, Target};
+use crate::spatial::{Neighbour, NeighbourIndex, SpatialIndex};
+use crate::steering::{self, Behaviour, Combine, NeighbourSums, Steering, Target};
 
 /// Stream tag for per-frame behaviour randomness.
 const STREAM_STEER: u32 = 0;
@@ -21,20 +23,36 @@ const STEER_CHUNK: usize = 1024;
 /// Per-frame buffers, reused across steps (never serialised).
 #[derive(Debug, Default)]
 pub(crate) struct Scratch {
+    out: SteerOut,
+    params: Vec<IntegrationParams>,
+    flock: Vec<FlockSpec>,
+    sorted: SortedCopies,
+}
+
+/// The steering pass's per-agent outputs.
+#[derive(Debug, Default)]
+struct SteerOut {
     lin_x: Vec<f32>,
     lin_y: Vec<f32>,
     ang: Vec<f32>,
     wander: Vec<f32>,
-    params: Vec<IntegrationParams>,
+    /// Neighbours found per agent this step.
+    neighbours: Vec<f32>,
 }
 
-impl Scratch {
+thread_local! {
+    /// Per-worker neighbour list of the scalar traversal, reused across agents and frames.
+    static NEIGHBOURS: std::cell::RefCell<Vec<Neighbour>> = const { std::cell::RefCell::new(Vec::new()) };
+}
+
+impl SteerOut {
     fn resize(&mut self, n: usize) {
         for v in [
             &mut self.lin_x,
             &mut self.lin_y,
             &mut self.ang,
             &mut self.wander,
+            &mut self.neighbours,
         ] {
             v.resize(n, 0.0);
         }
@@ -49,6 +67,10 @@ pub(crate) struct SteerCtx<'a> {
     pub seed: u64,
     pub frame: u64,
     pub dt: f32,
+    pub index: &'a SpatialIndex,
+    pub flock: &'a [FlockSpec],
+    /// Cell-ordered copies for the grid kernel (`None`: use the scalar traversal).
+    pub sorted: Option<&'a SortedCopies>,
 }
 
 /// A resolved target: its position (nearest image) and velocity.
@@ -77,9 +99,43 @@ impl SteerCtx<'_> {
         })
     }
 
-    /// The steering of agent `i`: `(linear, angular, new wander angle)`, with the linear part a
-    /// clamped acceleration (dynamic) or a desired velocity (kinematic).
-    pub(crate) fn steer(&self, i: usize) -> (Steering, f32) {
+    /// The fused neighbour sums of agent `i` (all zero when its group needs no neighbours).
+    fn sums(&self, i: usize, velocity: Vec2, orientation: f32) -> NeighbourSums {
+        let a = self.agents;
+        let spec = &self.flock[a.group[i] as usize];
+        if !spec.active {
+            return NeighbourSums::default();
+        }
+        let me = Querier {
+            position: a.position(i),
+            velocity,
+            heading: velocity
+                .try_normalize()
+                .unwrap_or_else(|| Vec2::from_angle(orientation)),
+            group: a.group[i],
+        };
+        match (self.index, self.sorted) {
+            (SpatialIndex::Grid(grid), Some(sorted)) if spec.kernel_ok() => {
+                neighbours::sums_grid(grid, sorted, self.bounds, &me, spec)
+            }
+            _ => NEIGHBOURS.with_borrow_mut(|buf| {
+                neighbours::sums_scalar(
+                    self.index,
+                    i,
+                    &me,
+                    spec,
+                    &a.vel_x,
+                    &a.vel_y,
+                    &a.group,
+                    buf,
+                )
+            }),
+        }
+    }
+
+    /// The steering of agent `i`: `(linear, angular, new wander angle, neighbours found)`, with
+    /// the linear part a clamped acceleration (dynamic) or a desired velocity (kinematic).
+    pub(crate) fn steer(&self, i: usize) -> (Steering, f32, f32) {
         let a = self.agents;
         let g = &self.groups[a.group[i] as usize];
         let kinematic = g.model == MovementModel::Kinematic;
@@ -90,6 +146,7 @@ impl SteerCtx<'_> {
         let max_speed = a.max_speed[i];
         let mut wander_angle = a.wander[i];
         let mut rng = AgentRng::new(self.seed, a.ids[i].0, self.frame, STREAM_STEER);
+        let sums = self.sums(i, velocity, orientation);
 
         let mut parts = [Steering::ZERO; 16];
         let mut weights = [0.0_f32; 16];
@@ -106,6 +163,7 @@ impl SteerCtx<'_> {
                 orientation,
                 rotation,
                 max_speed,
+                &sums,
                 &mut wander_angle,
                 &mut rng,
             );
@@ -143,7 +201,7 @@ impl SteerCtx<'_> {
                     .clamp(-g.max_angular_acceleration, g.max_angular_acceleration),
             }
         };
-        (out, wander_angle)
+        (out, wander_angle, sums.count)
     }
 
     #[allow(clippy::too_many_arguments)]
@@ -158,6 +216,7 @@ impl SteerCtx<'_> {
         orientation: f32,
         rotation: f32,
         max_speed: f32,
+        sums: &NeighbourSums,
         wander_angle: &mut f32,
         rng: &mut AgentRng,
     ) -> Steering {
@@ -332,6 +391,25 @@ impl SteerCtx<'_> {
                 ),
                 None => Steering::ZERO,
             },
+            Behaviour::Separation { .. } if kinematic => {
+                Steering::linear(steering::desired(sums.separation, max_speed))
+            }
+            Behaviour::Separation { .. } => {
+                Steering::linear(steering::separation(sums, velocity, max_speed))
+            }
+            Behaviour::Alignment { .. } if kinematic => {
+                Steering::linear(steering::desired(sums.alignment, max_speed))
+            }
+            Behaviour::Alignment { .. } => {
+                Steering::linear(steering::alignment(sums, velocity, max_speed))
+            }
+            Behaviour::Cohesion { .. } if kinematic => {
+                Steering::linear(steering::desired(sums.cohesion, max_speed))
+            }
+            Behaviour::Cohesion { .. } => {
+                Steering::linear(steering::cohesion(sums, velocity, max_speed))
+            }
+            Behaviour::Repulsion { .. } => Steering::linear(sums.repulsion),
         }
     }
 }
@@ -370,52 +448,17 @@ impl World {
         let start = Instant::now();
         let n = self.agents.len();
         let mut phases = PhaseTimes::default();
-        self.scratch.resize(n);
+        self.scratch.out.resize(n);
 
-        // 1. index (none yet for the core behaviours)
+        // 1. index: rebuilt when some group queries neighbours; agents reordered by cell when due
         let t = Instant::now();
+        let use_kernel = self.prepare_index();
         phases.index = t.elapsed();
 
         // 2. steer
         let t = Instant::now();
-        {
-            let ctx = SteerCtx {
-                agents: &self.agents,
-                groups: &self.groups,
-                bounds: self.bounds,
-                seed: self.seed,
-                frame: self.frame,
-                dt,
-            };
-            let s = &mut self.scratch;
-            let kernel =
-                |base: usize, lx: &mut [f32], ly: &mut [f32], an: &mut [f32], wa: &mut [f32]| {
-                    for k in 0..lx.len() {
-                        let (st, w) = ctx.steer(base + k);
-                        lx[k] = st.linear.x;
-                        ly[k] = st.linear.y;
-                        an[k] = st.angular;
-                        wa[k] = w;
-                    }
-                };
-            match exec {
-                Execution::Parallel => {
-                    (
-                        s.lin_x.par_chunks_mut(STEER_CHUNK),
-                        s.lin_y.par_chunks_mut(STEER_CHUNK),
-                        s.ang.par_chunks_mut(STEER_CHUNK),
-                        s.wander.par_chunks_mut(STEER_CHUNK),
-                    )
-                        .into_par_iter()
-                        .enumerate()
-                        .for_each(|(c, (lx, ly, an, wa))| kernel(c * STEER_CHUNK, lx, ly, an, wa));
-                }
-                Execution::Sequential => {
-                    kernel(0, &mut s.lin_x, &mut s.lin_y, &mut s.ang, &mut s.wander)
-                }
-            }
-        }
-        std::mem::swap(&mut self.agents.wander, &mut self.scratch.wander);
+        self.steer_phase(dt, exec, use_kernel);
+        std::mem::swap(&mut self.agents.wander, &mut self.scratch.out.wander);
         phases.steer = t.elapsed();
 
         // 3. integrate
@@ -435,9 +478,9 @@ impl World {
                 rotation: &mut a.rotation,
             };
             let steer = SteeringBuffers {
-                lin_x: &self.scratch.lin_x,
-                lin_y: &self.scratch.lin_y,
-                ang: &self.scratch.ang,
+                lin_x: &self.scratch.out.lin_x,
+                lin_y: &self.scratch.out.lin_y,
+                ang: &self.scratch.out.ang,
                 max_speed: &a.max_speed,
                 group: &a.group,
             };
@@ -457,13 +500,142 @@ impl World {
 
         self.frame += 1;
         self.time += f64::from(dt);
+        let mean_neighbours = if n == 0 {
+            0.0
+        } else {
+            self.scratch
+                .out
+                .neighbours
+                .iter()
+                .map(|&c| f64::from(c))
+                .sum::<f64>()
+                / n as f64
+        };
         Ok(StepStats {
             frame: self.frame,
             agents: n,
             total: start.elapsed(),
             phases,
-            mean_neighbours: 0.0,
+            mean_neighbours,
         })
+    }
+
+    /// The parallel (or sequential) steering pass: reads frame-t state, writes the outputs.
+    fn steer_phase(&mut self, dt: f32, exec: Execution, use_kernel: bool) {
+        let ctx = SteerCtx {
+            agents: &self.agents,
+            groups: &self.groups,
+            bounds: self.bounds,
+            seed: self.seed,
+            frame: self.frame,
+            dt,
+            index: &self.index,
+            flock: &self.scratch.flock,
+            sorted: use_kernel.then_some(&self.scratch.sorted),
+        };
+        let s = &mut self.scratch.out;
+        let kernel = |base: usize,
+                      lx: &mut [f32],
+                      ly: &mut [f32],
+                      an: &mut [f32],
+                      wa: &mut [f32],
+                      nb: &mut [f32]| {
+            for k in 0..lx.len() {
+                let (st, w, count) = ctx.steer(base + k);
+                lx[k] = st.linear.x;
+                ly[k] = st.linear.y;
+                an[k] = st.angular;
+                wa[k] = w;
+                nb[k] = count;
+            }
+        };
+        match exec {
+            Execution::Parallel => {
+                (
+                    s.lin_x.par_chunks_mut(STEER_CHUNK),
+                    s.lin_y.par_chunks_mut(STEER_CHUNK),
+                    s.ang.par_chunks_mut(STEER_CHUNK),
+                    s.wander.par_chunks_mut(STEER_CHUNK),
+                    s.neighbours.par_chunks_mut(STEER_CHUNK),
+                )
+                    .into_par_iter()
+                    .enumerate()
+                    .for_each(|(c, (lx, ly, an, wa, nb))| {
+                        kernel(c * STEER_CHUNK, lx, ly, an, wa, nb)
+                    });
+            }
+            Execution::Sequential => kernel(
+                0,
+                &mut s.lin_x,
+                &mut s.lin_y,
+                &mut s.ang,
+                &mut s.wander,
+                &mut s.neighbours,
+            ),
+        }
+    }
+
+    /// The steering each agent would apply in the next step from the current state, without
+    /// advancing the world: `(id, linear, angular)` with the linear part the clamped
+    /// acceleration (dynamic) or the desired velocity (kinematic). Useful to compare backends and
+    /// to inspect behaviours. Agents may be reordered in storage (ids are unaffected).
+    ///
+    /// # Errors
+    /// [`Error::InvalidTimeStep`] when `dt` is not a finite number greater than zero.
+    pub fn steering_outputs(&mut self, dt: f32) -> Result<Vec<(crate::AgentId, Steering)>> {
+        if !(dt.is_finite() && dt > 0.0) {
+            return Err(Error::InvalidTimeStep { dt: f64::from(dt) });
+        }
+        self.scratch.out.resize(self.agents.len());
+        let use_kernel = self.prepare_index();
+        self.steer_phase(dt, Execution::Parallel, use_kernel);
+        let o = &self.scratch.out;
+        Ok((0..self.agents.len())
+            .map(|i| {
+                let s = Steering {
+                    linear: Vec2::new(o.lin_x[i], o.lin_y[i]),
+                    angular: o.ang[i],
+                };
+                (self.agents.ids[i], s)
+            })
+            .collect())
+    }
+
+    /// Rebuilds the neighbour index when some group needs neighbours, reorders the agents by
+    /// grid cell when due, and fills the grid kernel's copies. Returns whether the grid kernel
+    /// is ready.
+    fn prepare_index(&mut self) -> bool {
+        self.scratch.flock.clear();
+        self.scratch
+            .flock
+            .extend(self.groups.iter().map(FlockSpec::of));
+        let query_r = self
+            .scratch
+            .flock
+            .iter()
+            .filter(|s| s.active)
+            .map(|s| s.query_r)
+            .fold(0.0_f32, f32::max);
+        if query_r <= 0.0 || self.agents.is_empty() {
+            return false;
+        }
+        let a = &self.agents;
+        self.index.rebuild(&a.pos_x, &a.pos_y, self.bounds, query_r);
+        let SpatialIndex::Grid(grid) = &self.index else {
+            return false;
+        };
+        if self.reorder_every > 0 && self.frame.is_multiple_of(u64::from(self.reorder_every)) {
+            let order = grid.order().to_vec();
+            self.agents.reorder(&order);
+            let a = &self.agents;
+            self.index.rebuild(&a.pos_x, &a.pos_y, self.bounds, query_r);
+        }
+        let SpatialIndex::Grid(grid) = &self.index else {
+            return false;
+        };
+        let a = &self.agents;
+        self.scratch.sorted.fill(grid, &a.vel_x, &a.vel_y, &a.group);
+        true
     }
 }
 

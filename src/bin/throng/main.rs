@@ -154,6 +154,9 @@ fn prepare(mut s: Scenario, c: &CommonArgs) -> Result<(Scenario, World, rayon::T
     if let Some(seed) = c.seed {
         s.seed = seed;
     }
+    if let Some(index) = &c.index {
+        s.world.index = index.parse()?;
+    }
     if let Some(dt) = c.dt {
         if !(dt.is_finite() && dt > 0.0) {
             return Err(Error::InvalidTimeStep { dt: f64::from(dt) });

@@ -1,0 +1,365 @@
+//! The fused neighbour traversal: every flocking and repulsion sum of an agent in one pass.
+//!
+//! Two paths compute the same [`NeighbourSums`]:
+//!
+//! - the **scalar reference** asks the [`NeighbourIndex`] for the neighbours within the largest
+//!   radius (ascending index order, so every backend gives bit-identical sums) and accumulates
+//!   them one by one; it also serves repulsion and neighbour caps;
+//! - the **grid kernel** reads the neighbour cells of the uniform grid as contiguous runs of
+//!   cell-ordered copies of the positions, velocities and groups, eight lanes at a time, with
+//!   runtime CPU-feature dispatch (AVX2 where the processor has it, SSE2 otherwise). It sums in
+//!   a different order than the reference, so the two agree to rounding, not bit for bit; each is
+//!   deterministic and independent of the thread count.
+
+use glam::Vec2;
+use multiversion::multiversion;
+
+use crate::bounds::Bounds;
+use crate::spatial::{GridIndex, Neighbour, NeighbourIndex, SpatialIndex};
+use crate::steering::{Behaviour, NeighbourSums};
+use crate::world::GroupParams;
+
+/// SIMD width of the grid kernel.
+pub(crate) const LANES: usize = 8;
+/// Behaviour slots of the fused pass: separation, alignment, cohesion.
+const SEP: usize = 0;
+const ALI: usize = 1;
+const COH: usize = 2;
+
+/// What one group asks of the fused traversal.
+#[derive(Clone, Copy, Debug, Default, PartialEq)]
+pub(crate) struct FlockSpec {
+    /// Whether the group needs neighbours at all.
+    pub active: bool,
+    /// The largest radius of the group's neighbour behaviours.
+    pub query_r: f32,
+    /// Which of separation, alignment, cohesion the group uses.
+    pub on: [bool; 3],
+    /// Squared radii.
+    pub r_sq: [f32; 3],
+    /// View cosines (-1: all round).
+    pub cos: [f32; 3],
+    /// Own group only.
+    pub same: [bool; 3],
+    /// Repulsion `(strength, exponent, radius^2)`.
+    pub repel: Option<(f32, f32, f32)>,
+    /// Neighbour cap.
+    pub cap: Option<u32>,
+}
+
+impl FlockSpec {
+    /// The spec of a group's profile (a behaviour listed twice: the last one counts).
+    pub(crate) fn of(g: &GroupParams) -> Self {
+        let mut s = FlockSpec {
+            cos: [-1.0; 3],
+            cap: g.max_neighbours,
+            ..FlockSpec::default()
+        };
+        for w in &g.steering.behaviours {
+            let (slot, hood) = match &w.behaviour {
+                Behaviour::Separation { hood } => (SEP, hood),
+                Behaviour::Alignment { hood } => (ALI, hood),
+                Behaviour::Cohesion { hood } => (COH, hood),
+                Behaviour::Repulsion {
+                    strength,
+                    exponent,
+                    radius,
+                } => {
+                    s.repel = Some((*strength, *exponent, radius * radius));
+                    s.active = true;
+                    s.query_r = s.query_r.max(*radius);
+                    continue;
+                }
+                _ => continue,
+            };
+            s.active = true;
+            s.on[slot] = true;
+            s.r_sq[slot] = hood.radius * hood.radius;
+            s.cos[slot] = hood.view_cos;
+            s.same[slot] = hood.same_group;
+            s.query_r = s.query_r.max(hood.radius);
+        }
+        s
+    }
+
+    /// Whether the grid kernel can serve this group (it does not do repulsion or caps).
+    pub(crate) fn kernel_ok(&self) -> bool {
+        self.repel.is_none() && self.cap.is_none()
+    }
+}
+
+/// Cell-ordered copies of what the kernel reads, padded with `LANES` zeros so that a block of
+/// eight lanes never reads past the end.
+#[derive(Debug, Default)]
+pub(crate) struct SortedCopies {
+    pub x: Vec<f32>,
+    pub y: Vec<f32>,
+    pub vx: Vec<f32>,
+    pub vy: Vec<f32>,
+    pub g: Vec<f32>,
+}
+
+impl SortedCopies {
+    /// Fills the copies in the grid's order from the agents' buffers.
+    pub(crate) fn fill(&mut self, grid: &GridIndex, vel_x: &[f32], vel_y: &[f32], group: &[u32]) {
+        let order = grid.order();
+        let n = order.len();
+        let pad = |v: &mut Vec<f32>| {
+            v.resize(n + LANES, 0.0);
+            v[n..].fill(0.0);
+        };
+        self.x.clear();
+        self.x.extend_from_slice(grid.sorted_x());
+        self.y.clear();
+        self.y.extend_from_slice(grid.sorted_y());
+        for (dst, src) in [(&mut self.vx, vel_x), (&mut self.vy, vel_y)] {
+            dst.clear();
+            dst.extend(order.iter().map(|&j| src[j as usize]));
+        }
+        self.g.clear();
+        self.g
+            .extend(order.iter().map(|&j| group[j as usize] as f32));
+        for v in [
+            &mut self.x,
+            &mut self.y,
+            &mut self.vx,
+            &mut self.vy,
+            &mut self.g,
+        ] {
+            pad(v);
+        }
+    }
+}
+
+/// The querying agent, as the traversal sees it.
+#[derive(Clone, Copy, Debug)]
+pub(crate) struct Querier {
+    pub position: Vec2,
+    pub velocity: Vec2,
+    /// Unit heading for view cones.
+    pub heading: Vec2,
+    pub group: u32,
+}
+
+/// Scalar reference: the sums from the index's neighbour list.
+#[allow(clippy::too_many_arguments)]
+pub(crate) fn sums_scalar(
+    index: &SpatialIndex,
+    i: usize,
+    me: &Querier,
+    spec: &FlockSpec,
+    vel_x: &[f32],
+    vel_y: &[f32],
+    group: &[u32],
+    buf: &mut Vec<Neighbour>,
+) -> NeighbourSums {
+    match spec.cap {
+        Some(k) => index.k_nearest_at(me.position, k as usize, spec.query_r, Some(i), buf),
+        None => index.neighbours_of(i, spec.query_r, buf),
+    }
+    let mut s = NeighbourSums::default();
+    for nb in buf.iter() {
+        let j = nb.index as usize;
+        let (d, d2) = (nb.offset, nb.dist_sq);
+        s.count += 1.0;
+        let same = group[j] == me.group;
+        let dist = d2.sqrt();
+        let dot = me.heading.dot(d);
+        let sees = |b: usize| {
+            spec.on[b]
+                && d2 <= spec.r_sq[b]
+                && (!spec.same[b] || same)
+                && (spec.cos[b] <= -1.0 || dot >= spec.cos[b] * dist)
+        };
+        if sees(SEP) && d2 > 0.0 {
+            s.separation -= d / d2;
+        }
+        if sees(ALI) {
+            s.alignment += Vec2::new(vel_x[j], vel_y[j]);
+            s.alignment_count += 1.0;
+        }
+        if sees(COH) {
+            s.cohesion += d;
+            s.cohesion_count += 1.0;
+        }
+        if let Some((strength, exponent, r_sq)) = spec.repel
+            && d2 <= r_sq
+            && d2 > 0.0
+        {
+            s.repulsion -= d / dist * (strength / dist.powf(exponent));
+        }
+    }
+    s
+}
+
+/// Everything the lane kernel needs about the query, flattened to plain numbers.
+#[derive(Clone, Copy, Debug)]
+struct KernelQuery {
+    x: f32,
+    y: f32,
+    hx: f32,
+    hy: f32,
+    g: f32,
+    q_sq: f32,
+    r_sq: [f32; 3],
+    cos: [f32; 3],
+    full: [bool; 3],
+    any_group: [bool; 3],
+    /// Half the torus side per axis (infinite when the world does not wrap) and the side.
+    half_w: f32,
+    half_h: f32,
+    w: f32,
+    h: f32,
+}
+
+/// Lane accumulators.
+#[derive(Clone, Copy, Debug, Default)]
+struct Acc {
+    sx: [f32; LANES],
+    sy: [f32; LANES],
+    ax: [f32; LANES],
+    ay: [f32; LANES],
+    an: [f32; LANES],
+    cx: [f32; LANES],
+    cy: [f32; LANES],
+    cn: [f32; LANES],
+    n: [f32; LANES],
+}
+
+/// The grid kernel: sums over the neighbour cells of `me`, read as contiguous runs.
+pub(crate) fn sums_grid(
+    grid: &GridIndex,
+    sorted: &SortedCopies,
+    bounds: Bounds,
+    me: &Querier,
+    spec: &FlockSpec,
+) -> NeighbourSums {
+    let (half_w, half_h, w, h) = match bounds {
+        Bounds::Torus { size } => (0.5 * size.x, 0.5 * size.y, size.x, size.y),
+        _ => (f32::INFINITY, f32::INFINITY, 0.0, 0.0),
+    };
+    let q = KernelQuery {
+        x: me.position.x,
+        y: me.position.y,
+        hx: me.heading.x,
+        hy: me.heading.y,
+        g: me.group as f32,
+        q_sq: spec.query_r * spec.query_r,
+        r_sq: [0, 1, 2].map(|b| if spec.on[b] { spec.r_sq[b] } else { -1.0 }),
+        cos: spec.cos,
+        full: spec.cos.map(|c| c <= -1.0),
+        any_group: spec.same.map(|s| !s),
+        half_w,
+        half_h,
+        w,
+        h,
+    };
+    let view = q.full.iter().any(|f| !f);
+    let mut acc = Acc::default();
+    let mut runs = [(0u32, 0u32); 16];
+    let mut nr = 0;
+    grid.for_each_run(me.position, spec.query_r, |r| {
+        runs[nr] = (r.start as u32, r.end as u32);
+        nr += 1;
+        if nr == runs.len() {
+            kernel(&runs, sorted, &q, view, &mut acc);
+            nr = 0;
+        }
+    });
+    if nr > 0 {
+        kernel(&runs[..nr], sorted, &q, view, &mut acc);
+    }
+    let hsum = |a: &[f32; LANES]| a.iter().fold(0.0_f32, |s, v| s + v);
+    let mut s = NeighbourSums {
+        separation: Vec2::new(hsum(&acc.sx), hsum(&acc.sy)),
+        alignment: Vec2::new(hsum(&acc.ax), hsum(&acc.ay)),
+        alignment_count: hsum(&acc.an),
+        cohesion: Vec2::new(hsum(&acc.cx), hsum(&acc.cy)),
+        cohesion_count: hsum(&acc.cn),
+        repulsion: Vec2::ZERO,
+        count: hsum(&acc.n),
+    };
+    // The agent found itself (offset zero): take it out again.
+    s.count -= 1.0;
+    if spec.on[ALI] {
+        s.alignment -= me.velocity;
+        s.alignment_count -= 1.0;
+    }
+    if spec.on[COH] {
+        s.cohesion_count -= 1.0;
+    }
+    s
+}
+
+#[multiversion(targets("x86_64+avx2+fma", "x86_64+avx"))]
+fn kernel(runs: &[(u32, u32)], s: &SortedCopies, q: &KernelQuery, view: bool, acc: &mut Acc) {
+    if view {
+        kernel_body::<true>(runs, s, q, acc)
+    } else {
+        kernel_body::<false>(runs, s, q, acc)
+    }
+}
+
+#[inline(always)]
+fn kernel_body<const VIEW: bool>(
+    runs: &[(u32, u32)],
+    s: &SortedCopies,
+    q: &KernelQuery,
+    acc: &mut Acc,
+) {
+    for &(a, b) in runs {
+        let (a, b) = (a as usize, b as usize);
+        let mut k = a;
+        while k < b {
+            let left = (b - k) as u32;
+            let xs: &[f32; LANES] = s.x[k..k + LANES].try_into().expect("padded");
+            let ys: &[f32; LANES] = s.y[k..k + LANES].try_into().expect("padded");
+            let vxs: &[f32; LANES] = s.vx[k..k + LANES].try_into().expect("padded");
+            let vys: &[f32; LANES] = s.vy[k..k + LANES].try_into().expect("padded");
+            let gs: &[f32; LANES] = s.g[k..k + LANES].try_into().expect("padded");
+            for l in 0..LANES {
+                let valid = (l as u32) < left;
+                let mut dx = xs[l] - q.x;
+                dx = if dx > q.half_w {
+                    dx - q.w
+                } else if dx < -q.half_w {
+                    dx + q.w
+                } else {
+                    dx
+                };
+                let mut dy = ys[l] - q.y;
+                dy = if dy > q.half_h {
+                    dy - q.h
+                } else if dy < -q.half_h {
+                    dy + q.h
+                } else {
+                    dy
+                };
+                let d2 = dx * dx + dy * dy;
+                let same = gs[l] == q.g;
+                let (dot, dist) = if VIEW {
+                    (q.hx * dx + q.hy * dy, d2.sqrt())
+                } else {
+                    (0.0, 0.0)
+                };
+                let sees = |b: usize| {
+                    valid
+                        && d2 <= q.r_sq[b]
+                        && (q.any_group[b] || same)
+                        && (!VIEW || q.full[b] || dot >= q.cos[b] * dist)
+                };
+                let (ms, ma, mc) = (sees(SEP) && d2 > 0.0, sees(ALI), sees(COH));
+                acc.sx[l] += if ms { -dx / d2 } else { 0.0 };
+                acc.sy[l] += if ms { -dy / d2 } else { 0.0 };
+                acc.ax[l] += if ma { vxs[l] } else { 0.0 };
+                acc.ay[l] += if ma { vys[l] } else { 0.0 };
+                acc.an[l] += if ma { 1.0 } else { 0.0 };
+                acc.cx[l] += if mc { dx } else { 0.0 };
+                acc.cy[l] += if mc { dy } else { 0.0 };
+                acc.cn[l] += if mc { 1.0 } else { 0.0 };
+                acc.n[l] += if valid && d2 <= q.q_sq { 1.0 } else { 0.0 };
+            }
+            k += LANES;
+        }
+    }
+}
