@@ -11,7 +11,7 @@
 use std::cmp::Reverse;
 use std::collections::BinaryHeap;
 
-use super::lattice::{DIAGONAL_SIDES, Lattice, Neighbourhood, check_goals, padded_u32};
+use super::lattice::{DIAGONAL_SIDES, Lattice, Neighbourhood, check_goals, padded_map};
 use super::occupancy::OccupancyGrid;
 use crate::error::{Error, Result, in_range};
 
@@ -70,7 +70,7 @@ impl IntegrationField {
                 }
             }
         }
-        let open = padded_u32(grid, &lattice, 1, 0);
+        let open = padded_map(grid, &lattice, 1, 0);
         let mut cost = vec![Self::UNREACHABLE; lattice.len];
         let mut done = vec![false; lattice.len];
         let mut heap = BinaryHeap::with_capacity(goals.len() * 4);

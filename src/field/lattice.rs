@@ -164,21 +164,29 @@ impl Lattice {
     }
 }
 
-/// A padded `u32` map of the grid: `wall` for walls and the border, `free` for free cells.
-pub(crate) fn padded_u32(
+/// A padded map of the grid: `wall` for walls and the border, `free` for free cells. Rows are
+/// filled in parallel (the values do not depend on the order).
+pub(crate) fn padded_map<T: Copy + Send + Sync>(
     grid: &OccupancyGrid,
     lattice: &Lattice,
-    free: u32,
-    wall: u32,
-) -> Vec<u32> {
+    free: T,
+    wall: T,
+) -> Vec<T> {
+    use rayon::prelude::*;
     let mut out = vec![wall; lattice.len];
     let w = lattice.width as usize;
-    for (y, row) in grid.cells().chunks_exact(w).enumerate() {
-        let range = lattice.row_range(y as u32);
-        for (o, c) in out[range].iter_mut().zip(row) {
-            *o = if c.is_free() { free } else { wall };
-        }
-    }
+    out.par_chunks_mut(lattice.stride)
+        .enumerate()
+        .with_min_len(64)
+        .for_each(|(row, line)| {
+            if row == 0 || row > lattice.height as usize {
+                return;
+            }
+            let cells = &grid.cells()[(row - 1) * w..row * w];
+            for (o, c) in line[1..=w].iter_mut().zip(cells) {
+                *o = if c.is_free() { free } else { wall };
+            }
+        });
     out
 }
 

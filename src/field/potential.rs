@@ -15,7 +15,7 @@
 //! Cells no goal can reach, and walls, hold [`PotentialField::UNREACHABLE`] (`-1.0`), never a
 //! potential a reachable cell could have.
 
-use super::lattice::{DIAGONAL_SIDES, Lattice, Neighbourhood, check_goals, padded_u32};
+use super::lattice::{DIAGONAL_SIDES, Lattice, Neighbourhood, check_goals, padded_map};
 use super::occupancy::OccupancyGrid;
 use crate::error::{Error, Result, finite};
 
@@ -57,6 +57,9 @@ impl PotentialField {
     /// Builds the field of `goals` on `grid`: potential 1 at every goal, times `decay` per step.
     /// Duplicate goals are harmless.
     ///
+    /// This is the notes' algorithm as it stands: each popped cell reads its own potential and
+    /// gives `current * decay` to every unset free neighbour, recording the step count beside it.
+    ///
     /// # Examples
     /// ```
     /// # fn main() -> throng::Result<()> {
@@ -81,7 +84,7 @@ impl PotentialField {
         let decay = check_decay(decay)?;
         check_goals(grid, goals)?;
         let lattice = Lattice::of(grid);
-        let mut steps = padded_u32(grid, &lattice, UNSET, WALL);
+        let mut steps = padded_map(grid, &lattice, UNSET, WALL);
         let mut potential = vec![Self::UNREACHABLE; lattice.len];
         // Every cell is queued at most once, so the free-cell count bounds the queue.
         let mut queue: Vec<u32> = Vec::with_capacity(grid.free_count());

@@ -8,12 +8,16 @@
 //!
 //! The step is parallel and deterministic: every walker decides from the state at the start of
 //! the step (a cell counts as free when nobody stood on it then); when several walkers want the
-//! same cell, the one nearest its goal (fewest steps) wins, then the lowest walker index. Moves
-//! are applied after all decisions, so the result is the same on any number of threads.
+//! same cell, the one nearest its goal (fewest steps; this differs only between channels) wins,
+//! then the lowest walker index. Walkers of different channels can block each other in a ring
+//! (two walkers meeting head-on in a corridor); a ring in which every walker wants the next one's
+//! cell rotates as a whole. Moves are applied after all decisions, so the result is the same on
+//! any number of threads.
 //!
 //! Invariants: no two walkers that have not arrived share a cell; a walker only ever moves to a
-//! cell with fewer steps to a goal, so walls are never entered and every walker that can reach
-//! a goal does so (the walker nearest a goal can always move).
+//! cell with fewer steps to its goal, so walls are never entered; and some walker moves in every
+//! step while any walker can still climb (the one nearest a goal can always move, and a set of
+//! blocked walkers always contains a ring), so every walker that can reach a goal does.
 
 use rayon::prelude::*;
 
@@ -64,8 +68,14 @@ pub struct GridWalkers {
     active: Vec<u32>,
     /// Padded map: the walker standing on each cell, or `EMPTY`.
     occupant: Vec<u32>,
-    /// Scratch: `(target cell, priority key)` per proposing walker.
-    proposals: Vec<(u32, u64)>,
+    /// Scratch: `(target cell, priority key, wanted cell)` per walker with a better cell.
+    proposals: Vec<(u32, u64, u32)>,
+    /// Scratch for cycle detection: per walker 0 = unseen, 1 = on the current path, 2 = done.
+    mark: Vec<u8>,
+    /// Scratch: the walkers of the cycles found, one cycle after another.
+    cycle_members: Vec<u32>,
+    /// Scratch: `(start, length)` pairs into `cycle_members`, flattened.
+    cycles: Vec<u32>,
 }
 
 impl GridWalkers {
@@ -146,6 +156,9 @@ impl GridWalkers {
             active: (0..starts.len() as u32).collect(),
             occupant,
             proposals: Vec::new(),
+            mark: Vec::new(),
+            cycle_members: Vec::new(),
+            cycles: Vec::new(),
         })
     }
 
@@ -272,6 +285,75 @@ impl GridWalkers {
         }
     }
 
+    /// Puts walker `i` (already removed from its cell) on `target`, or marks it arrived there.
+    fn move_into<'f>(
+        &mut self,
+        i: usize,
+        target: u32,
+        field_of: &impl Fn(u32) -> &'f PotentialField,
+        stats: &mut WalkStats,
+    ) {
+        self.cells[i] = target;
+        stats.moved += 1;
+        if field_of(self.channels[i]).steps[target as usize] == 0 {
+            self.arrived[i] = true;
+            stats.arrived += 1;
+        } else {
+            self.occupant[target as usize] = i as u32;
+        }
+    }
+
+    /// Finds the cycles among blocked walkers (each wants the cell of the next), from the
+    /// start-of-step state in `proposals`; fills `cycles` and `cycle_members`.
+    /// Walkers are visited in index order, so the result is deterministic.
+    fn find_cycles(&mut self) {
+        self.cycles.clear();
+        self.cycle_members.clear();
+        let blocked = self.proposals.iter().filter(|p| p.0 == EMPTY).count();
+        if blocked < 2 {
+            return;
+        }
+        self.mark.clear();
+        self.mark.resize(self.cells.len(), 0);
+        // Blocked walkers sort last; `next[i]` is the walker on the cell `i` wants.
+        let mut next: Vec<(u32, u32)> = self.proposals[self.proposals.len() - blocked..]
+            .iter()
+            .map(|&(_, key, want)| ((key & 0xffff_ffff) as u32, self.occupant[want as usize]))
+            .collect();
+        next.sort_unstable();
+        let next_of = |i: u32| {
+            next.binary_search_by_key(&i, |e| e.0)
+                .ok()
+                .map(|k| next[k].1)
+        };
+        let mut path = Vec::new();
+        for &(start, _) in &next {
+            if self.mark[start as usize] != 0 {
+                continue;
+            }
+            path.clear();
+            let mut i = start;
+            loop {
+                self.mark[i as usize] = 1;
+                path.push(i);
+                match next_of(i) {
+                    Some(j) if self.mark[j as usize] == 0 => i = j,
+                    Some(j) if self.mark[j as usize] == 1 => {
+                        let k = path.iter().position(|&m| m == j).expect("on the path");
+                        self.cycles.push(self.cycle_members.len() as u32);
+                        self.cycles.push((path.len() - k) as u32);
+                        self.cycle_members.extend_from_slice(&path[k..]);
+                        break;
+                    }
+                    _ => break,
+                }
+            }
+            for &m in &path {
+                self.mark[m as usize] = 2;
+            }
+        }
+    }
+
     /// The step: arrivals, parallel proposals, deterministic conflict resolution, moves.
     fn step_with<'f>(
         &mut self,
@@ -293,10 +375,10 @@ impl GridWalkers {
             let arrived = &self.arrived;
             self.active.retain(|&i| !arrived[i as usize]);
         }
-        // Proposals, from the state at the start of the step. A walker with a better cell it
-        // cannot take proposes `EMPTY` (sorted last, never applied) so it is counted as waiting.
+        // Proposals, from the state at the start of the step: (target, key, wanted cell). A
+        // walker whose wanted cell is taken proposes target `EMPTY` (sorted last).
         let (cells, channels, occupant) = (&self.cells, &self.channels, &self.occupant);
-        let proposals = &mut self.proposals;
+        let mut proposals = std::mem::take(&mut self.proposals);
         proposals.clear();
         proposals.par_extend(self.active.par_iter().with_min_len(512).filter_map(|&i| {
             let field = field_of(channels[i as usize]);
@@ -310,12 +392,16 @@ impl GridWalkers {
             Some((
                 target.map_or(EMPTY, |q| q as u32),
                 (own << 32) | u64::from(i),
+                best as u32,
             ))
         }));
         // Keys are unique, so the sorted order (and the winners) do not depend on threads.
         proposals.par_sort_unstable();
+        self.proposals = proposals;
+        self.find_cycles();
+        let proposals = std::mem::take(&mut self.proposals);
         let mut last = EMPTY;
-        for &(target, key) in proposals.iter() {
+        for &(target, key, _) in proposals.iter() {
             if target == EMPTY || target == last {
                 stats.waited += 1;
                 continue;
@@ -323,18 +409,30 @@ impl GridWalkers {
             last = target;
             let i = (key & 0xffff_ffff) as usize;
             let from = self.cells[i] as usize;
-            let to = target as usize;
-            debug_assert_eq!(self.occupant[to], EMPTY);
+            debug_assert_eq!(self.occupant[target as usize], EMPTY);
             self.occupant[from] = EMPTY;
-            self.cells[i] = target;
-            stats.moved += 1;
-            if field_of(self.channels[i]).steps[to] == 0 {
-                self.arrived[i] = true;
-                stats.arrived += 1;
-            } else {
-                self.occupant[to] = i as u32;
-            }
+            self.move_into(i, target, &field_of, &mut stats);
         }
+        // Cycles of walkers that each want the next one's cell (possible only between channels)
+        // rotate together, so walkers never deadlock.
+        let (cycles, members) = (
+            std::mem::take(&mut self.cycles),
+            std::mem::take(&mut self.cycle_members),
+        );
+        let mut old = Vec::new();
+        for cycle in cycles.chunks_exact(2) {
+            let members = &members[cycle[0] as usize..(cycle[0] + cycle[1]) as usize];
+            old.clear();
+            old.extend(members.iter().map(|&m| self.cells[m as usize]));
+            for &cell in &old {
+                self.occupant[cell as usize] = EMPTY;
+            }
+            for (j, &m) in members.iter().enumerate() {
+                self.move_into(m as usize, old[(j + 1) % old.len()], &field_of, &mut stats);
+            }
+            stats.waited -= members.len();
+        }
+        (self.cycles, self.cycle_members, self.proposals) = (cycles, members, proposals);
         let arrived = &self.arrived;
         self.active.retain(|&i| !arrived[i as usize]);
         stats.active = self.active.len();
