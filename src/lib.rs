@@ -44,6 +44,7 @@
 pub mod agents;
 pub mod bounds;
 pub mod error;
+pub mod field;
 pub mod movement;
 pub mod rng;
 pub mod scenario;
@@ -54,6 +55,9 @@ pub mod world;
 pub use agents::{AgentId, AgentInit, Agents};
 pub use bounds::Bounds;
 pub use error::{Error, Result};
+pub use field::{
+    FlowField, GoalChannels, GridWalkers, IntegrationField, OccupancyGrid, PotentialField,
+};
 pub use spatial::{
     BruteIndex, GridIndex, IndexKind, KdTreeIndex, Neighbour, NeighbourIndex, SpatialIndex,
 };

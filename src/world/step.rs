@@ -119,16 +119,7 @@ impl SteerCtx<'_> {
                 neighbours::sums_grid(grid, sorted, self.bounds, &me, spec)
             }
             _ => NEIGHBOURS.with_borrow_mut(|buf| {
-                neighbours::sums_scalar(
-                    self.index,
-                    i,
-                    &me,
-                    spec,
-                    &a.vel_x,
-                    &a.vel_y,
-                    &a.group,
-                    buf,
-                )
+                neighbours::sums_scalar(self.index, i, &me, spec, &a.vel_x, &a.vel_y, &a.group, buf)
             }),
         }
     }

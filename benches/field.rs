@@ -1,0 +1,80 @@
+//! Field builds (BFS potential, Dijkstra integration, flow) at 512^2, 2048^2 and 4096^2 cells
+//! with 4 goals, and flow-field sampling for 100,000 points.
+//!
+//! Grids: 512^2 is a cave (drunkard's walk, 50% obstacles, connected); the larger ones are open
+//! ground with 20% scattered obstacles (the free space is one large component).
+
+use std::hint::black_box;
+
+use criterion::{BenchmarkId, Criterion, Throughput, criterion_group, criterion_main};
+use glam::Vec2;
+use throng::field::{
+    FlowField, IntegrationField, Neighbourhood, OccupancyGrid, PotentialField, random_free_cells,
+};
+
+fn grid(side: u32) -> OccupancyGrid {
+    if side <= 512 {
+        OccupancyGrid::caves(side, side, 0.5, 1).unwrap()
+    } else {
+        OccupancyGrid::scattered(side, side, 0.2, 1).unwrap()
+    }
+}
+
+fn builds(c: &mut Criterion) {
+    let mut g = c.benchmark_group("field_build");
+    g.sample_size(10);
+    for side in [512u32, 2048, 4096] {
+        let grid = grid(side);
+        let goals = random_free_cells(&grid, 4, 2).unwrap();
+        g.throughput(Throughput::Elements(u64::from(side) * u64::from(side)));
+        for (name, n) in [
+            ("bfs4", Neighbourhood::Four),
+            ("bfs8", Neighbourhood::Eight),
+        ] {
+            g.bench_with_input(BenchmarkId::new(name, side), &side, |b, _| {
+                b.iter(|| PotentialField::bfs(&grid, black_box(&goals), 0.99, n).unwrap())
+            });
+        }
+        g.bench_with_input(BenchmarkId::new("dijkstra8", side), &side, |b, _| {
+            b.iter(|| {
+                IntegrationField::dijkstra(&grid, black_box(&goals), Neighbourhood::Eight, None)
+                    .unwrap()
+            })
+        });
+        let field = PotentialField::bfs(&grid, &goals, 0.99, Neighbourhood::Eight).unwrap();
+        g.bench_with_input(BenchmarkId::new("flow_from_bfs8", side), &side, |b, _| {
+            b.iter(|| FlowField::from_potential(black_box(&field)))
+        });
+    }
+    g.finish();
+}
+
+fn sampling(c: &mut Criterion) {
+    let grid = grid(2048);
+    let goals = random_free_cells(&grid, 4, 2).unwrap();
+    let flow = FlowField::from_potential(
+        &PotentialField::bfs(&grid, &goals, 0.99, Neighbourhood::Eight).unwrap(),
+    );
+    // 100,000 points spread over the grid by a fixed low-discrepancy sequence.
+    let points: Vec<Vec2> = (0..100_000u32)
+        .map(|i| {
+            Vec2::new(
+                (i as f32 * 0.618_034).fract(),
+                (i as f32 * 0.754_878).fract(),
+            ) * 2048.0
+        })
+        .collect();
+    let mut g = c.benchmark_group("flow_sample");
+    g.throughput(Throughput::Elements(points.len() as u64));
+    g.bench_function("100k_points_2048", |b| {
+        b.iter(|| {
+            points
+                .iter()
+                .fold(Vec2::ZERO, |acc, &p| acc + flow.sample(black_box(p)))
+        })
+    });
+    g.finish();
+}
+
+criterion_group!(benches, builds, sampling);
+criterion_main!(benches);

@@ -1,0 +1,210 @@
+//! Goal channels: several potential fields side by side on one grid, one per goal type.
+//!
+//! Each channel holds its goal cells, its [`PotentialField`] and that field's [`FlowField`].
+//! Agents of a group follow their group's channel. Changing a channel's goals (moving them, or
+//! re-randomising them as the notes do on a click) marks that channel dirty; changing a cell
+//! between free and wall marks every channel dirty. [`GoalChannels::rebuild_dirty`] rebuilds the
+//! dirty channels, in parallel (each build is itself sequential and deterministic).
+//!
+//! Invariants: a channel's goals always lie on free cells of the grid; a dirty channel exposes no
+//! field, so nobody follows a stale one.
+
+use rayon::prelude::*;
+
+use super::flow::FlowField;
+use super::lattice::{Neighbourhood, check_goals};
+use super::occupancy::{Cell, OccupancyGrid, random_free_cells};
+use super::potential::{PotentialField, check_decay};
+use crate::error::{Error, Result};
+
+#[derive(Clone, Debug)]
+struct Channel {
+    goals: Vec<(u32, u32)>,
+    built: Option<(PotentialField, FlowField)>,
+    dirty: bool,
+}
+
+/// Several goal fields on one grid, rebuilt when goals or obstacles change.
+#[derive(Clone, Debug)]
+pub struct GoalChannels {
+    grid: OccupancyGrid,
+    decay: f32,
+    neighbourhood: Neighbourhood,
+    channels: Vec<Channel>,
+}
+
+impl GoalChannels {
+    /// No channels yet, on `grid`, with fields of `decay` and `neighbourhood`.
+    ///
+    /// # Examples
+    /// ```
+    /// # fn main() -> throng::Result<()> {
+    /// use throng::field::{GoalChannels, Neighbourhood, OccupancyGrid};
+    /// let grid = OccupancyGrid::new(8, 8)?;
+    /// let mut channels = GoalChannels::new(grid, 0.9, Neighbourhood::Eight)?;
+    /// let food = channels.add_channel(&[(0, 0)])?;
+    /// let water = channels.add_channel(&[(7, 7)])?;
+    /// channels.rebuild_dirty()?;
+    /// assert_eq!(channels.field(food).unwrap().steps(7, 7), Some(7));
+    /// channels.set_goals(water, &[(7, 0)])?;
+    /// assert!(channels.field(water).is_none()); // dirty until rebuilt
+    /// assert_eq!(channels.rebuild_dirty()?, 1);
+    /// # Ok(()) }
+    /// ```
+    ///
+    /// # Errors
+    /// [`Error::NonFinite`] or [`Error::OutOfRange`] unless `decay` lies in `(0, 1)`.
+    pub fn new(grid: OccupancyGrid, decay: f32, neighbourhood: Neighbourhood) -> Result<Self> {
+        Ok(GoalChannels {
+            grid,
+            decay: check_decay(decay)?,
+            neighbourhood,
+            channels: Vec::new(),
+        })
+    }
+
+    /// Adds a channel with `goals` (dirty until the next rebuild) and returns its index.
+    ///
+    /// # Errors
+    /// [`Error::Invalid`] when `goals` is empty or a goal is outside the grid or on a wall.
+    pub fn add_channel(&mut self, goals: &[(u32, u32)]) -> Result<usize> {
+        check_goals(&self.grid, goals)?;
+        self.channels.push(Channel {
+            goals: goals.to_vec(),
+            built: None,
+            dirty: true,
+        });
+        Ok(self.channels.len() - 1)
+    }
+
+    /// Number of channels.
+    #[must_use]
+    pub fn len(&self) -> usize {
+        self.channels.len()
+    }
+
+    /// Whether there are no channels.
+    #[must_use]
+    pub fn is_empty(&self) -> bool {
+        self.channels.is_empty()
+    }
+
+    /// The grid all channels share.
+    #[must_use]
+    pub fn grid(&self) -> &OccupancyGrid {
+        &self.grid
+    }
+
+    fn channel(&self, channel: usize) -> Result<&Channel> {
+        self.channels.get(channel).ok_or_else(|| Error::Invalid {
+            name: "channel".into(),
+            reason: format!("no channel {channel} (there are {})", self.channels.len()),
+        })
+    }
+
+    /// The goals of `channel`.
+    ///
+    /// # Errors
+    /// [`Error::Invalid`] when the channel does not exist.
+    pub fn goals(&self, channel: usize) -> Result<&[(u32, u32)]> {
+        Ok(&self.channel(channel)?.goals)
+    }
+
+    /// Replaces the goals of `channel` (moved goals) and marks it dirty.
+    ///
+    /// # Errors
+    /// [`Error::Invalid`] when the channel does not exist or the goals are bad (as
+    /// [`GoalChannels::add_channel`]); nothing changes then.
+    pub fn set_goals(&mut self, channel: usize, goals: &[(u32, u32)]) -> Result<()> {
+        self.channel(channel)?;
+        check_goals(&self.grid, goals)?;
+        let ch = &mut self.channels[channel];
+        ch.goals = goals.to_vec();
+        ch.dirty = true;
+        Ok(())
+    }
+
+    /// Re-randomises the goals of `channel`: `n` distinct free cells drawn with `seed` (the
+    /// notes' "click to randomize goals").
+    ///
+    /// # Errors
+    /// [`Error::Invalid`] when the channel does not exist, `n` is 0, or the grid has fewer than
+    /// `n` free cells.
+    pub fn randomize_goals(&mut self, channel: usize, n: usize, seed: u64) -> Result<()> {
+        let goals = random_free_cells(&self.grid, n, seed)?;
+        self.set_goals(channel, &goals)
+    }
+
+    /// Makes `(x, y)` a wall (`blocked`) or free ground; when that changes the cell, every channel
+    /// is marked dirty.
+    ///
+    /// # Errors
+    /// [`Error::Invalid`] when the cell lies outside the grid, or would become a wall while it is
+    /// a goal of some channel.
+    pub fn set_blocked(&mut self, x: u32, y: u32, blocked: bool) -> Result<()> {
+        self.grid.check_cell("cell", x, y)?;
+        if blocked && let Some(ch) = self.channels.iter().position(|c| c.goals.contains(&(x, y))) {
+            return Err(Error::Invalid {
+                name: "cell".into(),
+                reason: format!("({x}, {y}) is a goal of channel {ch} and cannot become a wall"),
+            });
+        }
+        let cell = if blocked { Cell::Wall } else { Cell::Free };
+        if self.grid.cell(x, y) != Some(cell) {
+            self.grid.set(x, y, cell)?;
+            for ch in &mut self.channels {
+                ch.dirty = true;
+            }
+        }
+        Ok(())
+    }
+
+    /// Whether `channel` waits for a rebuild (false for a channel that does not exist).
+    #[must_use]
+    pub fn is_dirty(&self, channel: usize) -> bool {
+        self.channels.get(channel).is_some_and(|c| c.dirty)
+    }
+
+    /// Rebuilds every dirty channel (in parallel) and returns how many were rebuilt.
+    ///
+    /// # Errors
+    /// Only what [`PotentialField::bfs`] returns, which the checks on the way in rule out.
+    pub fn rebuild_dirty(&mut self) -> Result<usize> {
+        let (grid, decay, neighbourhood) = (&self.grid, self.decay, self.neighbourhood);
+        let results: Vec<Result<()>> = self
+            .channels
+            .par_iter_mut()
+            .filter(|c| c.dirty)
+            .map(|c| {
+                let field = PotentialField::bfs(grid, &c.goals, decay, neighbourhood)?;
+                let flow = FlowField::from_potential(&field);
+                c.built = Some((field, flow));
+                c.dirty = false;
+                Ok(())
+            })
+            .collect();
+        let rebuilt = results.len();
+        results.into_iter().collect::<Result<Vec<()>>>()?;
+        Ok(rebuilt)
+    }
+
+    /// The potential field of `channel`, or `None` when it does not exist or is dirty.
+    #[must_use]
+    pub fn field(&self, channel: usize) -> Option<&PotentialField> {
+        self.channels
+            .get(channel)
+            .filter(|c| !c.dirty)
+            .and_then(|c| c.built.as_ref())
+            .map(|b| &b.0)
+    }
+
+    /// The flow field of `channel`, or `None` when it does not exist or is dirty.
+    #[must_use]
+    pub fn flow(&self, channel: usize) -> Option<&FlowField> {
+        self.channels
+            .get(channel)
+            .filter(|c| !c.dirty)
+            .and_then(|c| c.built.as_ref())
+            .map(|b| &b.1)
+    }
+}

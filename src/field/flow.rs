@@ -1,0 +1,241 @@
+//! Flow (vector) fields: per cell, the direction to its best neighbour, computed once.
+//!
+//! This is the optimisation of the potential-field notes: an agent reads one direction from its
+//! own cell instead of comparing all its neighbours. A [`FlowField`] is built from a
+//! [`PotentialField`] (best = the neighbour an agent climbs to) or an [`IntegrationField`] (best =
+//! the cheapest neighbour), with the same corner rule and tie order as those fields.
+//!
+//! Agents in continuous space call [`FlowField::sample`]: the directions of the four cells
+//! around the point are blended bilinearly, using only cells the point's own cell may step to
+//! (so a direction never leaks through a wall's corner), and the blend is then cleared of any
+//! component that points into a wall next to the point's cell. The result is a unit vector or
+//! zero; moving along it by less than one cell never enters a wall.
+//!
+//! Invariants: directions are one of the eight unit steps; goal cells, walls and unreachable
+//! cells have no direction; building is parallel over rows and deterministic.
+
+use glam::Vec2;
+use rayon::prelude::*;
+
+use super::integration::IntegrationField;
+use super::lattice::{DIRECTIONS, Lattice, UNIT};
+use super::potential::{PotentialField, UNSET};
+
+/// Direction code of a goal cell.
+const GOAL: u8 = 8;
+/// Direction code of a wall, an unreachable cell or the border.
+const NONE: u8 = 9;
+
+/// The direction from every cell to its best neighbour.
+#[derive(Clone, Debug, PartialEq)]
+pub struct FlowField {
+    lattice: Lattice,
+    /// Padded direction codes: `0..8` index [`DIRECTIONS`], then `GOAL` or `NONE`.
+    codes: Vec<u8>,
+}
+
+impl FlowField {
+    /// The flow of a potential field: each cell points to the neighbour an agent climbs to.
+    ///
+    /// # Examples
+    /// ```
+    /// # fn main() -> throng::Result<()> {
+    /// use glam::Vec2;
+    /// use throng::field::{FlowField, Neighbourhood, OccupancyGrid, PotentialField};
+    /// let map = OccupancyGrid::parse_ascii("...G\n", "<map>")?;
+    /// let field = PotentialField::bfs(&map.grid, &map.goals, 0.9, Neighbourhood::Four)?;
+    /// let flow = FlowField::from_potential(&field);
+    /// assert_eq!(flow.direction(0, 0), Vec2::X);
+    /// assert_eq!(flow.sample(Vec2::new(1.2, 0.5)), Vec2::X);
+    /// # Ok(()) }
+    /// ```
+    #[must_use]
+    pub fn from_potential(field: &PotentialField) -> Self {
+        let lattice = field.lattice;
+        let codes = build(&lattice, |p| match field.steps[p] {
+            0 => GOAL,
+            s if s >= UNSET => NONE,
+            _ => field
+                .best_from(p, |_| true)
+                .map_or(NONE, |q| code_of(&lattice, p, q)),
+        });
+        FlowField { lattice, codes }
+    }
+
+    /// The flow of an integration field: each cell points to its cheapest allowed neighbour.
+    #[must_use]
+    pub fn from_integration(field: &IntegrationField) -> Self {
+        let lattice = field.lattice;
+        let codes = build(&lattice, |p| {
+            let c = field.cost[p];
+            if c == 0.0 {
+                GOAL
+            } else if !c.is_finite() {
+                NONE
+            } else {
+                field.best_from(p).map_or(NONE, |q| code_of(&lattice, p, q))
+            }
+        });
+        FlowField { lattice, codes }
+    }
+
+    /// Number of columns.
+    #[must_use]
+    pub fn width(&self) -> u32 {
+        self.lattice.width
+    }
+
+    /// Number of rows.
+    #[must_use]
+    pub fn height(&self) -> u32 {
+        self.lattice.height
+    }
+
+    /// The cell containing world point `p`, or `None` outside the grid.
+    #[must_use]
+    pub fn world_to_cell(&self, p: Vec2) -> Option<(u32, u32)> {
+        self.lattice.world_to_cell(p)
+    }
+
+    /// World position of the centre of cell `(x, y)`.
+    #[must_use]
+    pub fn cell_center(&self, x: u32, y: u32) -> Vec2 {
+        self.lattice.cell_center(x, y)
+    }
+
+    /// Whether `(x, y)` is a goal cell.
+    #[must_use]
+    pub fn is_goal(&self, x: u32, y: u32) -> bool {
+        self.lattice
+            .checked_index(x, y)
+            .is_some_and(|p| self.codes[p] == GOAL)
+    }
+
+    /// Whether a goal can be reached from `(x, y)` (goals included).
+    #[must_use]
+    pub fn is_reachable(&self, x: u32, y: u32) -> bool {
+        self.lattice
+            .checked_index(x, y)
+            .is_some_and(|p| self.codes[p] != NONE)
+    }
+
+    /// The unit direction of cell `(x, y)`; zero on goals, walls, unreachable cells and outside.
+    #[must_use]
+    pub fn direction(&self, x: u32, y: u32) -> Vec2 {
+        self.lattice
+            .checked_index(x, y)
+            .map_or(Vec2::ZERO, |p| unit(self.codes[p]))
+    }
+
+    /// The cell `(x, y)`'s direction leads to, or `None` where it has none.
+    #[must_use]
+    pub fn next_cell(&self, x: u32, y: u32) -> Option<(u32, u32)> {
+        let p = self.lattice.checked_index(x, y)?;
+        let c = self.codes[p];
+        (c < 8).then(|| self.lattice.coords(self.lattice.step(p, c as usize)))
+    }
+
+    /// The flow at world point `p`: a unit vector, or zero on a goal cell, outside the grid, and
+    /// in cells that cannot reach a goal. See the module docs for the blending and wall rules.
+    #[must_use]
+    pub fn sample(&self, p: Vec2) -> Vec2 {
+        let l = &self.lattice;
+        let Some((cx, cy)) = l.world_to_cell(p) else {
+            return Vec2::ZERO;
+        };
+        let c = l.index(cx, cy);
+        let own = self.codes[c];
+        if own >= 8 {
+            return Vec2::ZERO;
+        }
+        let open = |q: usize| self.codes[q] != NONE;
+        // Bilinear weights over the 2x2 block of cell centres around `p`.
+        let g = l.cell_space(p) - 0.5;
+        let (bx, by) = (g.x.floor(), g.y.floor());
+        let (fx, fy) = (g.x - bx, g.y - by);
+        // Offsets of the block's lower-left cell from the own cell: each 0 or -1.
+        let ox = bx as i64 - i64::from(cx);
+        let oy = by as i64 - i64::from(cy);
+        let mut v = Vec2::ZERO;
+        for (dx, dy, w) in [
+            (0, 0, (1.0 - fx) * (1.0 - fy)),
+            (1, 0, fx * (1.0 - fy)),
+            (0, 1, (1.0 - fx) * fy),
+            (1, 1, fx * fy),
+        ] {
+            let (rx, ry) = (ox + dx, oy + dy); // relative to the own cell, in -1..=1
+            let q = c.wrapping_add_signed(rx as isize + ry as isize * l.stride as isize);
+            if !open(q) {
+                continue;
+            }
+            if rx != 0 && ry != 0 {
+                // Diagonal: only when both cells it passes are open.
+                let sx = c.wrapping_add_signed(rx as isize);
+                let sy = c.wrapping_add_signed(ry as isize * l.stride as isize);
+                if !open(sx) || !open(sy) {
+                    continue;
+                }
+            }
+            v += w * unit(self.codes[q]);
+        }
+        let own_dir = UNIT[own as usize];
+        if v.dot(own_dir) <= 0.0 {
+            return own_dir;
+        }
+        // Clear components that point into walls next to the own cell.
+        let sx: isize = if v.x > 0.0 { 1 } else { -1 };
+        let sy: isize = if v.y > 0.0 { 1 } else { -1 };
+        let stride = l.stride as isize;
+        if v.x != 0.0 && !open(c.wrapping_add_signed(sx)) {
+            v.x = 0.0;
+        }
+        if v.y != 0.0 && !open(c.wrapping_add_signed(sy * stride)) {
+            v.y = 0.0;
+        }
+        if v.x != 0.0 && v.y != 0.0 && !open(c.wrapping_add_signed(sx + sy * stride)) {
+            if v.x.abs() < v.y.abs() {
+                v.x = 0.0;
+            } else {
+                v.y = 0.0;
+            }
+        }
+        v.try_normalize().unwrap_or(own_dir)
+    }
+}
+
+#[inline]
+fn unit(code: u8) -> Vec2 {
+    if code < 8 {
+        UNIT[code as usize]
+    } else {
+        Vec2::ZERO
+    }
+}
+
+fn code_of(lattice: &Lattice, p: usize, q: usize) -> u8 {
+    let k = lattice
+        .offsets
+        .iter()
+        .position(|&o| p.wrapping_add_signed(o) == q);
+    debug_assert!(k.is_some() && k.unwrap() < DIRECTIONS.len());
+    k.map_or(NONE, |k| k as u8)
+}
+
+fn build(lattice: &Lattice, code: impl Fn(usize) -> u8 + Sync) -> Vec<u8> {
+    let mut codes = vec![NONE; lattice.len];
+    let stride = lattice.stride;
+    let w = lattice.width as usize;
+    codes
+        .par_chunks_mut(stride)
+        .enumerate()
+        .with_min_len(16)
+        .for_each(|(row, out)| {
+            if row == 0 || row > lattice.height as usize {
+                return;
+            }
+            for (x, o) in out[1..=w].iter_mut().enumerate() {
+                *o = code(row * stride + x + 1);
+            }
+        });
+    codes
+}
