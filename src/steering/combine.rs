@@ -22,22 +22,58 @@ pub fn priority_sum(
     budget: f32,
     angular_budget: f32,
 ) -> Steering {
-    let mut linear = Vec2::ZERO;
-    let mut angular = 0.0_f32;
+    let mut acc = PrioritySum::new(budget, angular_budget);
     for s in parts {
-        let left = budget - linear.length();
-        if left > 0.0 {
-            linear += truncate(s.linear, left);
-        }
-        let left_ang = angular_budget - angular.abs();
-        if left_ang > 0.0 {
-            angular += s.angular.clamp(-left_ang, left_ang);
-        }
-        if left <= 0.0 && left_ang <= 0.0 {
+        if !acc.push(s) {
             break;
         }
     }
-    Steering { linear, angular }
+    acc.total()
+}
+
+/// The running state of [`priority_sum`], for callers that compute requests one at a time and
+/// want to stop as soon as the budget is spent.
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub struct PrioritySum {
+    linear: Vec2,
+    angular: f32,
+    budget: f32,
+    angular_budget: f32,
+}
+
+impl PrioritySum {
+    /// An empty sum with the given budgets.
+    #[must_use]
+    pub fn new(budget: f32, angular_budget: f32) -> Self {
+        PrioritySum {
+            linear: Vec2::ZERO,
+            angular: 0.0,
+            budget,
+            angular_budget,
+        }
+    }
+
+    /// Adds the next request; returns whether any budget is left for later ones.
+    pub fn push(&mut self, s: Steering) -> bool {
+        let left = self.budget - self.linear.length();
+        if left > 0.0 {
+            self.linear += truncate(s.linear, left);
+        }
+        let left_ang = self.angular_budget - self.angular.abs();
+        if left_ang > 0.0 {
+            self.angular += s.angular.clamp(-left_ang, left_ang);
+        }
+        self.budget - self.linear.length() > 0.0 || self.angular_budget - self.angular.abs() > 0.0
+    }
+
+    /// The sum so far.
+    #[must_use]
+    pub fn total(&self) -> Steering {
+        Steering {
+            linear: self.linear,
+            angular: self.angular,
+        }
+    }
 }
 
 #[cfg(test)]

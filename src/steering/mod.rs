@@ -33,7 +33,7 @@ pub use behaviour::{
     ArriveParams, Behaviour, Combine, Neighbourhood, SteeringProfile, Target, WanderParams,
     Weighted,
 };
-pub use combine::{priority_sum, weighted_sum};
+pub use combine::{PrioritySum, priority_sum, weighted_sum};
 pub use flocking::{NeighbourSums, alignment, cohesion, desired, polarisation, separation};
 pub use pursuit::{evade, predict_position, pursue};
 pub use seek::{arrive, flee, kinematic_arrive, kinematic_flee, kinematic_seek, seek};

@@ -212,20 +212,6 @@ struct KernelQuery {
     h: f32,
 }
 
-/// Lane accumulators.
-#[derive(Clone, Copy, Debug, Default)]
-struct Acc {
-    sx: [f32; LANES],
-    sy: [f32; LANES],
-    ax: [f32; LANES],
-    ay: [f32; LANES],
-    an: [f32; LANES],
-    cx: [f32; LANES],
-    cy: [f32; LANES],
-    cn: [f32; LANES],
-    n: [f32; LANES],
-}
-
 /// The grid kernel: sums over the neighbour cells of `me`, read as contiguous runs.
 pub(crate) fn sums_grid(
     grid: &GridIndex,
@@ -233,9 +219,26 @@ pub(crate) fn sums_grid(
     bounds: Bounds,
     me: &Querier,
     spec: &FlockSpec,
+    one_group: bool,
 ) -> NeighbourSums {
+    // On a torus, offsets need the minimum image only when the gathered cells reach across a
+    // seam; away from the seams the plain difference is already the minimum image.
     let (half_w, half_h, w, h) = match bounds {
-        Bounds::Torus { size } => (0.5 * size.x, 0.5 * size.y, size.x, size.y),
+        Bounds::Torus { size } => {
+            let reach = grid.cell_size() + Vec2::splat(spec.query_r * 1.001);
+            let p = me.position;
+            let inside = p.x - reach.x >= 0.0
+                && p.x + reach.x < size.x
+                && p.y - reach.y >= 0.0
+                && p.y + reach.y < size.y
+                && reach.x <= 0.5 * size.x
+                && reach.y <= 0.5 * size.y;
+            if inside {
+                (f32::INFINITY, f32::INFINITY, 0.0, 0.0)
+            } else {
+                (0.5 * size.x, 0.5 * size.y, size.x, size.y)
+            }
+        }
         _ => (f32::INFINITY, f32::INFINITY, 0.0, 0.0),
     };
     let q = KernelQuery {
@@ -248,37 +251,55 @@ pub(crate) fn sums_grid(
         r_sq: [0, 1, 2].map(|b| if spec.on[b] { spec.r_sq[b] } else { -1.0 }),
         cos: spec.cos,
         full: spec.cos.map(|c| c <= -1.0),
-        any_group: spec.same.map(|s| !s),
+        any_group: spec.same.map(|s| !s || one_group),
         half_w,
         half_h,
         w,
         h,
     };
-    let view = q.full.iter().any(|f| !f);
-    let mut acc = Acc::default();
-    let mut runs = [(0u32, 0u32); 16];
+    let wrapping = half_w.is_finite();
+    let mode = u8::from(q.full.iter().any(|f| !f))
+        | (u8::from(wrapping) << 1)
+        | (u8::from(q.any_group.iter().all(|&a| a)) << 2);
+    let mut runs = [(0u32, 0u32); MAX_RUNS];
     let mut nr = 0;
-    grid.for_each_run(me.position, spec.query_r, |r| {
-        runs[nr] = (r.start as u32, r.end as u32);
-        nr += 1;
-        if nr == runs.len() {
-            kernel(&runs, sorted, &q, view, &mut acc);
-            nr = 0;
-        }
-    });
-    if nr > 0 {
-        kernel(&runs[..nr], sorted, &q, view, &mut acc);
-    }
-    let hsum = |a: &[f32; LANES]| a.iter().fold(0.0_f32, |s, v| s + v);
-    let mut s = NeighbourSums {
-        separation: Vec2::new(hsum(&acc.sx), hsum(&acc.sy)),
-        alignment: Vec2::new(hsum(&acc.ax), hsum(&acc.ay)),
-        alignment_count: hsum(&acc.an),
-        cohesion: Vec2::new(hsum(&acc.cx), hsum(&acc.cy)),
-        cohesion_count: hsum(&acc.cn),
-        repulsion: Vec2::ZERO,
-        count: hsum(&acc.n),
+    let mut total = NeighbourSums::default();
+    let flush = |runs: &[(u32, u32)], total: &mut NeighbourSums| {
+        let part = kernel(runs, sorted, &q, mode);
+        add_sums(total, &part);
     };
+    if wrapping {
+        grid.for_each_run(me.position, spec.query_r, |r| {
+            runs[nr] = (r.start as u32, r.end as u32);
+            nr += 1;
+            if nr == MAX_RUNS {
+                flush(&runs, &mut total);
+                nr = 0;
+            }
+        });
+    } else {
+        // No seam in reach: the window of cells is a rectangle, each of its rows one run.
+        let rg = Vec2::splat(spec.query_r * 1.001 + 1e-6);
+        let (c0, r0) = grid.cell_of(me.position - rg);
+        let (c1, r1) = grid.cell_of(me.position + rg);
+        let starts = grid.cell_start();
+        let cols = grid.cells_x() as usize;
+        for row in r0 as usize..r1 as usize + 1 {
+            runs[nr] = (
+                starts[row * cols + c0 as usize],
+                starts[row * cols + c1 as usize + 1],
+            );
+            nr += 1;
+            if nr == MAX_RUNS {
+                flush(&runs, &mut total);
+                nr = 0;
+            }
+        }
+    }
+    if nr > 0 {
+        flush(&runs[..nr], &mut total);
+    }
+    let mut s = total;
     // The agent found itself (offset zero): take it out again.
     s.count -= 1.0;
     if spec.on[ALI] {
@@ -291,75 +312,129 @@ pub(crate) fn sums_grid(
     s
 }
 
+/// Runs handed to the kernel at once.
+const MAX_RUNS: usize = 16;
+
+fn add_sums(total: &mut NeighbourSums, part: &NeighbourSums) {
+    total.separation += part.separation;
+    total.alignment += part.alignment;
+    total.alignment_count += part.alignment_count;
+    total.cohesion += part.cohesion;
+    total.cohesion_count += part.cohesion_count;
+    total.count += part.count;
+}
+
 #[multiversion(targets("x86_64+avx2+fma", "x86_64+avx"))]
-fn kernel(runs: &[(u32, u32)], s: &SortedCopies, q: &KernelQuery, view: bool, acc: &mut Acc) {
-    if view {
-        kernel_body::<true>(runs, s, q, acc)
-    } else {
-        kernel_body::<false>(runs, s, q, acc)
+fn kernel(runs: &[(u32, u32)], s: &SortedCopies, q: &KernelQuery, mode: u8) -> NeighbourSums {
+    match mode {
+        0 => kernel_body::<false, false, false>(runs, s, q),
+        1 => kernel_body::<true, false, false>(runs, s, q),
+        2 => kernel_body::<false, true, false>(runs, s, q),
+        3 => kernel_body::<true, true, false>(runs, s, q),
+        4 => kernel_body::<false, false, true>(runs, s, q),
+        5 => kernel_body::<true, false, true>(runs, s, q),
+        6 => kernel_body::<false, true, true>(runs, s, q),
+        _ => kernel_body::<true, true, true>(runs, s, q),
     }
 }
 
+/// Minimum image of one lane's difference (identity when `half` is infinite).
 #[inline(always)]
-fn kernel_body<const VIEW: bool>(
+fn wrap(d: f32, half: f32, side: f32) -> f32 {
+    if d > half {
+        d - side
+    } else if d < -half {
+        d + side
+    } else {
+        d
+    }
+}
+
+/// 1.0 when `b`, else 0.0.
+#[inline(always)]
+fn one_if(b: bool) -> f32 {
+    if b { 1.0 } else { 0.0 }
+}
+
+#[inline(always)]
+fn kernel_body<const VIEW: bool, const WRAP: bool, const ALL_GROUPS: bool>(
     runs: &[(u32, u32)],
     s: &SortedCopies,
     q: &KernelQuery,
-    acc: &mut Acc,
-) {
+) -> NeighbourSums {
+    let z = [0.0_f32; LANES];
+    let (mut sx, mut sy, mut ax, mut ay, mut an, mut cx, mut cy, mut cn, mut n) =
+        (z, z, z, z, z, z, z, z, z);
+    let lane_id: [f32; LANES] = std::array::from_fn(|l| l as f32);
     for &(a, b) in runs {
         let (a, b) = (a as usize, b as usize);
-        let mut k = a;
-        while k < b {
-            let left = (b - k) as u32;
-            let xs: &[f32; LANES] = s.x[k..k + LANES].try_into().expect("padded");
-            let ys: &[f32; LANES] = s.y[k..k + LANES].try_into().expect("padded");
-            let vxs: &[f32; LANES] = s.vx[k..k + LANES].try_into().expect("padded");
-            let vys: &[f32; LANES] = s.vy[k..k + LANES].try_into().expect("padded");
-            let gs: &[f32; LANES] = s.g[k..k + LANES].try_into().expect("padded");
+        // Whole blocks of eight, the last one reaching into the padding.
+        let end = a + (b - a).div_ceil(LANES) * LANES;
+        let blocks = s.x[a..end]
+            .chunks_exact(LANES)
+            .zip(s.y[a..end].chunks_exact(LANES))
+            .zip(s.vx[a..end].chunks_exact(LANES))
+            .zip(s.vy[a..end].chunks_exact(LANES))
+            .zip(s.g[a..end].chunks_exact(LANES));
+        let mut left = (b - a) as f32;
+        for ((((xs, ys), vxs), vys), gs) in blocks {
+            // Masks are 0.0 / 1.0 floats and "and" is a product: plain float arithmetic that the
+            // compiler turns into one vector instruction per operation.
             for l in 0..LANES {
-                let valid = (l as u32) < left;
-                let mut dx = xs[l] - q.x;
-                dx = if dx > q.half_w {
-                    dx - q.w
-                } else if dx < -q.half_w {
-                    dx + q.w
+                let valid = one_if(lane_id[l] < left);
+                let (dx, dy) = if WRAP {
+                    (
+                        wrap(xs[l] - q.x, q.half_w, q.w),
+                        wrap(ys[l] - q.y, q.half_h, q.h),
+                    )
                 } else {
-                    dx
-                };
-                let mut dy = ys[l] - q.y;
-                dy = if dy > q.half_h {
-                    dy - q.h
-                } else if dy < -q.half_h {
-                    dy + q.h
-                } else {
-                    dy
+                    (xs[l] - q.x, ys[l] - q.y)
                 };
                 let d2 = dx * dx + dy * dy;
-                let same = gs[l] == q.g;
+                let same = if ALL_GROUPS {
+                    1.0
+                } else {
+                    one_if(gs[l] == q.g)
+                };
                 let (dot, dist) = if VIEW {
                     (q.hx * dx + q.hy * dy, d2.sqrt())
                 } else {
                     (0.0, 0.0)
                 };
                 let sees = |b: usize| {
-                    valid
-                        && d2 <= q.r_sq[b]
-                        && (q.any_group[b] || same)
-                        && (!VIEW || q.full[b] || dot >= q.cos[b] * dist)
+                    let group = if q.any_group[b] { 1.0 } else { same };
+                    let view = if !VIEW || q.full[b] {
+                        1.0
+                    } else {
+                        one_if(dot >= q.cos[b] * dist)
+                    };
+                    valid * one_if(d2 <= q.r_sq[b]) * group * view
                 };
-                let (ms, ma, mc) = (sees(SEP) && d2 > 0.0, sees(ALI), sees(COH));
-                acc.sx[l] += if ms { -dx / d2 } else { 0.0 };
-                acc.sy[l] += if ms { -dy / d2 } else { 0.0 };
-                acc.ax[l] += if ma { vxs[l] } else { 0.0 };
-                acc.ay[l] += if ma { vys[l] } else { 0.0 };
-                acc.an[l] += if ma { 1.0 } else { 0.0 };
-                acc.cx[l] += if mc { dx } else { 0.0 };
-                acc.cy[l] += if mc { dy } else { 0.0 };
-                acc.cn[l] += if mc { 1.0 } else { 0.0 };
-                acc.n[l] += if valid && d2 <= q.q_sq { 1.0 } else { 0.0 };
+                let ms = sees(SEP) * one_if(d2 > 0.0);
+                let ma = sees(ALI);
+                let mc = sees(COH);
+                let inv = 1.0 / d2.max(f32::MIN_POSITIVE);
+                sx[l] -= ms * (dx * inv);
+                sy[l] -= ms * (dy * inv);
+                ax[l] += ma * vxs[l];
+                ay[l] += ma * vys[l];
+                an[l] += ma;
+                cx[l] += mc * dx;
+                cy[l] += mc * dy;
+                cn[l] += mc;
+                n[l] += valid * one_if(d2 <= q.q_sq);
             }
-            k += LANES;
+            left -= LANES as f32;
         }
+    }
+    let hsum = |a: &[f32; LANES]| a.iter().fold(0.0_f32, |s, v| s + v);
+    NeighbourSums {
+        separation: Vec2::new(hsum(&sx), hsum(&sy)),
+        alignment: Vec2::new(hsum(&ax), hsum(&ay)),
+        alignment_count: hsum(&an),
+        cohesion: Vec2::new(hsum(&cx), hsum(&cy)),
+        cohesion_count: hsum(&cn),
+        repulsion: Vec2::ZERO,
+        count: hsum(&n),
     }
 }

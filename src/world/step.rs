@@ -116,7 +116,7 @@ impl SteerCtx<'_> {
         };
         match (self.index, self.sorted) {
             (SpatialIndex::Grid(grid), Some(sorted)) if spec.kernel_ok() => {
-                neighbours::sums_grid(grid, sorted, self.bounds, &me, spec)
+                neighbours::sums_grid(grid, sorted, self.bounds, &me, spec, self.groups.len() == 1)
             }
             _ => NEIGHBOURS.with_borrow_mut(|buf| {
                 neighbours::sums_scalar(self.index, i, &me, spec, &a.vel_x, &a.vel_y, &a.group, buf)
@@ -139,47 +139,40 @@ impl SteerCtx<'_> {
         let mut rng = AgentRng::new(self.seed, a.ids[i].0, self.frame, STREAM_STEER);
         let sums = self.sums(i, velocity, orientation);
 
-        let mut parts = [Steering::ZERO; 16];
-        let mut weights = [0.0_f32; 16];
-        let mut count = 0;
+        let priority = g.steering.combine == Combine::Priority;
+        let mut running = if kinematic {
+            steering::PrioritySum::new(max_speed, g.max_rotation)
+        } else {
+            steering::PrioritySum::new(g.max_acceleration * g.mass, g.max_angular_acceleration)
+        };
         let mut total = Steering::ZERO;
-        for (k, w) in g.steering.behaviours.iter().enumerate() {
-            let s = self.behaviour(
-                i,
-                &w.behaviour,
-                g,
-                kinematic,
-                position,
-                velocity,
-                orientation,
-                rotation,
-                max_speed,
-                &sums,
-                &mut wander_angle,
-                &mut rng,
-            );
-            match g.steering.combine {
-                Combine::WeightedSum => total += s.scaled(w.weight),
-                Combine::Priority => {
-                    if k < parts.len() {
-                        parts[k] = s;
-                        weights[k] = w.weight;
-                        count = k + 1;
-                    }
+        for w in &g.steering.behaviours {
+            let s = self
+                .behaviour(
+                    i,
+                    &w.behaviour,
+                    g,
+                    kinematic,
+                    position,
+                    velocity,
+                    orientation,
+                    rotation,
+                    max_speed,
+                    &sums,
+                    &mut wander_angle,
+                    &mut rng,
+                )
+                .scaled(w.weight);
+            if priority {
+                if !running.push(s) {
+                    break;
                 }
+            } else {
+                total += s;
             }
         }
-        if g.steering.combine == Combine::Priority {
-            let (budget, ang_budget) = if kinematic {
-                (max_speed, g.max_rotation)
-            } else {
-                (g.max_acceleration * g.mass, g.max_angular_acceleration)
-            };
-            total = steering::priority_sum(
-                (0..count).map(|k| parts[k].scaled(weights[k])),
-                budget,
-                ang_budget,
-            );
+        if priority {
+            total = running.total();
         }
         let out = if kinematic {
             total
