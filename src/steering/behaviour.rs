@@ -18,12 +18,26 @@ pub enum Target {
     Agent(AgentId),
     /// Each agent's own target point, set with `World::set_target`.
     Own,
+    /// The nearest agent of `group` within `within` (found through a neighbour index of that
+    /// group); nothing when none is that close.
+    Nearest {
+        /// The group to look in.
+        group: usize,
+        /// Search radius (> 0).
+        within: f32,
+    },
 }
 
 impl Target {
     fn validate(&self, name: &'static str) -> Result<()> {
-        if let Target::Point(p) = self {
-            finite_vec(name, *p)?;
+        match self {
+            Target::Point(p) => {
+                finite_vec(name, *p)?;
+            }
+            Target::Nearest { within, .. } => {
+                positive("target.within", *within)?;
+            }
+            Target::Agent(_) | Target::Own => {}
         }
         Ok(())
     }
@@ -185,6 +199,36 @@ pub enum Behaviour {
         #[serde(flatten)]
         hood: Neighbourhood,
     },
+    /// Reynolds' obstacle avoidance of circles with a detection box `box_length * (1 + speed /
+    /// max_speed)` long and as wide as the agent.
+    AvoidObstacles {
+        /// Box length at rest (> 0). Default: 4.
+        #[serde(default = "four")]
+        box_length: f32,
+    },
+    /// Wall avoidance with three feelers.
+    AvoidWalls {
+        /// Length of the forward feeler (> 0). Default: 4.
+        #[serde(default = "four")]
+        feeler_length: f32,
+    },
+    /// Stay inside a walled world: push back when the position `lookahead` seconds ahead comes
+    /// within `margin` of an edge.
+    Containment {
+        /// Margin (> 0). Default: 5.
+        #[serde(default = "five")]
+        margin: f32,
+        /// Seconds to look ahead (>= 0). Default: 0.5.
+        #[serde(default = "half")]
+        lookahead: f32,
+    },
+    /// The total force of the world's gravity points (document 000), as a steering force.
+    AntiGravity,
+    /// Document 000's seek: full speed along `normalize(normalize(target - p) + total force)`.
+    AntiGravitySeek {
+        /// Where to go.
+        target: Target,
+    },
     /// Other agents as repelling gravity points (document 000): each neighbour within `radius`
     /// pushes with `strength / distance^exponent` along the bearing away from it.
     Repulsion {
@@ -233,6 +277,15 @@ impl Neighbourhood {
 
 fn two() -> f32 {
     2.0
+}
+fn four() -> f32 {
+    4.0
+}
+fn five() -> f32 {
+    5.0
+}
+fn half() -> f32 {
+    0.5
 }
 fn minus_one() -> f32 {
     -1.0
@@ -284,6 +337,11 @@ impl Behaviour {
             Behaviour::Alignment { .. } => "alignment",
             Behaviour::Cohesion { .. } => "cohesion",
             Behaviour::Repulsion { .. } => "repulsion",
+            Behaviour::AvoidObstacles { .. } => "avoid_obstacles",
+            Behaviour::AvoidWalls { .. } => "avoid_walls",
+            Behaviour::Containment { .. } => "containment",
+            Behaviour::AntiGravity => "anti_gravity",
+            Behaviour::AntiGravitySeek { .. } => "anti_gravity_seek",
         }
     }
 
@@ -297,13 +355,18 @@ impl Behaviour {
             | Behaviour::Pursue { target, .. }
             | Behaviour::Evade { target, .. }
             | Behaviour::Face { target, .. }
-            | Behaviour::MatchVelocity { target, .. } => Some(target),
+            | Behaviour::MatchVelocity { target, .. }
+            | Behaviour::AntiGravitySeek { target } => Some(target),
             Behaviour::Wander { .. }
             | Behaviour::LookWhereYouAreGoing { .. }
             | Behaviour::Separation { .. }
             | Behaviour::Alignment { .. }
             | Behaviour::Cohesion { .. }
-            | Behaviour::Repulsion { .. } => None,
+            | Behaviour::Repulsion { .. }
+            | Behaviour::AvoidObstacles { .. }
+            | Behaviour::AvoidWalls { .. }
+            | Behaviour::Containment { .. }
+            | Behaviour::AntiGravity => None,
         }
     }
 
@@ -363,6 +426,17 @@ impl Behaviour {
                 non_negative("repulsion.exponent", *exponent)?;
                 positive("repulsion.radius", *radius)?;
             }
+            Behaviour::AvoidObstacles { box_length } => {
+                positive("avoid_obstacles.box_length", *box_length)?;
+            }
+            Behaviour::AvoidWalls { feeler_length } => {
+                positive("avoid_walls.feeler_length", *feeler_length)?;
+            }
+            Behaviour::Containment { margin, lookahead } => {
+                positive("containment.margin", *margin)?;
+                non_negative("containment.lookahead", *lookahead)?;
+            }
+            Behaviour::AntiGravity | Behaviour::AntiGravitySeek { .. } => {}
         }
         Ok(())
     }

@@ -5,7 +5,9 @@ use super::step::Scratch;
 use crate::agents::{AgentId, AgentInit, Agents};
 use crate::bounds::Bounds;
 use crate::error::{Error, Result, finite, finite_vec, non_negative, positive};
+use crate::gravity::{GravityField, GravityPoint, Motion};
 use crate::movement::wrap_orientation;
+use crate::obstacles::{Circle, Obstacles, Wall};
 use crate::rng::AgentRng;
 use crate::spatial::{IndexKind, SpatialIndex};
 
@@ -45,6 +47,8 @@ pub struct World {
     pub(crate) index: SpatialIndex,
     /// Reorder agents by grid cell every this many frames (0: never).
     pub(crate) reorder_every: u32,
+    pub(crate) obstacles: Obstacles,
+    pub(crate) gravity: GravityField,
 }
 
 impl World {
@@ -65,7 +69,74 @@ impl World {
             scratch: Scratch::default(),
             index: SpatialIndex::new(IndexKind::Grid),
             reorder_every: DEFAULT_REORDER_EVERY,
+            obstacles: Obstacles::new(),
+            gravity: GravityField::default(),
         }
+    }
+
+    /// The world's obstacles.
+    #[must_use]
+    pub fn obstacles(&self) -> &Obstacles {
+        &self.obstacles
+    }
+
+    /// Adds a circular obstacle.
+    ///
+    /// # Errors
+    /// As [`Obstacles::add_circle`], or [`Error::Invalid`] when an agent's centre lies inside it.
+    pub fn add_circle(&mut self, circle: Circle) -> Result<()> {
+        let mut test = Obstacles::new();
+        test.add_circle(circle)?;
+        if let Some(i) =
+            (0..self.agents.len()).find(|&i| test.inside_circle(self.agents.position(i)))
+        {
+            return Err(Error::Invalid {
+                name: "circle".into(),
+                reason: format!("agent {} stands inside it", self.agents.id(i)),
+            });
+        }
+        self.obstacles.add_circle(circle)
+    }
+
+    /// Adds a wall (a segment agents cannot cross).
+    ///
+    /// # Errors
+    /// As [`Obstacles::add_wall`].
+    pub fn add_wall(&mut self, wall: Wall) -> Result<()> {
+        self.obstacles.add_wall(wall)
+    }
+
+    /// Adds the walls of a polyline, closed into a polygon when `closed`.
+    ///
+    /// # Errors
+    /// As [`Obstacles::add_polygon`].
+    pub fn add_polygon(&mut self, points: &[Vec2], closed: bool) -> Result<()> {
+        self.obstacles.add_polygon(points, closed)
+    }
+
+    /// The world's gravity points.
+    #[must_use]
+    pub fn gravity(&self) -> &GravityField {
+        &self.gravity
+    }
+
+    /// Adds a gravity point; returns its index.
+    ///
+    /// # Errors
+    /// As [`GravityPoint::validate`]; [`Error::UnknownAgent`] for a point riding on an unknown agent.
+    pub fn add_gravity_point(&mut self, point: GravityPoint) -> Result<usize> {
+        if let Motion::Agent { agent } = point.motion {
+            self.index(agent)?;
+        }
+        self.gravity.add(point)
+    }
+
+    /// Moves gravity point `k`.
+    ///
+    /// # Errors
+    /// [`Error::Invalid`] for an unknown point, [`Error::NonFinite`] for a bad position.
+    pub fn set_gravity_position(&mut self, k: usize, position: Vec2) -> Result<()> {
+        self.gravity.set_position(k, position)
     }
 
     /// The neighbour-index backend in use.
@@ -213,6 +284,15 @@ impl World {
     pub fn add_agent(&mut self, init: AgentInit) -> Result<AgentId> {
         self.check_group(init.group)?;
         self.bounds.check_point("position", init.position)?;
+        if self.obstacles.inside_circle(init.position) {
+            return Err(Error::Invalid {
+                name: "position".into(),
+                reason: format!(
+                    "({}, {}) lies inside an obstacle",
+                    init.position.x, init.position.y
+                ),
+            });
+        }
         finite_vec("velocity", init.velocity)?;
         finite("orientation", init.orientation)?;
         finite("rotation", init.rotation)?;
@@ -265,6 +345,12 @@ impl World {
     /// [`Error::UnknownAgent`], [`Error::NonFinite`], or an error for a point outside the world.
     pub fn set_position(&mut self, id: AgentId, position: Vec2) -> Result<()> {
         self.bounds.check_point("position", position)?;
+        if self.obstacles.inside_circle(position) {
+            return Err(Error::Invalid {
+                name: "position".into(),
+                reason: format!("({}, {}) lies inside an obstacle", position.x, position.y),
+            });
+        }
         let i = self.index(id)?;
         self.agents.pos_x[i] = position.x;
         self.agents.pos_y[i] = position.y;

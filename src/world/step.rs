@@ -10,10 +10,12 @@ use super::stats::{PhaseTimes, StepStats};
 use crate::agents::Agents;
 use crate::bounds::Bounds;
 use crate::error::{Error, Result};
+use crate::gravity::{self, GravityField};
 use crate::movement::{self, IntegrationParams, MotionState, MovementModel, SteeringBuffers};
+use crate::obstacles::{self, Circle, Obstacles, Wall};
 use crate::rng::AgentRng;
-use crate::spatial::{Neighbour, NeighbourIndex, SpatialIndex};
-use crate::steering::{self, Behaviour, Combine, NeighbourSums, Steering, Target};
+use crate::spatial::{GridIndex, Neighbour, NeighbourIndex, SpatialIndex};
+use crate::steering::{self, Basis, Behaviour, Combine, NeighbourSums, Steering, Target};
 
 /// Stream tag for per-frame behaviour randomness.
 const STREAM_STEER: u32 = 0;
@@ -27,6 +29,20 @@ pub(crate) struct Scratch {
     params: Vec<IntegrationParams>,
     flock: Vec<FlockSpec>,
     sorted: SortedCopies,
+    /// Per group: an index over that group's agents, when some behaviour looks for its nearest.
+    nearest: Vec<Option<NearestIndex>>,
+    prev_x: Vec<f32>,
+    prev_y: Vec<f32>,
+}
+
+/// A neighbour index over the agents of one group, for `Target::Nearest`.
+#[derive(Debug, Default)]
+pub(crate) struct NearestIndex {
+    index: GridIndex,
+    /// Agent storage index of each indexed point.
+    agents: Vec<u32>,
+    xs: Vec<f32>,
+    ys: Vec<f32>,
 }
 
 /// The steering pass's per-agent outputs.
@@ -71,6 +87,9 @@ pub(crate) struct SteerCtx<'a> {
     pub flock: &'a [FlockSpec],
     /// Cell-ordered copies for the grid kernel (`None`: use the scalar traversal).
     pub sorted: Option<&'a SortedCopies>,
+    pub nearest: &'a [Option<NearestIndex>],
+    pub obstacles: &'a Obstacles,
+    pub gravity: &'a GravityField,
 }
 
 /// A resolved target: its position (nearest image) and velocity.
@@ -90,6 +109,16 @@ impl SteerCtx<'_> {
                 if j == i {
                     return None;
                 }
+                (a.position(j), a.velocity(j))
+            }
+            Target::Nearest { group, within } => {
+                let ni = self.nearest.get(group)?.as_ref()?;
+                let j = NEIGHBOURS.with_borrow_mut(|buf| {
+                    ni.index.k_nearest_at(position, 2, within, None, buf);
+                    buf.iter()
+                        .map(|nb| ni.agents[nb.index as usize] as usize)
+                        .find(|&j| j != i)
+                })?;
                 (a.position(j), a.velocity(j))
             }
         };
@@ -394,6 +423,107 @@ impl SteerCtx<'_> {
                 Steering::linear(steering::cohesion(sums, velocity, max_speed))
             }
             Behaviour::Repulsion { .. } => Steering::linear(sums.repulsion),
+            Behaviour::AvoidObstacles { box_length } => {
+                if self.obstacles.circles().is_empty() {
+                    return Steering::ZERO;
+                }
+                let basis = Basis::from_velocity(position, velocity, orientation);
+                let length = box_length * (1.0 + velocity.length() / max_speed);
+                let radius = self.agents.radius[i];
+                let mut near = [Circle {
+                    center: Vec2::ZERO,
+                    radius: 0.0,
+                }; 32];
+                let mut count = 0;
+                let centre = position + basis.heading * (0.5 * length);
+                self.obstacles.broadphase().visit(
+                    centre,
+                    0.5 * length + radius,
+                    |c| {
+                        if count < near.len() {
+                            near[count] = self.obstacles.circles()[c as usize];
+                            count += 1;
+                        }
+                    },
+                    |_| {},
+                );
+                let force = obstacles::avoid_circles(
+                    &basis,
+                    radius,
+                    length,
+                    max_speed,
+                    near[..count].iter().copied(),
+                );
+                if kinematic {
+                    Steering::linear(force + velocity)
+                } else {
+                    Steering::linear(force)
+                }
+            }
+            Behaviour::AvoidWalls { feeler_length } => {
+                if self.obstacles.walls().is_empty() {
+                    return Steering::ZERO;
+                }
+                let basis = Basis::from_velocity(position, velocity, orientation);
+                let mut near = [Wall {
+                    a: Vec2::ZERO,
+                    b: Vec2::X,
+                }; 32];
+                let mut count = 0;
+                self.obstacles.broadphase().visit(
+                    position,
+                    feeler_length,
+                    |_| {},
+                    |w| {
+                        if count < near.len() {
+                            near[count] = self.obstacles.walls()[w as usize];
+                            count += 1;
+                        }
+                    },
+                );
+                let force = obstacles::avoid_walls(
+                    &basis,
+                    feeler_length,
+                    max_speed,
+                    near[..count].iter().copied(),
+                );
+                if kinematic {
+                    Steering::linear(force + velocity)
+                } else {
+                    Steering::linear(force)
+                }
+            }
+            Behaviour::Containment { margin, lookahead } => match self.bounds {
+                Bounds::Bounded { size } => {
+                    let force = obstacles::containment(
+                        position, velocity, size, margin, lookahead, max_speed,
+                    );
+                    if kinematic {
+                        Steering::linear(force + velocity)
+                    } else {
+                        Steering::linear(force)
+                    }
+                }
+                _ => Steering::ZERO,
+            },
+            Behaviour::AntiGravity => {
+                let force = NEIGHBOURS.with_borrow_mut(|buf| self.gravity.force_at(position, buf));
+                Steering::linear(force)
+            }
+            Behaviour::AntiGravitySeek { target: t } => match target(t) {
+                Some(r) => {
+                    let force =
+                        NEIGHBOURS.with_borrow_mut(|buf| self.gravity.force_at(position, buf));
+                    let desired =
+                        gravity::antigravity_seek(position, r.position, force) * max_speed;
+                    if kinematic {
+                        Steering::linear(desired)
+                    } else {
+                        Steering::linear(desired - velocity)
+                    }
+                }
+                None => Steering::ZERO,
+            },
         }
     }
 }
@@ -434,9 +564,12 @@ impl World {
         let mut phases = PhaseTimes::default();
         self.scratch.out.resize(n);
 
-        // 1. index: rebuilt when some group queries neighbours; agents reordered by cell when due
+        // 1. index: rebuilt when some group queries neighbours; agents reordered by cell when due;
+        //    gravity points moved and reindexed; per-group indices for nearest-agent targets
         let t = Instant::now();
+        self.advance_gravity(dt);
         let use_kernel = self.prepare_index();
+        self.prepare_nearest();
         phases.index = t.elapsed();
 
         // 2. steer
@@ -447,6 +580,10 @@ impl World {
 
         // 3. integrate
         let t = Instant::now();
+        if !self.obstacles.is_empty() {
+            self.scratch.prev_x.clone_from(&self.agents.pos_x);
+            self.scratch.prev_y.clone_from(&self.agents.pos_y);
+        }
         self.scratch.params.clear();
         self.scratch
             .params
@@ -480,6 +617,9 @@ impl World {
         // 4. bounds
         let t = Instant::now();
         apply_bounds(&mut self.agents, self.bounds);
+        if !self.obstacles.is_empty() {
+            self.resolve_obstacles(exec);
+        }
         phases.bounds = t.elapsed();
 
         self.frame += 1;
@@ -516,6 +656,9 @@ impl World {
             index: &self.index,
             flock: &self.scratch.flock,
             sorted: use_kernel.then_some(&self.scratch.sorted),
+            nearest: &self.scratch.nearest,
+            obstacles: &self.obstacles,
+            gravity: &self.gravity,
         };
         let s = &mut self.scratch.out;
         let kernel = |base: usize,
@@ -588,6 +731,89 @@ impl World {
     /// Rebuilds the neighbour index when some group needs neighbours, reorders the agents by
     /// grid cell when due, and fills the grid kernel's copies. Returns whether the grid kernel
     /// is ready.
+    /// Moves scripted and agent-borne gravity points and reindexes them.
+    fn advance_gravity(&mut self, dt: f32) {
+        if self.gravity.is_empty() {
+            return;
+        }
+        let agents = &self.agents;
+        self.gravity
+            .advance(dt, self.time + f64::from(dt), self.bounds, |id| {
+                agents.index_of(id).map(|i| agents.position(i))
+            });
+    }
+
+    /// Builds an index over each group some behaviour looks for the nearest agent of.
+    fn prepare_nearest(&mut self) {
+        let groups = self.groups.len();
+        self.scratch.nearest.resize_with(groups, || None);
+        let mut within = vec![0.0_f32; groups];
+        for g in &self.groups {
+            for w in &g.steering.behaviours {
+                if let Some(Target::Nearest { group, within: r }) = w.behaviour.target()
+                    && group < groups
+                {
+                    within[group] = within[group].max(r);
+                }
+            }
+        }
+        for (g, r) in within.into_iter().enumerate() {
+            if r <= 0.0 {
+                self.scratch.nearest[g] = None;
+                continue;
+            }
+            let ni = self.scratch.nearest[g].get_or_insert_with(NearestIndex::default);
+            ni.agents.clear();
+            ni.xs.clear();
+            ni.ys.clear();
+            let a = &self.agents;
+            for i in 0..a.len() {
+                if a.group[i] as usize == g {
+                    ni.agents.push(i as u32);
+                    ni.xs.push(a.pos_x[i]);
+                    ni.ys.push(a.pos_y[i]);
+                }
+            }
+            ni.index.rebuild(&ni.xs, &ni.ys, self.bounds, r);
+        }
+    }
+
+    /// The hard non-penetration step: no centre inside a circle, no move across a wall.
+    fn resolve_obstacles(&mut self, exec: Execution) {
+        let obstacles = &self.obstacles;
+        let bounds = self.bounds;
+        let (px, py) = (&self.scratch.prev_x, &self.scratch.prev_y);
+        let fix = |base: usize, x: &mut [f32], y: &mut [f32], vx: &mut [f32], vy: &mut [f32]| {
+            for k in 0..x.len() {
+                let from = Vec2::new(px[base + k], py[base + k]);
+                let to = Vec2::new(x[k], y[k]);
+                // On a torus, resolve the move as the short hop it was, then wrap.
+                let to_image = from + bounds.offset(from, to);
+                let (p, v) = obstacles.resolve(from, to_image, Vec2::new(vx[k], vy[k]));
+                let p = if p == to_image { to } else { bounds.wrap(p) };
+                x[k] = p.x;
+                y[k] = p.y;
+                vx[k] = v.x;
+                vy[k] = v.y;
+            }
+        };
+        let a = &mut self.agents;
+        match exec {
+            Execution::Parallel => {
+                (
+                    a.pos_x.par_chunks_mut(STEER_CHUNK),
+                    a.pos_y.par_chunks_mut(STEER_CHUNK),
+                    a.vel_x.par_chunks_mut(STEER_CHUNK),
+                    a.vel_y.par_chunks_mut(STEER_CHUNK),
+                )
+                    .into_par_iter()
+                    .enumerate()
+                    .for_each(|(c, (x, y, vx, vy))| fix(c * STEER_CHUNK, x, y, vx, vy));
+            }
+            Execution::Sequential => fix(0, &mut a.pos_x, &mut a.pos_y, &mut a.vel_x, &mut a.vel_y),
+        }
+    }
+
     fn prepare_index(&mut self) -> bool {
         self.scratch.flock.clear();
         self.scratch
