@@ -14,12 +14,14 @@
 //! scalar reference the parallel step is tested against.
 
 mod builder;
+mod formation;
 mod group;
 mod state;
 mod stats;
 mod step;
 
 pub use builder::WorldBuilder;
+pub use formation::Formation;
 pub use group::GroupParams;
 pub use state::{AgentState, World};
 pub use stats::{PhaseTimes, StepStats};

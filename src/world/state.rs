@@ -38,6 +38,8 @@ pub struct World {
     pub(crate) frame: u64,
     pub(crate) time: f64,
     pub(crate) scratch: Scratch,
+    /// Paths and formations (group movement).
+    pub(crate) group_movement: super::formation::GroupMovement,
 }
 
 impl World {
@@ -56,6 +58,7 @@ impl World {
             frame: 0,
             time: 0.0,
             scratch: Scratch::default(),
+            group_movement: Default::default(),
         }
     }
 
@@ -142,6 +145,7 @@ impl World {
     /// The variant naming the first bad parameter of `params`.
     pub fn add_group(&mut self, params: GroupParams) -> Result<usize> {
         params.validate()?;
+        self.check_group_refs(&params)?;
         self.groups.push(params);
         Ok(self.groups.len() - 1)
     }
@@ -154,6 +158,7 @@ impl World {
     pub fn set_group_params(&mut self, group: usize, params: GroupParams) -> Result<()> {
         self.check_group(group)?;
         params.validate()?;
+        self.check_group_refs(&params)?;
         for i in 0..self.agents.len() {
             if self.agents.group[i] as usize == group {
                 let o = self.agents.overrides[i];

@@ -49,6 +49,7 @@ pub(crate) struct SteerCtx<'a> {
     pub seed: u64,
     pub frame: u64,
     pub dt: f32,
+    pub group_movement: &'a super::formation::GroupMovement,
 }
 
 /// A resolved target: its position (nearest image) and velocity.
@@ -332,6 +333,12 @@ impl SteerCtx<'_> {
                 ),
                 None => Steering::ZERO,
             },
+            Behaviour::FollowPath { .. }
+            | Behaviour::FollowLeader { .. }
+            | Behaviour::KeepFormation { .. }
+            | Behaviour::Jump { .. } => {
+                self.group_behaviour(i, b, g, kinematic, position, velocity, max_speed)
+            }
         }
     }
 }
@@ -376,8 +383,9 @@ impl World {
         let t = Instant::now();
         phases.index = t.elapsed();
 
-        // 2. steer
+        // 2. steer (formations re-form first, sequentially)
         let t = Instant::now();
+        self.update_formations();
         {
             let ctx = SteerCtx {
                 agents: &self.agents,
@@ -386,6 +394,7 @@ impl World {
                 seed: self.seed,
                 frame: self.frame,
                 dt,
+                group_movement: &self.group_movement,
             };
             let s = &mut self.scratch;
             let kernel =
