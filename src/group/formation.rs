@@ -166,7 +166,8 @@ pub fn slot_offsets(shape: &FormationShape, n: usize, spacing: f32) -> Vec<Vec2>
 #[derive(Clone, Copy, Debug, PartialEq, Serialize, Deserialize)]
 #[serde(default, deny_unknown_fields)]
 pub struct SlotParams {
-    /// Within this distance of the slot only the slot's velocity is matched (>= 0). Default: 0.05.
+    /// Within this distance of the slot only the slot's velocity is matched (>= 0; 0: the
+    /// approach is proportional all the way in). Default: 0.
     pub target_radius: f32,
     /// Within this distance the approach speed scales down linearly (> 0). Default: 3.
     pub slow_radius: f32,
@@ -179,7 +180,7 @@ pub struct SlotParams {
 impl Default for SlotParams {
     fn default() -> Self {
         SlotParams {
-            target_radius: 0.05,
+            target_radius: 0.0,
             slow_radius: 3.0,
             time_to_target: 0.2,
             max_prediction: 0.5,
@@ -203,25 +204,19 @@ impl SlotParams {
 
 /// Offset pursuit of a moving slot, as a desired velocity: the slot's own velocity (velocity
 /// matching) plus an arrive-style approach to where the slot will be when the agent could reach
-/// it (at most `max_prediction` seconds ahead). On a straight run the approach term vanishes as
-/// the agent settles, so it rides on its slot without lag.
+/// it at full speed (`distance / max_speed`, at most `max_prediction` seconds ahead). On a
+/// straight run the approach term vanishes as the agent settles, so it rides on its slot
+/// without lag; the look-ahead shrinks with the distance, so it adds no offset there.
 #[must_use]
 pub fn slot_velocity(
     position: Vec2,
-    velocity: Vec2,
     slot: Vec2,
     slot_velocity: Vec2,
     max_speed: f32,
     p: &SlotParams,
 ) -> Vec2 {
     let predicted = if p.max_prediction > 0.0 {
-        predict_position(
-            position,
-            velocity.length(),
-            slot,
-            slot_velocity,
-            p.max_prediction,
-        )
+        predict_position(position, max_speed, slot, slot_velocity, p.max_prediction)
     } else {
         slot
     };
@@ -290,14 +285,7 @@ mod tests {
 
     #[test]
     fn settled_member_matches_slot_velocity() {
-        let v = slot_velocity(
-            Vec2::ZERO,
-            Vec2::X,
-            Vec2::ZERO,
-            Vec2::X,
-            3.0,
-            &SlotParams::default(),
-        );
+        let v = slot_velocity(Vec2::ZERO, Vec2::ZERO, Vec2::X, 3.0, &SlotParams::default());
         assert_eq!(v, Vec2::X);
     }
 }

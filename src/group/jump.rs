@@ -144,13 +144,15 @@ pub enum JumpPhase {
 }
 
 /// The phase and desired velocity of an agent at `position` moving at `velocity` heading for the
-/// jump `plan` from `launch`; `run_up` is the run-up length (> 0).
+/// jump `plan` from `launch` to `landing`, with the agent's limits (`max_acceleration` is
+/// `f32::INFINITY` in the kinematic model).
 ///
-/// The run-up is the segment of length `run_up` ending at `launch`, along the take-off velocity.
-/// An agent in that corridor (within `tolerance` of the line) and not moving backwards runs up:
-/// its desired velocity is the take-off velocity minus a correction of its sideways offset. Past
-/// the launch point and within `tolerance` of the line up to the landing point it is in flight.
-/// Anywhere else it arrives at the start of the run-up.
+/// The run-up is the segment of length [`run_up_length`] ending at `launch`, along the take-off
+/// velocity. An agent in that corridor (within `tolerance` of the line) and not moving backwards
+/// runs up: its desired velocity is the take-off velocity minus a correction of its sideways
+/// offset (velocity matching). Past the launch point and within `tolerance` of the line up to the
+/// landing point it is in flight. Anywhere else it arrives at the start of the run-up, no faster
+/// than it can brake in the distance left (arrive).
 #[must_use]
 #[allow(clippy::too_many_arguments)]
 pub fn jump_phase(
@@ -159,10 +161,12 @@ pub fn jump_phase(
     launch: Vec2,
     landing: Vec2,
     plan: &JumpPlan,
-    run_up: f32,
     max_speed: f32,
-    tolerance: f32,
+    max_acceleration: f32,
+    p: &JumpParams,
 ) -> JumpPhase {
+    let tolerance = p.tolerance;
+    let run_up = run_up_length(p, plan, max_acceleration);
     let speed = plan.velocity.length();
     let dir = plan.velocity / speed;
     let r = position - launch;
@@ -187,22 +191,26 @@ pub fn jump_phase(
     let start = launch - dir * run_up;
     let to = start - position;
     let dist = to.length();
-    let slow = (run_up * 0.5).max(tolerance * 4.0);
-    if dist <= tolerance * 0.25 {
+    if dist == 0.0 {
         return JumpPhase::Approach(Vec2::ZERO);
     }
-    JumpPhase::Approach(to * (max_speed * (dist / slow).min(1.0) / dist))
+    // Arrive: no faster than braking at half the maximum acceleration allows, slowing to rest
+    // over `time_to_target` at the end.
+    let approach = max_speed
+        .min((max_acceleration * dist).sqrt())
+        .min(dist / p.time_to_target);
+    JumpPhase::Approach(to * (approach / dist))
 }
 
-/// The run-up length to use: `p.run_up`, or when that is 0 twice the distance needed to reach the
-/// take-off speed from rest at `max_acceleration`, plus one unit (in the kinematic model, pass
-/// `f32::INFINITY` as the acceleration).
+/// The run-up length to use: `p.run_up`, or when that is 0 three times the distance needed to
+/// reach the take-off speed from rest at `max_acceleration`, plus one unit (in the kinematic
+/// model, pass `f32::INFINITY` as the acceleration).
 #[must_use]
 pub fn run_up_length(p: &JumpParams, plan: &JumpPlan, max_acceleration: f32) -> f32 {
     if p.run_up > 0.0 {
         p.run_up
     } else {
-        plan.velocity.length_squared() / max_acceleration + 1.0
+        1.5 * plan.velocity.length_squared() / max_acceleration + 1.0
     }
 }
 
@@ -239,25 +247,18 @@ mod tests {
             flight_time: 1.0,
         };
         let (l, d) = (Vec2::ZERO, Vec2::new(4.0, 0.0));
-        assert_eq!(
-            jump_phase(
-                Vec2::new(2.0, 0.1),
-                plan.velocity,
-                l,
-                d,
-                &plan,
-                5.0,
-                8.0,
-                0.5
-            ),
-            JumpPhase::Flight
-        );
+        let p = JumpParams {
+            run_up: 5.0,
+            ..JumpParams::default()
+        };
+        let phase = |at: Vec2, v: Vec2| jump_phase(at, v, l, d, &plan, 8.0, 10.0, &p);
+        assert_eq!(phase(Vec2::new(2.0, 0.1), plan.velocity), JumpPhase::Flight);
         assert!(matches!(
-            jump_phase(Vec2::new(-3.0, 0.0), Vec2::ZERO, l, d, &plan, 5.0, 8.0, 0.5),
+            phase(Vec2::new(-3.0, 0.0), Vec2::ZERO),
             JumpPhase::RunUp(v) if v == plan.velocity
         ));
         assert!(matches!(
-            jump_phase(Vec2::new(0.0, 10.0), Vec2::ZERO, l, d, &plan, 5.0, 8.0, 0.5),
+            phase(Vec2::new(0.0, 10.0), Vec2::ZERO),
             JumpPhase::Approach(v) if v.x < 0.0 && v.y < 0.0
         ));
     }

@@ -25,7 +25,7 @@ pub struct FollowParams {
     pub clear_ahead: f32,
     /// Half-width of the keep-out area (>= 0). Default: 1.5.
     pub clear_width: f32,
-    /// Within this distance of the slot only its velocity is matched (>= 0). Default: 0.05.
+    /// Within this distance of the slot only its velocity is matched (>= 0). Default: 0.
     pub target_radius: f32,
     /// Within this distance the approach slows down (> 0). Default: 3.
     pub slow_radius: f32,
@@ -87,7 +87,6 @@ impl FollowParams {
 #[must_use]
 pub fn follow_leader(
     position: Vec2,
-    velocity: Vec2,
     leader: &Basis,
     leader_velocity: Vec2,
     slot: Vec2,
@@ -101,7 +100,6 @@ pub fn follow_leader(
     }
     slot_velocity(
         position,
-        velocity,
         leader.to_world(slot),
         leader_velocity,
         max_speed,
@@ -117,26 +115,10 @@ mod tests {
     fn a_follower_in_front_gets_out_of_the_way() {
         let leader = Basis::from_orientation(Vec2::ZERO, 0.0);
         let p = FollowParams::default();
-        let v = follow_leader(
-            Vec2::new(2.0, -0.5),
-            Vec2::ZERO,
-            &leader,
-            Vec2::X,
-            p.offset,
-            3.0,
-            &p,
-        );
+        let v = follow_leader(Vec2::new(2.0, -0.5), &leader, Vec2::X, p.offset, 3.0, &p);
         assert_eq!(v, Vec2::new(0.0, -3.0));
         // Behind the leader: head for the slot.
-        let v = follow_leader(
-            Vec2::new(-10.0, 0.0),
-            Vec2::ZERO,
-            &leader,
-            Vec2::X,
-            p.offset,
-            3.0,
-            &p,
-        );
+        let v = follow_leader(Vec2::new(-10.0, 0.0), &leader, Vec2::X, p.offset, 3.0, &p);
         assert!(v.x > 0.0 && v.y.abs() < 1e-6);
     }
 }

@@ -6,6 +6,9 @@ pub const BUILTIN: &[(&str, &str)] = &[
     ("seek", include_str!("../../scenarios/seek.toml")),
     ("arrive", include_str!("../../scenarios/arrive.toml")),
     ("wander", include_str!("../../scenarios/wander.toml")),
+    ("path", include_str!("../../scenarios/path.toml")),
+    ("leader", include_str!("../../scenarios/leader.toml")),
+    ("formation", include_str!("../../scenarios/formation.toml")),
 ];
 
 /// The names of the built-in scenarios.

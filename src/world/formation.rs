@@ -468,7 +468,6 @@ impl SteerCtx<'_> {
                 }
                 let desired = group::follow_leader(
                     position,
-                    velocity,
                     &basis,
                     leader_velocity,
                     slot,
@@ -486,7 +485,6 @@ impl SteerCtx<'_> {
                         let (basis, anchor_velocity) = self.frame_of(j, position);
                         group::slot_velocity(
                             position,
-                            velocity,
                             basis.to_world(local),
                             anchor_velocity,
                             max_speed,
@@ -513,16 +511,8 @@ impl SteerCtx<'_> {
                 } else {
                     g.max_acceleration
                 };
-                let run_up = group::run_up_length(params, &plan, acc);
                 match group::jump_phase(
-                    position,
-                    velocity,
-                    *launch,
-                    *landing,
-                    &plan,
-                    run_up,
-                    max_speed,
-                    params.tolerance,
+                    position, velocity, *launch, *landing, &plan, max_speed, acc, params,
                 ) {
                     JumpPhase::Approach(v) | JumpPhase::RunUp(v) => {
                         Self::towards(kinematic, g, v, velocity, params.time_to_target)
