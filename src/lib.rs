@@ -32,6 +32,7 @@
 //! - [`agents`]: SoA storage with stable [`AgentId`]s.
 //! - [`movement`]: the kinematic and dynamic models and the vectorised integrator.
 //! - [`steering`]: behaviours as pure functions and as data, and their combination.
+//! - [`group`]: group movement: path following, leader following, formations, jumps.
 //! - [`world`]: [`World`], [`WorldBuilder`], [`GroupParams`], the step pipeline and [`StepStats`].
 //! - [`bounds`]: open, walled and wrap-around worlds and their metric.
 //! - [`rng`]: the counter-based random stream keyed by (seed, agent, frame).
@@ -46,6 +47,7 @@ pub mod bounds;
 pub mod error;
 pub mod field;
 pub mod gravity;
+pub mod group;
 pub mod movement;
 pub mod obstacles;
 pub mod rng;

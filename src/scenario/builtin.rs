@@ -7,6 +7,9 @@ pub const BUILTIN: &[(&str, &str)] = &[
     ("arrive", include_str!("../../scenarios/arrive.toml")),
     ("wander", include_str!("../../scenarios/wander.toml")),
     ("flock", include_str!("../../scenarios/flock.toml")),
+    ("path", include_str!("../../scenarios/path.toml")),
+    ("leader", include_str!("../../scenarios/leader.toml")),
+    ("formation", include_str!("../../scenarios/formation.toml")),
 ];
 
 /// The names of the built-in scenarios.

@@ -10,7 +10,9 @@
 //! proportion to their `count`s, except groups marked `fixed`.
 
 mod builtin;
+mod group;
 mod spec;
 
 pub use builtin::{BUILTIN, builtin, builtin_names};
+pub use group::{AgentRef, FormationSpec, Members};
 pub use spec::{DensitySpec, GroupSpec, Scenario, Spawn, WorldSpec};

@@ -36,6 +36,12 @@ pub struct Scenario {
     pub world: WorldSpec,
     /// The groups, in order (group index = position in this list).
     pub groups: Vec<GroupSpec>,
+    /// Paths that `follow_path` behaviours name by index. Default: none.
+    #[serde(default)]
+    pub paths: Vec<crate::group::Path>,
+    /// Formations, added once every agent has spawned. Default: none.
+    #[serde(default)]
+    pub formations: Vec<super::FormationSpec>,
 }
 
 fn default_seed() -> u64 {
@@ -297,6 +303,9 @@ impl Scenario {
                 Spawn::Uniform => {}
             }
         }
+        for f in &self.formations {
+            f.validate(self.groups.len())?;
+        }
         Ok(())
     }
 
@@ -393,6 +402,9 @@ impl Scenario {
         if let Some(k) = self.world.reorder_every {
             world.set_reorder_every(k);
         }
+        for p in &self.paths {
+            world.add_path(p.clone())?;
+        }
         for g in &self.groups {
             world.add_group(g.params.clone())?;
         }
@@ -429,6 +441,9 @@ impl Scenario {
                     ..AgentInit::default()
                 })?;
             }
+        }
+        for f in &self.formations {
+            f.add_to(&mut world)?;
         }
         Ok(world)
     }

@@ -240,6 +240,40 @@ pub enum Behaviour {
         /// Cut-off radius (> 0): farther agents are ignored.
         radius: f32,
     },
+    // -- group movement (crate::group) --
+    /// Reynolds' path following along a path added to the world.
+    FollowPath {
+        /// The path (`World::add_path`; in scenario files its index in `[[paths]]`).
+        path: crate::group::PathId,
+        /// Prediction, lead and direction.
+        #[serde(flatten)]
+        params: crate::group::PathFollowParams,
+    },
+    /// Follow a leader agent: offset pursuit of a slot in its local frame, out of its way.
+    FollowLeader {
+        /// The leader (must be an agent: `{ agent = N }`).
+        leader: Target,
+        /// Slot, spread, keep-out area and approach.
+        #[serde(flatten)]
+        params: crate::group::FollowParams,
+    },
+    /// Keep the slot assigned to this agent in its formation (`World::add_formation`); nothing
+    /// when the agent belongs to no formation.
+    KeepFormation {
+        /// Approach to the slot.
+        #[serde(flatten)]
+        params: crate::group::SlotParams,
+    },
+    /// Run up to `launch` with the take-off velocity that lands on `landing`, then coast.
+    Jump {
+        /// The launch point.
+        launch: Vec2,
+        /// The landing point.
+        landing: Vec2,
+        /// Gravity, take-off speed, height, run-up.
+        #[serde(flatten)]
+        params: crate::group::JumpParams,
+    },
 }
 
 /// Which neighbours a flocking behaviour sees.
@@ -342,6 +376,10 @@ impl Behaviour {
             Behaviour::Containment { .. } => "containment",
             Behaviour::AntiGravity => "anti_gravity",
             Behaviour::AntiGravitySeek { .. } => "anti_gravity_seek",
+            Behaviour::FollowPath { .. } => "follow_path",
+            Behaviour::FollowLeader { .. } => "follow_leader",
+            Behaviour::KeepFormation { .. } => "keep_formation",
+            Behaviour::Jump { .. } => "jump",
         }
     }
 
@@ -357,6 +395,7 @@ impl Behaviour {
             | Behaviour::Face { target, .. }
             | Behaviour::MatchVelocity { target, .. }
             | Behaviour::AntiGravitySeek { target } => Some(target),
+            Behaviour::FollowLeader { leader, .. } => Some(leader),
             Behaviour::Wander { .. }
             | Behaviour::LookWhereYouAreGoing { .. }
             | Behaviour::Separation { .. }
@@ -366,7 +405,10 @@ impl Behaviour {
             | Behaviour::AvoidObstacles { .. }
             | Behaviour::AvoidWalls { .. }
             | Behaviour::Containment { .. }
-            | Behaviour::AntiGravity => None,
+            | Behaviour::AntiGravity
+            | Behaviour::FollowPath { .. }
+            | Behaviour::KeepFormation { .. }
+            | Behaviour::Jump { .. } => None,
         }
     }
 
@@ -437,6 +479,32 @@ impl Behaviour {
                 non_negative("containment.lookahead", *lookahead)?;
             }
             Behaviour::AntiGravity | Behaviour::AntiGravitySeek { .. } => {}
+            Behaviour::FollowPath { params, .. } => params.validate()?,
+            Behaviour::FollowLeader { leader, params } => {
+                if !matches!(leader, Target::Agent(_)) {
+                    return Err(Error::Invalid {
+                        name: "follow_leader.leader".into(),
+                        reason: "the leader must be an agent: `{ agent = N }`".into(),
+                    });
+                }
+                params.validate()?;
+            }
+            Behaviour::KeepFormation { params } => params.validate()?,
+            Behaviour::Jump {
+                launch,
+                landing,
+                params,
+            } => {
+                finite_vec("jump.launch", *launch)?;
+                finite_vec("jump.landing", *landing)?;
+                params.validate()?;
+                if launch == landing {
+                    return Err(Error::Invalid {
+                        name: "jump".into(),
+                        reason: "launch and landing points coincide".into(),
+                    });
+                }
+            }
         }
         Ok(())
     }

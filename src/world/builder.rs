@@ -1,8 +1,9 @@
 use super::group::GroupParams;
 use super::state::World;
-use crate::agents::AgentInit;
+use crate::agents::{AgentId, AgentInit};
 use crate::bounds::Bounds;
 use crate::error::Result;
+use crate::group::FormationParams;
 
 /// Builds a [`World`], validating everything before the first step.
 ///
@@ -29,6 +30,8 @@ pub struct WorldBuilder {
     seed: u64,
     groups: Vec<GroupParams>,
     agents: Vec<AgentInit>,
+    paths: Vec<crate::group::Path>,
+    formations: Vec<(AgentId, FormationParams, Vec<AgentId>)>,
 }
 
 impl WorldBuilder {
@@ -73,6 +76,27 @@ impl WorldBuilder {
         self
     }
 
+    /// Adds a path (its [`crate::group::PathId`] is the number of paths added before it).
+    #[must_use]
+    pub fn path(mut self, path: crate::group::Path) -> Self {
+        self.paths.push(path);
+        self
+    }
+
+    /// Adds a formation of agents added to this builder (ids count from 0 in the order added),
+    /// as [`World::add_formation`] does after the agents.
+    #[must_use]
+    pub fn formation(
+        mut self,
+        anchor: AgentId,
+        params: FormationParams,
+        members: impl IntoIterator<Item = AgentId>,
+    ) -> Self {
+        self.formations
+            .push((anchor, params, members.into_iter().collect()));
+        self
+    }
+
     /// Validates everything and builds the world.
     ///
     /// # Errors
@@ -84,8 +108,17 @@ impl WorldBuilder {
             g.validate()?;
         }
         let mut world = World::from_parts(self.groups, self.bounds, self.seed);
+        for p in self.paths {
+            world.add_path(p)?;
+        }
+        for g in &world.groups {
+            world.check_group_refs(g)?;
+        }
         for a in self.agents {
             world.add_agent(a)?;
+        }
+        for (anchor, params, members) in self.formations {
+            world.add_formation(anchor, params, &members)?;
         }
         Ok(world)
     }

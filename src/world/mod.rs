@@ -14,6 +14,7 @@
 //! scalar reference the parallel step is tested against.
 
 mod builder;
+mod formation;
 mod group;
 mod neighbours;
 mod state;
@@ -21,6 +22,7 @@ mod stats;
 mod step;
 
 pub use builder::WorldBuilder;
+pub use formation::Formation;
 pub use group::GroupParams;
 pub use state::{AgentState, World};
 pub use stats::{PhaseTimes, StepStats};

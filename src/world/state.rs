@@ -49,6 +49,8 @@ pub struct World {
     pub(crate) reorder_every: u32,
     pub(crate) obstacles: Obstacles,
     pub(crate) gravity: GravityField,
+    /// Paths and formations (group movement).
+    pub(crate) group_movement: super::formation::GroupMovement,
 }
 
 impl World {
@@ -71,6 +73,7 @@ impl World {
             reorder_every: DEFAULT_REORDER_EVERY,
             obstacles: Obstacles::new(),
             gravity: GravityField::default(),
+            group_movement: Default::default(),
         }
     }
 
@@ -248,6 +251,7 @@ impl World {
     /// The variant naming the first bad parameter of `params`.
     pub fn add_group(&mut self, params: GroupParams) -> Result<usize> {
         params.validate()?;
+        self.check_group_refs(&params)?;
         self.groups.push(params);
         Ok(self.groups.len() - 1)
     }
@@ -260,6 +264,7 @@ impl World {
     pub fn set_group_params(&mut self, group: usize, params: GroupParams) -> Result<()> {
         self.check_group(group)?;
         params.validate()?;
+        self.check_group_refs(&params)?;
         for i in 0..self.agents.len() {
             if self.agents.group[i] as usize == group {
                 let o = self.agents.overrides[i];

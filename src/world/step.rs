@@ -90,6 +90,7 @@ pub(crate) struct SteerCtx<'a> {
     pub nearest: &'a [Option<NearestIndex>],
     pub obstacles: &'a Obstacles,
     pub gravity: &'a GravityField,
+    pub group_movement: &'a super::formation::GroupMovement,
 }
 
 /// A resolved target: its position (nearest image) and velocity.
@@ -524,6 +525,12 @@ impl SteerCtx<'_> {
                 }
                 None => Steering::ZERO,
             },
+            Behaviour::FollowPath { .. }
+            | Behaviour::FollowLeader { .. }
+            | Behaviour::KeepFormation { .. }
+            | Behaviour::Jump { .. } => {
+                self.group_behaviour(i, b, g, kinematic, position, velocity, max_speed)
+            }
         }
     }
 }
@@ -572,8 +579,9 @@ impl World {
         self.prepare_nearest();
         phases.index = t.elapsed();
 
-        // 2. steer
+        // 2. steer (formations re-form first, sequentially)
         let t = Instant::now();
+        self.update_formations();
         self.steer_phase(dt, exec, use_kernel);
         std::mem::swap(&mut self.agents.wander, &mut self.scratch.out.wander);
         phases.steer = t.elapsed();
@@ -659,6 +667,7 @@ impl World {
             nearest: &self.scratch.nearest,
             obstacles: &self.obstacles,
             gravity: &self.gravity,
+            group_movement: &self.group_movement,
         };
         let s = &mut self.scratch.out;
         let kernel = |base: usize,

@@ -1,0 +1,440 @@
+//! Paths (polylines, open or looping, with a radius) and Reynolds' path following.
+//!
+//! A [`Path`] is validated on construction (at least two finite points, a positive total length, a
+//! finite radius >= 0) and keeps the cumulative arc length at every point, so projecting a point
+//! costs one pass over the segments and [`Path::point_at`] one binary search. Arc lengths lie in
+//! `[0, length]`; on a looping path they are taken modulo the length. Paths live in world
+//! coordinates and are not wrapped on a torus: keep them inside the world.
+
+use glam::Vec2;
+use serde::{Deserialize, Serialize};
+
+use crate::error::{Error, Result, finite_vec, non_negative, positive};
+
+/// The index of a path added to a world with `World::add_path` (in scenario files: the position
+/// in the `[[paths]]` list, starting at 0).
+#[derive(Clone, Copy, Debug, PartialEq, Eq, PartialOrd, Ord, Hash, Serialize, Deserialize)]
+#[serde(transparent)]
+pub struct PathId(pub u32);
+
+/// A path's data as written in scenario files: `{ points = [[0, 0], [10, 0]], radius = 2, looped = true }`.
+#[derive(Clone, Debug, PartialEq, Serialize, Deserialize)]
+#[serde(deny_unknown_fields)]
+pub struct PathSpec {
+    /// The polyline's points, in order (at least two).
+    pub points: Vec<Vec2>,
+    /// Half-width of the path (>= 0). Default: 1.
+    #[serde(default = "one")]
+    pub radius: f32,
+    /// Whether the last point joins the first. Default: false.
+    #[serde(default)]
+    pub looped: bool,
+}
+
+fn one() -> f32 {
+    1.0
+}
+
+/// A validated polyline with a radius, open or looping.
+#[derive(Clone, Debug, PartialEq, Serialize, Deserialize)]
+#[serde(try_from = "PathSpec", into = "PathSpec")]
+pub struct Path {
+    points: Vec<Vec2>,
+    radius: f32,
+    looped: bool,
+    /// `cumulative[k]` is the arc length at the start of segment `k`; one more entry than
+    /// segments, the last being the total length.
+    cumulative: Vec<f32>,
+}
+
+/// Where a point projects onto a path.
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub struct Projection {
+    /// Arc length of the nearest point on the path.
+    pub arc: f32,
+    /// The nearest point on the path.
+    pub point: Vec2,
+    /// Distance from the projected point to the path.
+    pub distance: f32,
+}
+
+impl TryFrom<PathSpec> for Path {
+    type Error = Error;
+    fn try_from(s: PathSpec) -> Result<Self> {
+        Path::new(s.points, s.radius, s.looped)
+    }
+}
+
+impl From<Path> for PathSpec {
+    fn from(p: Path) -> Self {
+        PathSpec {
+            points: p.points,
+            radius: p.radius,
+            looped: p.looped,
+        }
+    }
+}
+
+impl Path {
+    /// A path through `points` with half-width `radius`; `looped` joins the last point to the first.
+    ///
+    /// # Examples
+    /// ```
+    /// use throng::group::Path;
+    /// use glam::Vec2;
+    /// # fn main() -> throng::Result<()> {
+    /// let square = Path::new(vec![Vec2::ZERO, Vec2::new(10.0, 0.0), Vec2::new(10.0, 10.0), Vec2::new(0.0, 10.0)], 1.0, true)?;
+    /// assert_eq!(square.length(), 40.0);
+    /// assert_eq!(square.point_at(45.0), Vec2::new(5.0, 0.0));
+    /// # Ok(())
+    /// # }
+    /// ```
+    ///
+    /// # Errors
+    /// [`Error::Invalid`] for fewer than two points or a path of zero length,
+    /// [`Error::NonFinite`] for a NaN or infinite coordinate, [`Error::Negative`] for a negative
+    /// radius.
+    pub fn new(points: Vec<Vec2>, radius: f32, looped: bool) -> Result<Self> {
+        if points.len() < 2 {
+            return Err(Error::Invalid {
+                name: "path.points".into(),
+                reason: format!("a path needs at least two points, got {}", points.len()),
+            });
+        }
+        for p in &points {
+            finite_vec("path.points", *p)?;
+        }
+        non_negative("path.radius", radius)?;
+        let segments = if looped {
+            points.len()
+        } else {
+            points.len() - 1
+        };
+        let mut cumulative = Vec::with_capacity(segments + 1);
+        let mut total = 0.0_f32;
+        cumulative.push(0.0);
+        for k in 0..segments {
+            total += points[k].distance(points[(k + 1) % points.len()]);
+            cumulative.push(total);
+        }
+        positive("path length", total).map_err(|_| Error::Invalid {
+            name: "path.points".into(),
+            reason: "all points coincide: the path has zero length".into(),
+        })?;
+        Ok(Path {
+            points,
+            radius,
+            looped,
+            cumulative,
+        })
+    }
+
+    /// The points, in order.
+    #[must_use]
+    pub fn points(&self) -> &[Vec2] {
+        &self.points
+    }
+
+    /// The half-width.
+    #[must_use]
+    pub fn radius(&self) -> f32 {
+        self.radius
+    }
+
+    /// Whether the path loops.
+    #[must_use]
+    pub fn is_looped(&self) -> bool {
+        self.looped
+    }
+
+    /// Total arc length (including the closing segment of a loop).
+    #[must_use]
+    pub fn length(&self) -> f32 {
+        *self.cumulative.last().unwrap_or(&0.0)
+    }
+
+    fn segments(&self) -> usize {
+        self.cumulative.len() - 1
+    }
+
+    fn segment(&self, k: usize) -> (Vec2, Vec2) {
+        (self.points[k], self.points[(k + 1) % self.points.len()])
+    }
+
+    /// Maps an arc length into the path's range: modulo the length on a loop, clamped otherwise.
+    #[must_use]
+    pub fn normalize_arc(&self, arc: f32) -> f32 {
+        let len = self.length();
+        if self.looped {
+            let a = arc.rem_euclid(len);
+            if a >= len { 0.0 } else { a }
+        } else {
+            arc.clamp(0.0, len)
+        }
+    }
+
+    fn segment_at(&self, arc: f32) -> usize {
+        // The last segment whose start is <= arc.
+        let k = self.cumulative.partition_point(|&c| c <= arc);
+        k.saturating_sub(1).min(self.segments() - 1)
+    }
+
+    /// The point at arc length `arc` (normalised as by [`Path::normalize_arc`]).
+    #[must_use]
+    pub fn point_at(&self, arc: f32) -> Vec2 {
+        let arc = self.normalize_arc(arc);
+        let k = self.segment_at(arc);
+        let (a, b) = self.segment(k);
+        let len = self.cumulative[k + 1] - self.cumulative[k];
+        if len <= 0.0 {
+            return a;
+        }
+        a.lerp(b, ((arc - self.cumulative[k]) / len).clamp(0.0, 1.0))
+    }
+
+    /// The unit direction of travel (increasing arc length) at arc length `arc`.
+    #[must_use]
+    pub fn tangent_at(&self, arc: f32) -> Vec2 {
+        let arc = self.normalize_arc(arc);
+        let mut k = self.segment_at(arc);
+        // Skip zero-length segments.
+        for _ in 0..self.segments() {
+            let (a, b) = self.segment(k);
+            if let Some(t) = (b - a).try_normalize() {
+                return t;
+            }
+            k = (k + 1) % self.segments();
+        }
+        Vec2::X
+    }
+
+    /// Projects `p` onto the path: the nearest point, its arc length and the distance. Ties go to
+    /// the earlier segment, so the result is deterministic.
+    #[must_use]
+    pub fn project(&self, p: Vec2) -> Projection {
+        let mut best = Projection {
+            arc: 0.0,
+            point: self.points[0],
+            distance: f32::INFINITY,
+        };
+        let mut best_sq = f32::INFINITY;
+        for k in 0..self.segments() {
+            let (a, b) = self.segment(k);
+            let ab = b - a;
+            let len_sq = ab.length_squared();
+            let t = if len_sq > 0.0 {
+                ((p - a).dot(ab) / len_sq).clamp(0.0, 1.0)
+            } else {
+                0.0
+            };
+            let q = a + ab * t;
+            let d_sq = q.distance_squared(p);
+            if d_sq < best_sq {
+                best_sq = d_sq;
+                best = Projection {
+                    arc: self.cumulative[k] + t * (self.cumulative[k + 1] - self.cumulative[k]),
+                    point: q,
+                    distance: 0.0,
+                };
+            }
+        }
+        best.distance = best_sq.sqrt();
+        best.arc = self.normalize_arc(best.arc);
+        best
+    }
+}
+
+/// Which way along a path an agent travels.
+#[derive(Clone, Copy, Debug, Default, PartialEq, Eq, Serialize, Deserialize)]
+#[serde(rename_all = "snake_case")]
+pub enum PathDirection {
+    /// Towards increasing arc length (default).
+    #[default]
+    Forward,
+    /// Towards decreasing arc length.
+    Backward,
+    /// Per agent: even agent ids forward, odd ones backward.
+    Alternate,
+}
+
+impl PathDirection {
+    /// `+1` or `-1` for the agent with id number `id`.
+    #[must_use]
+    pub fn sign(self, id: u32) -> f32 {
+        match self {
+            PathDirection::Forward => 1.0,
+            PathDirection::Backward => -1.0,
+            PathDirection::Alternate => {
+                if id.is_multiple_of(2) {
+                    1.0
+                } else {
+                    -1.0
+                }
+            }
+        }
+    }
+}
+
+/// Parameters of path following.
+#[derive(Clone, Copy, Debug, PartialEq, Serialize, Deserialize)]
+#[serde(default, deny_unknown_fields)]
+pub struct PathFollowParams {
+    /// Seconds ahead the future position is predicted (>= 0). Default: 0.5.
+    pub predict_time: f32,
+    /// Arc length ahead of the agent's projection that it seeks when outside the radius (> 0).
+    /// Default: 3.
+    pub lead_distance: f32,
+    /// Direction of travel. Default: forward.
+    pub direction: PathDirection,
+    /// Seconds over which the wanted velocity is reached, dynamic model (> 0). Default: 0.25.
+    pub time_to_target: f32,
+}
+
+impl Default for PathFollowParams {
+    fn default() -> Self {
+        PathFollowParams {
+            predict_time: 0.5,
+            lead_distance: 3.0,
+            direction: PathDirection::Forward,
+            time_to_target: 0.25,
+        }
+    }
+}
+
+impl PathFollowParams {
+    /// Checks the numbers.
+    ///
+    /// # Errors
+    /// [`Error::Negative`], [`Error::NotPositive`] or [`Error::NonFinite`].
+    pub fn validate(&self) -> Result<()> {
+        non_negative("follow_path.predict_time", self.predict_time)?;
+        positive("follow_path.lead_distance", self.lead_distance)?;
+        positive("follow_path.time_to_target", self.time_to_target)?;
+        Ok(())
+    }
+}
+
+/// Reynolds' path following, as a desired velocity (both movement models use it: the dynamic
+/// model turns it into a force, the kinematic model sets it).
+///
+/// The agent predicts its position `predict_time` seconds ahead and projects it onto the path.
+/// When that prediction lies outside the radius, it seeks the point `lead_distance` further along
+/// the path than its own projection (in direction `sign`, +1 or -1); inside the radius it only
+/// keeps travelling along the path's tangent at full speed. On an open path the agent arrives at
+/// and stops on the last point in its direction of travel.
+#[must_use]
+pub fn follow_path(
+    position: Vec2,
+    velocity: Vec2,
+    path: &Path,
+    sign: f32,
+    max_speed: f32,
+    p: &PathFollowParams,
+) -> Vec2 {
+    let future = path.project(position + velocity * p.predict_time);
+    let here = path.project(position);
+    let ahead = here.arc + sign * p.lead_distance;
+    if !path.is_looped() && (ahead <= 0.0 || ahead >= path.length()) {
+        // Arrive at the end point (slowing over the lead distance).
+        let end = path.point_at(ahead);
+        let to = end - position;
+        let dist = to.length();
+        if dist <= 1e-3 {
+            return Vec2::ZERO;
+        }
+        let speed = max_speed * (dist / p.lead_distance).min(1.0);
+        return to * (speed / dist);
+    }
+    if future.distance > path.radius() {
+        let target = path.point_at(ahead);
+        (target - position).normalize_or_zero() * max_speed
+    } else {
+        path.tangent_at(future.arc) * (sign * max_speed)
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    fn square() -> Path {
+        Path::new(
+            vec![
+                Vec2::ZERO,
+                Vec2::new(10.0, 0.0),
+                Vec2::new(10.0, 10.0),
+                Vec2::new(0.0, 10.0),
+            ],
+            1.0,
+            true,
+        )
+        .unwrap()
+    }
+
+    #[test]
+    fn projection_and_arc_agree() {
+        let s = square();
+        let pr = s.project(Vec2::new(12.0, 5.0));
+        assert_eq!(pr.point, Vec2::new(10.0, 5.0));
+        assert_eq!(pr.arc, 15.0);
+        assert_eq!(pr.distance, 2.0);
+        assert_eq!(s.point_at(pr.arc), pr.point);
+        // The closing segment of the loop.
+        let pr = s.project(Vec2::new(-1.0, 4.0));
+        assert_eq!(pr.arc, 36.0);
+        assert_eq!(s.tangent_at(36.0), Vec2::new(0.0, -1.0));
+    }
+
+    #[test]
+    fn bad_paths_are_rejected() {
+        assert!(matches!(
+            Path::new(vec![], 1.0, false),
+            Err(Error::Invalid { .. })
+        ));
+        assert!(matches!(
+            Path::new(vec![Vec2::ONE, Vec2::ONE], 1.0, true),
+            Err(Error::Invalid { .. })
+        ));
+        assert!(matches!(
+            Path::new(vec![Vec2::ZERO, Vec2::ONE], -1.0, false),
+            Err(Error::Negative { .. })
+        ));
+        assert!(matches!(
+            Path::new(vec![Vec2::ZERO, Vec2::NAN], 1.0, false),
+            Err(Error::NonFinite { .. })
+        ));
+    }
+
+    #[test]
+    fn inside_the_radius_the_agent_travels_along() {
+        let s = square();
+        let v = follow_path(
+            Vec2::new(5.0, 0.5),
+            Vec2::ZERO,
+            &s,
+            1.0,
+            2.0,
+            &PathFollowParams::default(),
+        );
+        assert_eq!(v, Vec2::new(2.0, 0.0));
+        let back = follow_path(
+            Vec2::new(5.0, 0.5),
+            Vec2::ZERO,
+            &s,
+            -1.0,
+            2.0,
+            &PathFollowParams::default(),
+        );
+        assert_eq!(back, Vec2::new(-2.0, 0.0));
+        // Outside: seek a point ahead on the path.
+        let out = follow_path(
+            Vec2::new(5.0, -5.0),
+            Vec2::ZERO,
+            &s,
+            1.0,
+            2.0,
+            &PathFollowParams::default(),
+        );
+        assert!(out.y > 0.0 && out.x > 0.0, "{out}");
+    }
+}
