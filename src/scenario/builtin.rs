@@ -7,6 +7,12 @@ pub const BUILTIN: &[(&str, &str)] = &[
     ("arrive", include_str!("../../scenarios/arrive.toml")),
     ("wander", include_str!("../../scenarios/wander.toml")),
     ("flock", include_str!("../../scenarios/flock.toml")),
+    (
+        "antigravity",
+        include_str!("../../scenarios/antigravity.toml"),
+    ),
+    ("pursuit", include_str!("../../scenarios/pursuit.toml")),
+    ("obstacles", include_str!("../../scenarios/obstacles.toml")),
     ("path", include_str!("../../scenarios/path.toml")),
     ("leader", include_str!("../../scenarios/leader.toml")),
     ("formation", include_str!("../../scenarios/formation.toml")),

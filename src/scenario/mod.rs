@@ -11,8 +11,10 @@
 
 mod builtin;
 mod group;
+mod obstacles;
 mod spec;
 
 pub use builtin::{BUILTIN, builtin, builtin_names};
 pub use group::{AgentRef, FormationSpec, Members};
+pub use obstacles::{GravitySpec, ObstacleSpec, PolygonSpec, RandomCircles, RandomGravity};
 pub use spec::{DensitySpec, GroupSpec, Scenario, Spawn, WorldSpec};

@@ -42,6 +42,12 @@ pub struct Scenario {
     /// Formations, added once every agent has spawned. Default: none.
     #[serde(default)]
     pub formations: Vec<super::FormationSpec>,
+    /// Obstacles: circles, walls, polygons, random circles. Default: none.
+    #[serde(default)]
+    pub obstacles: super::ObstacleSpec,
+    /// Gravity points (document 000). Default: none.
+    #[serde(default)]
+    pub gravity: super::GravitySpec,
 }
 
 fn default_seed() -> u64 {
@@ -245,6 +251,8 @@ impl Scenario {
     /// The variant naming the first bad value.
     pub fn validate(&self) -> Result<()> {
         positive("dt", self.dt)?;
+        self.obstacles.validate()?;
+        self.gravity.validate()?;
         if self.groups.is_empty() {
             return Err(Error::Invalid {
                 name: "groups".into(),
@@ -405,6 +413,7 @@ impl Scenario {
         for p in &self.paths {
             world.add_path(p.clone())?;
         }
+        self.obstacles.apply(&mut world, self.seed)?;
         for g in &self.groups {
             world.add_group(g.params.clone())?;
         }
@@ -415,22 +424,24 @@ impl Scenario {
             let n = g.count_of();
             for k in 0..n {
                 let position = match &g.spawn {
-                    Spawn::Uniform => {
-                        let size = bounds.size().unwrap_or(Vec2::ONE);
-                        Vec2::new(rng.random::<f32>() * size.x, rng.random::<f32>() * size.y)
-                    }
-                    Spawn::Rect { min, max } => Vec2::new(
-                        min.x + rng.random::<f32>() * (max.x - min.x),
-                        min.y + rng.random::<f32>() * (max.y - min.y),
-                    ),
-                    Spawn::Disc { center, radius } => {
-                        let r = radius * rng.random::<f32>().sqrt();
-                        let a = rng.random::<f32>() * 2.0 * PI;
-                        *center + Vec2::from_angle(a) * r
-                    }
                     Spawn::Points { points } => points[k],
+                    _ => g.spawn_point(&mut rng, bounds),
                 };
-                let position = bounds.wrap(position);
+                let mut position = bounds.wrap(position);
+                // Random spawns that land inside an obstacle are drawn again.
+                let mut tries = 0;
+                while !matches!(g.spawn, Spawn::Points { .. })
+                    && world.obstacles().inside_circle(position)
+                {
+                    tries += 1;
+                    if tries > 1000 {
+                        return Err(Error::Invalid {
+                            name: "spawn".into(),
+                            reason: format!("group {gi}: no free spot found outside the obstacles"),
+                        });
+                    }
+                    position = bounds.wrap(g.spawn_point(&mut rng, bounds));
+                }
                 let heading = rng.random::<f32>() * 2.0 * PI;
                 let velocity = Vec2::from_angle(heading) * g.initial_speed.min(g.params.max_speed);
                 world.add_agent(AgentInit {
@@ -442,6 +453,7 @@ impl Scenario {
                 })?;
             }
         }
+        self.gravity.apply(&mut world, self.seed)?;
         for f in &self.formations {
             f.add_to(&mut world)?;
         }
@@ -450,6 +462,26 @@ impl Scenario {
 }
 
 impl GroupSpec {
+    /// A random spawn position (not for [`Spawn::Points`], which has no randomness).
+    fn spawn_point(&self, rng: &mut ChaCha8Rng, bounds: Bounds) -> Vec2 {
+        match &self.spawn {
+            Spawn::Uniform => {
+                let size = bounds.size().unwrap_or(Vec2::ONE);
+                Vec2::new(rng.random::<f32>() * size.x, rng.random::<f32>() * size.y)
+            }
+            Spawn::Rect { min, max } => Vec2::new(
+                min.x + rng.random::<f32>() * (max.x - min.x),
+                min.y + rng.random::<f32>() * (max.y - min.y),
+            ),
+            Spawn::Disc { center, radius } => {
+                let r = radius * rng.random::<f32>().sqrt();
+                let a = rng.random::<f32>() * 2.0 * PI;
+                *center + Vec2::from_angle(a) * r
+            }
+            Spawn::Points { points } => points.first().copied().unwrap_or(Vec2::ZERO),
+        }
+    }
+
     /// The number of agents this group spawns.
     #[must_use]
     pub fn count_of(&self) -> usize {

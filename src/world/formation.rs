@@ -405,14 +405,6 @@ impl SteerCtx<'_> {
         }
     }
 
-    /// Hook for separation between followers and formation members. It returns nothing today:
-    /// separation needs the neighbour index and belongs to the flocking behaviours; until the
-    /// world evaluates it here, add the separation behaviour to the followers' profile.
-    #[inline]
-    fn follower_separation(&self, _i: usize) -> Vec2 {
-        Vec2::ZERO
-    }
-
     /// The frame of agent `j` as seen from `position` (nearest image on a torus), and its
     /// velocity.
     fn frame_of(&self, j: usize, position: Vec2) -> (Basis, Vec2) {
@@ -473,7 +465,7 @@ impl SteerCtx<'_> {
                     slot,
                     max_speed,
                     params,
-                ) + self.follower_separation(i);
+                );
                 Self::towards(kinematic, g, desired, velocity, params.time_to_target)
             }
             Behaviour::KeepFormation { params } => {
@@ -489,7 +481,7 @@ impl SteerCtx<'_> {
                             anchor_velocity,
                             max_speed,
                             params,
-                        ) + self.follower_separation(i)
+                        )
                     }
                     // No formation or no anchor: stop.
                     None => Vec2::ZERO,

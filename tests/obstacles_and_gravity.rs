@@ -1,0 +1,272 @@
+//! Obstacles are never entered or crossed, document 000's anti-gravity seek reaches its target
+//! around repelling points, and nearest-of-group targets find the nearest agent.
+
+use throng::gravity::GravityPoint;
+use throng::obstacles::{Circle, Wall};
+use throng::prelude::*;
+use throng::scenario;
+
+const DT: f32 = 1.0 / 30.0;
+
+#[test]
+fn no_centre_enters_a_circle_and_no_move_crosses_a_wall_over_2000_steps() {
+    let mut w = scenario::builtin("obstacles")
+        .unwrap()
+        .with_agents(1500)
+        .unwrap()
+        .build()
+        .unwrap();
+    let circles: Vec<Circle> = w.obstacles().circles().to_vec();
+    let walls: Vec<Wall> = w.obstacles().walls().to_vec();
+    assert!(circles.len() > 100 && walls.len() >= 7);
+    let positions = |w: &World| -> Vec<(AgentId, Vec2)> {
+        let a = w.agents();
+        let mut v: Vec<_> = (0..a.len()).map(|i| (a.id(i), a.position(i))).collect();
+        v.sort_by_key(|(id, _)| *id);
+        v
+    };
+    let mut before = positions(&w);
+    let mut corrected = 0usize;
+    for step in 0..2000 {
+        w.step(DT).unwrap();
+        let after = positions(&w);
+        for ((id, p0), (_, p1)) in before.iter().zip(&after) {
+            for c in &circles {
+                assert!(
+                    c.center.distance_squared(*p1) >= c.radius * c.radius,
+                    "step {step}: agent {id} at {p1} inside circle {c:?}"
+                );
+            }
+            for wall in &walls {
+                let crossed =
+                    throng::obstacles::segment_intersection(*p0, *p1, wall.a, wall.b).is_some();
+                // Touching a wall is allowed; passing from one side to the other is not.
+                if crossed {
+                    let side = |p: Vec2| (wall.b - wall.a).perp_dot(p - wall.a);
+                    assert!(
+                        side(*p0) * side(*p1) >= 0.0,
+                        "step {step}: agent {id} crossed {wall:?} from {p0} to {p1}"
+                    );
+                    corrected += 1;
+                }
+            }
+            assert!(p1.x >= 0.0 && p1.y >= 0.0 && p1.x <= 300.0 && p1.y <= 300.0);
+        }
+        before = after;
+    }
+    eprintln!("touches of a wall without crossing: {corrected}");
+}
+
+#[test]
+fn resolve_stops_an_agent_driven_into_a_wall_and_a_circle() {
+    // Seek straight through a wall and a circle: steering has no avoidance, the hard step must hold.
+    let seek = SteeringProfile::single(Behaviour::Seek {
+        target: Target::Point(Vec2::new(90.0, 50.0)),
+        threshold: 0.0,
+    });
+    let mut w = World::builder()
+        .bounds(Bounds::bounded(100.0, 100.0).unwrap())
+        .group(GroupParams {
+            max_speed: 20.0,
+            max_acceleration: 100.0,
+            ..GroupParams::dynamic(seek)
+        })
+        .agent(AgentInit::at(Vec2::new(10.0, 50.0), 0))
+        .agent(AgentInit::at(Vec2::new(10.0, 20.0), 0))
+        .build()
+        .unwrap();
+    w.add_wall(Wall {
+        a: Vec2::new(50.0, 40.0),
+        b: Vec2::new(50.0, 60.0),
+    })
+    .unwrap();
+    w.add_circle(Circle {
+        center: Vec2::new(50.0, 25.0),
+        radius: 5.0,
+    })
+    .unwrap();
+    for _ in 0..300 {
+        w.step(DT).unwrap();
+        let a = w.agents();
+        for i in 0..a.len() {
+            assert!(a.position(i).distance(Vec2::new(50.0, 25.0)) >= 5.0);
+        }
+        let blocked = w.agent(AgentId(0)).unwrap().position;
+        assert!(blocked.x <= 50.0, "crossed the wall: {blocked}");
+    }
+    assert!(
+        matches!(
+            w.add_circle(Circle {
+                center: w.agent(AgentId(0)).unwrap().position,
+                radius: 1.0
+            }),
+            Err(Error::Invalid { .. })
+        ),
+        "a circle over an agent is refused"
+    );
+}
+
+#[test]
+fn antigravity_seek_reaches_the_target_without_entering_exclusion_radii() {
+    // Document 000: strength 2000, n = 2; the exclusion radius is where the push equals the pull
+    // of the unit direction to the target: sqrt(2000) ~ 44.7. Points are spaced so that paths exist.
+    let strength = 2000.0_f32;
+    let exclusion = strength.sqrt();
+    let target = Vec2::new(950.0, 500.0);
+    let g = GroupParams {
+        model: MovementModel::Kinematic,
+        max_speed: 30.0,
+        ..GroupParams::kinematic(SteeringProfile::single(Behaviour::AntiGravitySeek {
+            target: Target::Point(target),
+        }))
+    };
+    let mut w = World::builder()
+        .bounds(Bounds::bounded(1000.0, 1000.0).unwrap())
+        .group(g)
+        .agent(AgentInit::at(Vec2::new(50.0, 480.0), 0))
+        .build()
+        .unwrap();
+    let mut points = Vec::new();
+    for (k, x) in [250.0_f32, 450.0, 650.0].into_iter().enumerate() {
+        for j in 0..5 {
+            let y = 300.0 + 100.0 * j as f32 + if k % 2 == 1 { 50.0 } else { 0.0 };
+            let p = Vec2::new(x, y);
+            w.add_gravity_point(GravityPoint::fixed(p, strength, 2.0, 400.0))
+                .unwrap();
+            points.push(p);
+        }
+    }
+    let mut closest = f32::INFINITY;
+    let mut reached = None;
+    for step in 0..2000 {
+        w.step(DT).unwrap();
+        let p = w.agents().position(0);
+        for q in &points {
+            closest = closest.min(p.distance(*q));
+        }
+        if p.distance(target) <= 2.0 {
+            reached = Some(step);
+            break;
+        }
+    }
+    assert!(
+        reached.is_some(),
+        "never reached the target; ended at {}",
+        w.agents().position(0)
+    );
+    assert!(
+        closest > 0.5 * exclusion,
+        "came within {closest} of a point (exclusion radius {exclusion})"
+    );
+}
+
+#[test]
+fn attracting_points_pull_and_moving_points_move() {
+    let g = GroupParams::dynamic(SteeringProfile::single(Behaviour::AntiGravity));
+    let mut w = World::builder()
+        .group(g)
+        .agent(AgentInit::at(Vec2::ZERO, 0))
+        .build()
+        .unwrap();
+    w.add_gravity_point(GravityPoint::fixed(Vec2::new(10.0, 0.0), -50.0, 1.0, 100.0))
+        .unwrap();
+    let moving = GravityPoint {
+        motion: throng::gravity::Motion::Linear {
+            velocity: Vec2::new(0.0, 3.0),
+        },
+        ..GravityPoint::fixed(Vec2::new(-50.0, 0.0), 1.0, 2.0, 1.0)
+    };
+    w.add_gravity_point(moving).unwrap();
+    for _ in 0..30 {
+        w.step(DT).unwrap();
+    }
+    assert!(
+        w.agents().position(0).x > 0.5,
+        "pulled towards the attracting point"
+    );
+    let y = w.gravity().points()[1].position.y;
+    assert!((y - 3.0).abs() < 1e-3, "moved 3 units in one second: {y}");
+}
+
+#[test]
+fn nearest_target_picks_the_nearest_agent_of_the_group() {
+    let prey = GroupParams::default();
+    let hunter = GroupParams {
+        max_speed: 5.0,
+        ..GroupParams::dynamic(SteeringProfile::single(Behaviour::Seek {
+            target: Target::Nearest {
+                group: 0,
+                within: 100.0,
+            },
+            threshold: 0.0,
+        }))
+    };
+    let mut w = World::builder()
+        .group(prey)
+        .group(hunter)
+        .agent(AgentInit::at(Vec2::new(-20.0, 0.0), 0))
+        .agent(AgentInit::at(Vec2::new(0.0, 8.0), 0))
+        .agent(AgentInit::at(Vec2::ZERO, 1))
+        .build()
+        .unwrap();
+    for _ in 0..30 {
+        w.step(DT).unwrap();
+    }
+    let p = w.agent(AgentId(2)).unwrap().position;
+    assert!(
+        p.y > 1.0 && p.x.abs() < 0.5,
+        "went for the prey 8 units north, not the one 20 west: {p}"
+    );
+    let mut far = World::builder()
+        .group(GroupParams::default())
+        .group(GroupParams::dynamic(SteeringProfile::single(
+            Behaviour::Seek {
+                target: Target::Nearest {
+                    group: 0,
+                    within: 5.0,
+                },
+                threshold: 0.0,
+            },
+        )))
+        .agent(AgentInit::at(Vec2::new(50.0, 0.0), 0))
+        .agent(AgentInit::at(Vec2::ZERO, 1))
+        .build()
+        .unwrap();
+    far.step(DT).unwrap();
+    assert_eq!(
+        far.agent(AgentId(1)).unwrap().velocity,
+        Vec2::ZERO,
+        "nothing within reach: no steering"
+    );
+}
+
+#[test]
+fn obstacle_scenarios_are_deterministic_across_threads() {
+    let run = |threads: usize, name: &str| {
+        let pool = rayon::ThreadPoolBuilder::new()
+            .num_threads(threads)
+            .build()
+            .unwrap();
+        pool.install(|| {
+            let mut w = scenario::builtin(name)
+                .unwrap()
+                .with_agents(800)
+                .unwrap()
+                .build()
+                .unwrap();
+            for _ in 0..40 {
+                w.step(DT).unwrap();
+            }
+            let a = w.agents();
+            let mut v: Vec<_> = (0..a.len())
+                .map(|i| (a.id(i), a.pos_x()[i].to_bits(), a.pos_y()[i].to_bits()))
+                .collect();
+            v.sort();
+            v
+        })
+    };
+    for name in ["obstacles", "antigravity", "pursuit"] {
+        assert_eq!(run(1, name), run(2, name), "{name}");
+        assert_eq!(run(1, name), run(4, name), "{name}");
+    }
+}
