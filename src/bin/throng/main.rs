@@ -73,7 +73,7 @@ struct CommonArgs {
     #[arg(long)]
     seed: Option<u64>,
     /// Time step in seconds.
-    #[arg(long)]
+    #[arg(long, allow_negative_numbers = true)]
     dt: Option<f32>,
     /// Neighbour index backend: grid, kdtree or brute.
     #[arg(long, value_parser = ["grid", "kdtree", "brute"])]
@@ -100,7 +100,21 @@ struct RunArgs {
 }
 
 fn main() -> ExitCode {
-    let cli = Cli::parse();
+    let cli = match Cli::try_parse() {
+        Ok(cli) => cli,
+        Err(e) => {
+            use clap::error::ErrorKind;
+            if matches!(e.kind(), ErrorKind::DisplayHelp | ErrorKind::DisplayVersion | ErrorKind::DisplayHelpOnMissingArgumentOrSubcommand) {
+                let _ = e.print();
+                return if e.kind() == ErrorKind::DisplayHelpOnMissingArgumentOrSubcommand { ExitCode::from(2) } else { ExitCode::SUCCESS };
+            }
+            // One line: clap's first line names the bad argument and why.
+            let text = e.render().to_string();
+            let first = text.lines().find(|l| !l.trim().is_empty()).unwrap_or("error: bad arguments");
+            eprintln!("{} (see `throng --help`)", first.trim_end());
+            return ExitCode::from(2);
+        }
+    };
     match dispatch(cli.command) {
         Ok(()) => ExitCode::SUCCESS,
         Err(e) => {
