@@ -6,7 +6,10 @@ use std::path::PathBuf;
 use std::process::{Command, Output};
 
 fn throng(args: &[&str]) -> Output {
-    Command::new(env!("CARGO_BIN_EXE_throng")).args(args).output().expect("run throng")
+    Command::new(env!("CARGO_BIN_EXE_throng"))
+        .args(args)
+        .output()
+        .expect("run throng")
 }
 
 fn tmp(name: &str) -> PathBuf {
@@ -28,26 +31,74 @@ fn list_names_every_builtin_scenario() {
     let o = throng(&["list"]);
     assert!(o.status.success());
     let out = stdout(&o);
-    for name in ["seek", "arrive", "wander", "flock", "antigravity", "pursuit", "obstacles", "fields", "path", "leader", "formation"] {
-        assert!(out.lines().any(|l| l.split_whitespace().next() == Some(name)), "`throng list` lacks {name}:\n{out}");
+    for name in [
+        "seek",
+        "arrive",
+        "wander",
+        "flock",
+        "antigravity",
+        "pursuit",
+        "obstacles",
+        "fields",
+        "path",
+        "leader",
+        "formation",
+    ] {
+        assert!(
+            out.lines()
+                .any(|l| l.split_whitespace().next() == Some(name)),
+            "`throng list` lacks {name}:\n{out}"
+        );
     }
 }
 
 #[test]
 fn every_builtin_scenario_runs_a_few_steps() {
     for (name, _) in throng::scenario::BUILTIN {
-        let o = throng(&["demo", name, "--agents", "300", "--steps", "4", "--every", "2", "--threads", "2"]);
+        let o = throng(&[
+            "demo",
+            name,
+            "--agents",
+            "300",
+            "--steps",
+            "4",
+            "--every",
+            "2",
+            "--threads",
+            "2",
+        ]);
         assert!(o.status.success(), "{name}: {}", stderr(&o));
         let out = stdout(&o);
         let frames = out.lines().filter(|l| l.starts_with("frame")).count();
-        assert_eq!(frames, 2, "{name}: two timing lines for 4 steps every 2:\n{out}");
-        assert!(out.lines().any(|l| l.starts_with("summary:") && l.contains("median") && l.contains("p99") && l.contains("agent-steps/s")), "{name}:\n{out}");
+        assert_eq!(
+            frames, 2,
+            "{name}: two timing lines for 4 steps every 2:\n{out}"
+        );
+        assert!(
+            out.lines().any(|l| l.starts_with("summary:")
+                && l.contains("median")
+                && l.contains("p99")
+                && l.contains("agent-steps/s")),
+            "{name}:\n{out}"
+        );
     }
 }
 
 #[test]
 fn bench_json_has_every_key_with_sane_values() {
-    let o = throng(&["bench", "flock", "--agents", "2000", "--steps", "5", "--warmup", "2", "--threads", "2", "--json"]);
+    let o = throng(&[
+        "bench",
+        "flock",
+        "--agents",
+        "2000",
+        "--steps",
+        "5",
+        "--warmup",
+        "2",
+        "--threads",
+        "2",
+        "--json",
+    ]);
     assert!(o.status.success(), "{}", stderr(&o));
     let v: serde_json::Value = serde_json::from_str(stdout(&o).trim()).expect("one JSON object");
     assert_eq!(v["scenario"], "flock");
@@ -59,16 +110,23 @@ fn bench_json_has_every_key_with_sane_values() {
     for k in ["median", "mean", "p95", "min", "max"] {
         assert!(ms[k].as_f64().unwrap() > 0.0, "ms_per_step.{k}");
     }
-    assert!(ms["min"].as_f64() <= ms["median"].as_f64() && ms["median"].as_f64() <= ms["max"].as_f64());
+    assert!(
+        ms["min"].as_f64() <= ms["median"].as_f64() && ms["median"].as_f64() <= ms["max"].as_f64()
+    );
     for k in ["index", "steer", "integrate", "bounds"] {
         assert!(v["phases_ms"][k].as_f64().unwrap() >= 0.0, "phases_ms.{k}");
     }
     assert!(v["agent_steps_per_sec"].as_f64().unwrap() > 1000.0);
     let nb = v["mean_neighbours"].as_f64().unwrap();
-    assert!((10.0..30.0).contains(&nb), "flock density gives about 18 neighbours, got {nb}");
+    assert!(
+        (10.0..30.0).contains(&nb),
+        "flock density gives about 18 neighbours, got {nb}"
+    );
     assert!(v["peak_rss_mb"].as_f64().unwrap() > 1.0);
 
-    let kd = throng(&["bench", "flock", "--agents", "500", "--steps", "2", "--index", "kdtree", "--json"]);
+    let kd = throng(&[
+        "bench", "flock", "--agents", "500", "--steps", "2", "--index", "kdtree", "--json",
+    ]);
     let v: serde_json::Value = serde_json::from_str(stdout(&kd).trim()).unwrap();
     assert_eq!(v["index"], "kdtree");
 }
@@ -76,7 +134,19 @@ fn bench_json_has_every_key_with_sane_values() {
 #[test]
 fn trajectories_have_one_row_per_agent_per_written_frame() {
     let csv = tmp("traj.csv");
-    let o = throng(&["demo", "wander", "--agents", "50", "--steps", "10", "--every", "5", "--quiet", "--trajectories", csv.to_str().unwrap()]);
+    let o = throng(&[
+        "demo",
+        "wander",
+        "--agents",
+        "50",
+        "--steps",
+        "10",
+        "--every",
+        "5",
+        "--quiet",
+        "--trajectories",
+        csv.to_str().unwrap(),
+    ]);
     assert!(o.status.success(), "{}", stderr(&o));
     let text = std::fs::read_to_string(&csv).unwrap();
     let mut lines = text.lines();
@@ -102,8 +172,15 @@ fn assert_one_line_failure(args: &[&str], needle: &str) {
     let err = stderr(&o);
     let lines: Vec<&str> = err.lines().filter(|l| !l.trim().is_empty()).collect();
     assert_eq!(lines.len(), 1, "{args:?}: one line wanted, got:\n{err}");
-    assert!(lines[0].contains(needle), "{args:?}: {:?} lacks {needle:?}", lines[0]);
-    assert!(!err.contains("panicked") && !err.contains("backtrace"), "{err}");
+    assert!(
+        lines[0].contains(needle),
+        "{args:?}: {:?} lacks {needle:?}",
+        lines[0]
+    );
+    assert!(
+        !err.contains("panicked") && !err.contains("backtrace"),
+        "{err}"
+    );
 }
 
 #[test]
@@ -117,14 +194,28 @@ fn bad_input_gets_a_non_zero_exit_and_one_line() {
     assert_one_line_failure(&["demo", "flock", "--index", "octree"], "--index");
     assert_one_line_failure(&["demo", "flock", "--every", "0"], "every");
     assert_one_line_failure(&["run", "/no/such/file.toml"], "/no/such/file.toml");
-    assert_one_line_failure(&["demo", "wander", "--steps", "2", "--trajectories", "/no/such/dir/t.csv"], "/no/such/dir/t.csv");
+    assert_one_line_failure(
+        &[
+            "demo",
+            "wander",
+            "--steps",
+            "2",
+            "--trajectories",
+            "/no/such/dir/t.csv",
+        ],
+        "/no/such/dir/t.csv",
+    );
 
     let bad_key = tmp("bad_key.toml");
     std::fs::write(&bad_key, "name = \"x\"\n[world]\nkind = \"torus\"\nsize = [10, 10]\nbogus = 3\n[[groups]]\ncount = 2\n").unwrap();
     assert_one_line_failure(&["run", bad_key.to_str().unwrap()], "bad_key.toml:5:");
 
     let bad_value = tmp("bad_value.toml");
-    std::fs::write(&bad_value, "[world]\nkind = \"torus\"\nsize = [10, 10]\n[[groups]]\ncount = 2\nmass = 0\n").unwrap();
+    std::fs::write(
+        &bad_value,
+        "[world]\nkind = \"torus\"\nsize = [10, 10]\n[[groups]]\ncount = 2\nmass = 0\n",
+    )
+    .unwrap();
     assert_one_line_failure(&["run", bad_value.to_str().unwrap()], "mass");
 
     let bad_syntax = tmp("bad_syntax.toml");
@@ -137,7 +228,15 @@ fn every_builtin_is_a_runnable_file() {
     for (name, text) in throng::scenario::BUILTIN {
         let path = tmp(&format!("{name}.toml"));
         std::fs::write(&path, text).unwrap();
-        let o = throng(&["run", path.to_str().unwrap(), "--agents", "200", "--steps", "2", "--quiet"]);
+        let o = throng(&[
+            "run",
+            path.to_str().unwrap(),
+            "--agents",
+            "200",
+            "--steps",
+            "2",
+            "--quiet",
+        ]);
         assert!(o.status.success(), "{name}: {}", stderr(&o));
     }
 }
