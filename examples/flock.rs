@@ -34,7 +34,8 @@ fn main() -> throng::Result<()> {
         max_acceleration: 8.0,
         ..GroupParams::dynamic(boids)
     };
-    let side = 250.0;
+    // About 18 neighbours within the 5-unit flocking radius.
+    let side = (5_000.0 * std::f32::consts::PI * 25.0 / 18.0_f32).sqrt();
     let mut builder = World::builder()
         .bounds(Bounds::torus(side, side)?)
         .seed(7)
