@@ -91,6 +91,20 @@ pub struct Agents {
     /// `index_of[id]` is the agent's storage index, or `NO_INDEX` once removed.
     index_of: Vec<u32>,
     scratch_f32: Vec<f32>,
+    scratch_u32: Vec<u32>,
+    scratch_u8: Vec<u8>,
+    scratch_ids: Vec<AgentId>,
+}
+
+/// `v[k] = old v[perm[k]]`, gathered in parallel into `scratch`, which then becomes `v`; no
+/// allocation once `scratch` has grown to size.
+fn permute<T: Copy + Send + Sync>(v: &mut Vec<T>, perm: &[u32], scratch: &mut Vec<T>) {
+    use rayon::prelude::*;
+    scratch.clear();
+    scratch.reserve(perm.len());
+    let src = &v[..];
+    scratch.par_extend(perm.par_iter().map(|&p| src[p as usize]));
+    std::mem::swap(v, scratch);
 }
 
 macro_rules! for_each_buffer {
@@ -290,16 +304,18 @@ impl Agents {
         assert_eq!(perm.len(), self.len(), "permutation length");
         debug_assert!(is_permutation(perm));
         let mut scratch = std::mem::take(&mut self.scratch_f32);
-        let mut apply = |v: &mut Vec<f32>| {
-            scratch.clear();
-            scratch.extend(perm.iter().map(|&p| v[p as usize]));
-            std::mem::swap(v, &mut scratch);
-        };
+        let mut apply = |v: &mut Vec<f32>| permute(v, perm, &mut scratch);
         for_each_buffer!(self, apply);
         self.scratch_f32 = scratch;
-        self.group = perm.iter().map(|&p| self.group[p as usize]).collect();
-        self.overrides = perm.iter().map(|&p| self.overrides[p as usize]).collect();
-        self.ids = perm.iter().map(|&p| self.ids[p as usize]).collect();
+        let mut scratch = std::mem::take(&mut self.scratch_u32);
+        permute(&mut self.group, perm, &mut scratch);
+        self.scratch_u32 = scratch;
+        let mut scratch = std::mem::take(&mut self.scratch_ids);
+        permute(&mut self.ids, perm, &mut scratch);
+        self.scratch_ids = scratch;
+        let mut scratch = std::mem::take(&mut self.scratch_u8);
+        permute(&mut self.overrides, perm, &mut scratch);
+        self.scratch_u8 = scratch;
         for (k, id) in self.ids.iter().enumerate() {
             self.index_of[id.0 as usize] = k as u32;
         }
@@ -311,14 +327,15 @@ impl Agents {
         self.index_of.len()
     }
 
-    /// Approximate heap bytes held per live agent (buffers' capacity, not length).
+    /// Heap bytes held by the store (buffers' capacity, scratch included).
     #[must_use]
     pub fn heap_bytes(&self) -> usize {
-        let f = self.pos_x.capacity() * 11 * 4;
-        f + self.group.capacity() * 4
+        let f32s = self.pos_x.capacity() * 11 + self.scratch_f32.capacity();
+        f32s * 4
+            + (self.group.capacity() + self.scratch_u32.capacity()) * 4
             + self.overrides.capacity()
-            + self.ids.capacity() * 4
-            + self.index_of.capacity() * 4
+            + self.scratch_u8.capacity()
+            + (self.ids.capacity() + self.scratch_ids.capacity() + self.index_of.capacity()) * 4
     }
 }
 

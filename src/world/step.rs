@@ -33,6 +33,8 @@ pub(crate) struct Scratch {
     nearest: Vec<Option<NearestIndex>>,
     prev_x: Vec<f32>,
     prev_y: Vec<f32>,
+    /// The reordering permutation.
+    perm: Vec<u32>,
 }
 
 /// A neighbour index over the agents of one group, for `Target::Nearest`.
@@ -844,8 +846,9 @@ impl World {
             return false;
         };
         if self.reorder_every > 0 && self.frame.is_multiple_of(u64::from(self.reorder_every)) {
-            let order = grid.order().to_vec();
-            self.agents.reorder(&order);
+            self.scratch.perm.clear();
+            self.scratch.perm.extend_from_slice(grid.order());
+            self.agents.reorder(&self.scratch.perm);
             let a = &self.agents;
             self.index.rebuild(&a.pos_x, &a.pos_y, self.bounds, query_r);
         }
