@@ -59,6 +59,10 @@ pub fn wrap_orientation(a: f32) -> f32 {
     if (0.0..TAU).contains(&a) {
         return a;
     }
+    if (-TAU..0.0).contains(&a) {
+        let w = a + TAU;
+        return if w >= TAU { 0.0 } else { w };
+    }
     let w = a.rem_euclid(TAU);
     if w >= TAU { 0.0 } else { w }
 }
@@ -150,31 +154,46 @@ fn integrate_chunk(
     simd: bool,
 ) {
     let n = s.pos_x.len();
-    // Angular part first: it reads the pre-update velocity (dynamic model, face velocity).
-    for i in 0..n {
-        let p = &params[st.group[i] as usize];
-        if p.kinematic {
-            let rot = st.ang[i].clamp(-p.max_rotation, p.max_rotation);
-            if p.face_velocity {
-                let (lx, ly) = (st.lin_x[i], st.lin_y[i]);
-                if lx * lx + ly * ly > 0.0 {
-                    s.orientation[i] = wrap_orientation(ly.atan2(lx));
-                }
+    // Angular part first: it reads the pre-update velocity (dynamic model, face velocity). The
+    // headings of eight agents at a time come from one vector atan2; the scalar reference takes
+    // lane 0 of the same function, so both paths give the same bits.
+    let mut k = 0;
+    while k < n {
+        let lanes = if simd { (n - k).min(LANES) } else { 1 };
+        let mut hx = [0.0_f32; LANES];
+        let mut hy = [0.0_f32; LANES];
+        for l in 0..lanes {
+            let i = k + l;
+            let p = &params[st.group[i] as usize];
+            (hx[l], hy[l]) = if p.kinematic {
+                (st.lin_x[i], st.lin_y[i])
             } else {
-                s.orientation[i] = wrap_orientation(s.orientation[i] + rot * dt);
-            }
-            s.rotation[i] = rot;
-        } else {
-            if p.face_velocity {
-                let (vx, vy) = (s.vel_x[i], s.vel_y[i]);
-                if vx * vx + vy * vy > 0.0 {
-                    s.orientation[i] = wrap_orientation(vy.atan2(vx));
-                }
-            } else {
-                s.orientation[i] = wrap_orientation(s.orientation[i] + s.rotation[i] * dt);
-            }
-            s.rotation[i] = (s.rotation[i] + st.ang[i] * dt).clamp(-p.max_rotation, p.max_rotation);
+                (s.vel_x[i], s.vel_y[i])
+            };
         }
+        let heading = f32x8::from(hy).atan2(f32x8::from(hx)).to_array();
+        for l in 0..lanes {
+            let i = k + l;
+            let p = &params[st.group[i] as usize];
+            let moving = hx[l] * hx[l] + hy[l] * hy[l] > 0.0;
+            if p.face_velocity && moving {
+                s.orientation[i] = wrap_orientation(heading[l]);
+            }
+            if p.kinematic {
+                let rot = st.ang[i].clamp(-p.max_rotation, p.max_rotation);
+                if !p.face_velocity {
+                    s.orientation[i] = wrap_orientation(s.orientation[i] + rot * dt);
+                }
+                s.rotation[i] = rot;
+            } else {
+                if !p.face_velocity {
+                    s.orientation[i] = wrap_orientation(s.orientation[i] + s.rotation[i] * dt);
+                }
+                s.rotation[i] =
+                    (s.rotation[i] + st.ang[i] * dt).clamp(-p.max_rotation, p.max_rotation);
+            }
+        }
+        k += lanes;
     }
     // Linear part.
     let simd_end = if simd { n - n % LANES } else { 0 };

@@ -13,6 +13,7 @@
 
 use glam::Vec2;
 use multiversion::multiversion;
+use rayon::prelude::*;
 
 use crate::bounds::Bounds;
 use crate::spatial::{GridIndex, Neighbour, NeighbourIndex, SpatialIndex};
@@ -108,17 +109,30 @@ impl SortedCopies {
             v.resize(n + LANES, 0.0);
             v[n..].fill(0.0);
         };
-        self.x.clear();
-        self.x.extend_from_slice(grid.sorted_x());
-        self.y.clear();
-        self.y.extend_from_slice(grid.sorted_y());
-        for (dst, src) in [(&mut self.vx, vel_x), (&mut self.vy, vel_y)] {
+        let gather = |dst: &mut Vec<f32>, f: &(dyn Fn(usize) -> f32 + Sync)| {
             dst.clear();
-            dst.extend(order.iter().map(|&j| src[j as usize]));
-        }
-        self.g.clear();
-        self.g
-            .extend(order.iter().map(|&j| group[j as usize] as f32));
+            dst.par_extend(order.par_iter().with_min_len(4096).map(|&j| f(j as usize)));
+        };
+        let (sx, sy) = (grid.sorted_x(), grid.sorted_y());
+        rayon::join(
+            || {
+                rayon::join(
+                    || {
+                        self.x.clear();
+                        self.x.extend_from_slice(sx);
+                        self.y.clear();
+                        self.y.extend_from_slice(sy);
+                    },
+                    || gather(&mut self.g, &|j| group[j] as f32),
+                )
+            },
+            || {
+                rayon::join(
+                    || gather(&mut self.vx, &|j| vel_x[j]),
+                    || gather(&mut self.vy, &|j| vel_y[j]),
+                )
+            },
+        );
         for v in [
             &mut self.x,
             &mut self.y,
