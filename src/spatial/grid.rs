@@ -304,19 +304,28 @@ impl GridIndex {
     }
 
     fn gather(&self, p: Vec2, r: f32, skip: usize, out: &mut Vec<Neighbour>) {
+        // One match on the world's shape, so the candidate loop is specialised for it; the
+        // filter is still `exact` with the same `Bounds`, so results stay bit-identical.
+        match self.bounds {
+            Bounds::Torus { size } => self.gather_in(Bounds::Torus { size }, p, r, skip, out),
+            Bounds::Bounded { size } => self.gather_in(Bounds::Bounded { size }, p, r, skip, out),
+            Bounds::Open => self.gather_in(Bounds::Open, p, r, skip, out),
+        }
+    }
+
+    #[inline(always)]
+    fn gather_in(&self, bounds: Bounds, p: Vec2, r: f32, skip: usize, out: &mut Vec<Neighbour>) {
         out.clear();
         let r_sq = r * r;
         self.for_each_run(p, r, |run| {
-            for k in run {
-                let j = self.order[k];
-                if j as usize != skip
-                    && let Some(n) = exact(
-                        &self.bounds,
-                        p,
-                        Vec2::new(self.sorted_x[k], self.sorted_y[k]),
-                        j,
-                        r_sq,
-                    )
+            let (order, xs, ys) = (
+                &self.order[run.clone()],
+                &self.sorted_x[run.clone()],
+                &self.sorted_y[run],
+            );
+            for ((&j, &x), &y) in order.iter().zip(xs).zip(ys) {
+                if let Some(n) = exact(&bounds, p, Vec2::new(x, y), j, r_sq)
+                    && j as usize != skip
                 {
                     out.push(n);
                 }
@@ -338,7 +347,7 @@ impl GridIndex {
         let b = ex + ey;
         let cap_side = (b + (b * b + 4.0 * m * ex * ey).sqrt()) / (2.0 * m);
         let mut side = f64::from(max_radius.max(0.0)).max(cap_side);
-        if side <= 0.0 || !side.is_finite() {
+        if side <= 0.0 || side.is_nan() {
             side = 1.0;
         }
         let (nx, ny, cell_size) = if bounds.is_torus() {
@@ -786,6 +795,15 @@ mod tests {
         g.rebuild(&xs[..100], &ys[..100], Bounds::Open, 0.0);
         assert!(g.cells_x() * g.cells_y() <= 400);
         check_layout(&g, &xs[..100], &ys[..100]);
+        // An infinite radius: one cell, and every point found.
+        for bounds in [Bounds::Open, Bounds::torus(100.0, 100.0).unwrap()] {
+            g.rebuild(&xs[..100], &ys[..100], bounds, f32::INFINITY);
+            assert_eq!((g.cells_x(), g.cells_y()), (1, 1));
+            check_layout(&g, &xs[..100], &ys[..100]);
+            let mut out = Vec::new();
+            g.neighbours_of(3, f32::INFINITY, &mut out);
+            assert_eq!(out.len(), 99);
+        }
     }
 
     #[test]
