@@ -1,41 +1,16 @@
 //! A uniform grid of cell lists, rebuilt by a counting sort in O(N).
 //!
-//! # Layout
-//!
-//! Cells are numbered row-major: cell `(cx, cy)` is `cy * cells_x + cx`. After a rebuild,
-//! [`GridIndex::order`] lists the point indices sorted by cell, and ascending by index within a
-//! cell (the sort is stable); [`GridIndex::cell_start`] holds the prefix sums, so cell `c` owns
-//! `order[cell_start[c]..cell_start[c + 1]]`; [`GridIndex::sorted_x`] and
-//! [`GridIndex::sorted_y`] hold the positions in that same order. The cells `x0..=x1` of one row
-//! are therefore one contiguous run of points, which is what a SIMD kernel wants to read.
-//!
-//! # Geometry
-//!
-//! * Torus `W x H`: origin `(0, 0)`, `cells_x = max(1, floor(W / max_radius))`, cell width
-//!   `W / cells_x` (so cells tile the world exactly and every cell is at least `max_radius` wide).
-//! * Walled world: the rectangle `[0, W] x [0, H]`, square cells of side `max_radius`.
-//! * Open world: the bounding box of the points, square cells of side `max_radius`.
-//!
-//! Points outside the grid's rectangle are clamped into its edge cells ([`GridIndex::cell_of`]).
-//! The total number of cells is capped at `clamp(4 N, 64, 2^22)`: when `max_radius` is tiny
-//! compared to the world the cells grow instead, so memory stays bounded. Cells are never smaller
-//! than `max_radius`; a query of any radius stays exact (it visits more rings of cells).
-//!
-//! # Rebuild
-//!
-//! The counting sort runs in three passes: compute each point's cell (parallel over chunks of
-//! points), count points per cell and take the prefix sums, and scatter. For large N the count and
-//! the scatter split the *cells* into blocks, one per worker: each worker scans all cell ids and
-//! handles the points of its own cells, writing only its own disjoint range of the output. So the
-//! parallel result is identical to the sequential one, with no locks and no unsafe code. Buffers
-//! are reused: once warm, a rebuild of the same size allocates nothing.
+//! Invariants: `order` is the stable sort of the point indices by row-major cell id, the same
+//! for any number of threads; `cell_start` holds its prefix sums; the sorted positions follow
+//! `order`. The layout, geometry and rebuild are documented on [`GridIndex`].
 
 use std::ops::Range;
+use std::sync::atomic::{AtomicU64, Ordering};
 
 use glam::Vec2;
 use rayon::prelude::*;
 
-use super::{Neighbour, NeighbourIndex, coordinate_scale, exact, gather_radius, to_u32};
+use super::{Neighbour, NeighbourIndex, exact, gather_radius, to_u32};
 use crate::bounds::Bounds;
 
 /// Below this many points the rebuild runs on the calling thread.
@@ -45,7 +20,46 @@ const CHUNK: usize = 8 * 1024;
 /// The largest number of cells a grid ever has.
 const MAX_CELLS: usize = 1 << 22;
 
-/// A uniform-grid neighbour index. See the [module docs](self) for its layout.
+/// A uniform-grid neighbour index: cell lists rebuilt by counting sort.
+///
+/// # Layout
+///
+/// Cells are numbered row-major: cell `(cx, cy)` is `cy * cells_x + cx`. After a rebuild,
+/// [`GridIndex::order`] lists the point indices sorted by cell, and ascending by index within a
+/// cell (the sort is stable); [`GridIndex::cell_start`] holds the prefix sums, so cell `c` owns
+/// `order[cell_start[c]..cell_start[c + 1]]`; [`GridIndex::sorted_x`] and
+/// [`GridIndex::sorted_y`] hold the positions in that same order. The cells `x0..=x1` of one row
+/// are therefore one contiguous run of points, which is what a SIMD kernel wants to read.
+///
+/// # Geometry
+///
+/// * Torus `W x H`: origin `(0, 0)`, `cells_x = max(1, floor(W / max_radius))`, cell width
+///   `W / cells_x` (so cells tile the world exactly and every cell is at least `max_radius` wide).
+/// * Walled world: the rectangle `[0, W] x [0, H]`, square cells of side `max_radius`.
+/// * Open world: the bounding box of the points, square cells of side `max_radius`.
+///
+/// Points outside the grid's rectangle are clamped into its edge cells ([`GridIndex::cell_of`]).
+/// The total number of cells is capped at `clamp(4 N, 64, 2^22)`: when `max_radius` is tiny
+/// compared to the world the cells grow instead, so memory stays bounded. Cells are never smaller
+/// than `max_radius`; a query of any radius stays exact (it visits more rings of cells).
+///
+/// # Rebuild
+///
+/// A two-level counting sort, O(N + cells), on the current rayon pool when N is large:
+///
+/// 1. Per chunk of points: copy the positions and compute each point's cell id.
+/// 2. Per chunk: a histogram of *buckets*, runs of `2^k` consecutive cells chosen so that there
+///    are at most 1024 of them; prefix sums over (bucket, chunk) give every chunk its own slots in
+///    every bucket.
+/// 3. Per chunk: scatter `(cell, index)` into those slots. Few buckets means few write streams,
+///    which stay in cache even when the points come in random order. Slots of different chunks
+///    interleave, so this buffer holds relaxed atomics (plain stores on x86) rather than `unsafe`.
+/// 4. Per bucket: a counting sort by cell inside the bucket (its cells' counters fit in L1),
+///    writing `cell_start`, `order` and the sorted positions. Buckets own disjoint output ranges.
+///
+/// Every step keeps index order within a cell, so the result is the stable sort by cell, the
+/// same for any number of threads. Buffers are reused: once warm, a rebuild of the same size
+/// allocates nothing.
 #[derive(Clone, Debug)]
 pub struct GridIndex {
     bounds: Bounds,
@@ -56,8 +70,7 @@ pub struct GridIndex {
     cells_y: u32,
     scale: f32,
     /// Positions by point index.
-    xs: Vec<f32>,
-    ys: Vec<f32>,
+    pts: Vec<Vec2>,
     /// Cell id of each point.
     cell: Vec<u32>,
     /// Prefix sums, `cells + 1` long.
@@ -67,8 +80,22 @@ pub struct GridIndex {
     order: Vec<u32>,
     sorted_x: Vec<f32>,
     sorted_y: Vec<f32>,
-    /// Scratch: first cell of each worker's block, then the cell count.
-    blocks: Vec<u32>,
+    /// Scratch: points per bucket of cells, as prefix sums.
+    bucket_start: Vec<u32>,
+    /// Scratch: per chunk of points, a histogram of buckets, then write cursors.
+    histogram: Vec<u32>,
+    /// Scratch: `cell << 32 | index` grouped by bucket.
+    pairs: Pairs,
+}
+
+/// Scratch space for the bucket scatter; cloning gives an empty one.
+#[derive(Debug, Default)]
+struct Pairs(Vec<AtomicU64>);
+
+impl Clone for Pairs {
+    fn clone(&self) -> Self {
+        Pairs::default()
+    }
 }
 
 impl Default for GridIndex {
@@ -81,15 +108,16 @@ impl Default for GridIndex {
             cells_x: 1,
             cells_y: 1,
             scale: 0.0,
-            xs: Vec::new(),
-            ys: Vec::new(),
+            pts: Vec::new(),
             cell: Vec::new(),
             cell_start: vec![0, 0],
             cursor: Vec::new(),
             order: Vec::new(),
             sorted_x: Vec::new(),
             sorted_y: Vec::new(),
-            blocks: Vec::new(),
+            bucket_start: Vec::new(),
+            histogram: Vec::new(),
+            pairs: Pairs::default(),
         }
     }
 }
@@ -117,13 +145,9 @@ impl Spans {
 /// Cell index of coordinate `x` on an axis of `n` cells, clamped to `0..n`.
 #[inline]
 fn axis_cell(x: f32, origin: f32, inv: f32, n: u32) -> u32 {
-    let f = ((x - origin) * inv).floor();
-    if f >= 0.0 {
-        // `as` saturates, and `n as f32` is exact for n <= 2^22.
-        if f >= n as f32 { n - 1 } else { f as u32 }
-    } else {
-        0
-    }
+    let f = (x - origin) * inv;
+    // Truncation is floor for f >= 0 and avoids a libm call on baseline x86-64; `as` saturates.
+    if f >= 0.0 { (f as u32).min(n - 1) } else { 0 }
 }
 
 impl GridIndex {
@@ -280,19 +304,28 @@ impl GridIndex {
     }
 
     fn gather(&self, p: Vec2, r: f32, skip: usize, out: &mut Vec<Neighbour>) {
+        // One match on the world's shape, so the candidate loop is specialised for it; the
+        // filter is still `exact` with the same `Bounds`, so results stay bit-identical.
+        match self.bounds {
+            Bounds::Torus { size } => self.gather_in(Bounds::Torus { size }, p, r, skip, out),
+            Bounds::Bounded { size } => self.gather_in(Bounds::Bounded { size }, p, r, skip, out),
+            Bounds::Open => self.gather_in(Bounds::Open, p, r, skip, out),
+        }
+    }
+
+    #[inline(always)]
+    fn gather_in(&self, bounds: Bounds, p: Vec2, r: f32, skip: usize, out: &mut Vec<Neighbour>) {
         out.clear();
         let r_sq = r * r;
         self.for_each_run(p, r, |run| {
-            for k in run {
-                let j = self.order[k];
-                if j as usize != skip
-                    && let Some(n) = exact(
-                        &self.bounds,
-                        p,
-                        Vec2::new(self.sorted_x[k], self.sorted_y[k]),
-                        j,
-                        r_sq,
-                    )
+            let (order, xs, ys) = (
+                &self.order[run.clone()],
+                &self.sorted_x[run.clone()],
+                &self.sorted_y[run],
+            );
+            for ((&j, &x), &y) in order.iter().zip(xs).zip(ys) {
+                if let Some(n) = exact(&bounds, p, Vec2::new(x, y), j, r_sq)
+                    && j as usize != skip
                 {
                     out.push(n);
                 }
@@ -302,14 +335,10 @@ impl GridIndex {
     }
 
     /// Chooses origin, cell size and cell counts for `n` points.
-    fn plan(&mut self, bounds: Bounds, max_radius: f32) {
-        let n = self.xs.len();
+    fn plan(&mut self, bounds: Bounds, max_radius: f32, n: usize, bbox: (Vec2, Vec2)) {
         let (origin, extent) = match bounds {
             Bounds::Bounded { size } | Bounds::Torus { size } => (Vec2::ZERO, size),
-            Bounds::Open => {
-                let (lo, hi) = bounding_box(&self.xs, &self.ys);
-                (lo, hi - lo)
-            }
+            Bounds::Open => (bbox.0, bbox.1 - bbox.0),
         };
         let max_cells = (4 * n).clamp(64, MAX_CELLS);
         // Smallest cell side s with (ex / s + 1) * (ey / s + 1) <= max_cells.
@@ -318,7 +347,7 @@ impl GridIndex {
         let b = ex + ey;
         let cap_side = (b + (b * b + 4.0 * m * ex * ey).sqrt()) / (2.0 * m);
         let mut side = f64::from(max_radius.max(0.0)).max(cap_side);
-        if side <= 0.0 || !side.is_finite() {
+        if side <= 0.0 || side.is_nan() {
             side = 1.0;
         }
         let (nx, ny, cell_size) = if bounds.is_torus() {
@@ -371,120 +400,181 @@ impl GridIndex {
         to_u32(n);
         let parts = parts.clamp(1, 64);
 
-        self.xs.clear();
-        self.xs.extend_from_slice(xs);
-        self.ys.clear();
-        self.ys.extend_from_slice(ys);
-        self.scale = coordinate_scale(xs, ys, &bounds);
-        self.plan(bounds, max_radius);
+        let parallel = parts > 1;
+        let bbox = if bounds == Bounds::Open {
+            bounding_box(xs, ys, parallel)
+        } else {
+            (Vec2::ZERO, Vec2::ZERO)
+        };
+        self.plan(bounds, max_radius, n, bbox);
         let cells = self.cells_x as usize * self.cells_y as usize;
 
-        // Pass 1: cell id of every point.
+        // Pass 1: copy the positions, find each point's cell and the coordinates' magnitude.
+        self.pts.resize(n, Vec2::ZERO);
         self.cell.resize(n, 0);
         let (origin, inv, cx, cy) = (self.origin, self.inv_cell, self.cells_x, self.cells_y);
-        let cell_id = |x: f32, y: f32| {
-            axis_cell(y, origin.y, inv.y, cy) * cx + axis_cell(x, origin.x, inv.x, cx)
+        let fill = |pts: &mut [Vec2], cell: &mut [u32], xs: &[f32], ys: &[f32]| {
+            let mut max_abs = 0.0_f32;
+            for (((p, c), &x), &y) in pts.iter_mut().zip(cell.iter_mut()).zip(xs).zip(ys) {
+                *p = Vec2::new(x, y);
+                *c = axis_cell(y, origin.y, inv.y, cy) * cx + axis_cell(x, origin.x, inv.x, cx);
+                max_abs = max_abs.max(x.abs()).max(y.abs());
+            }
+            max_abs
         };
-        if parts > 1 {
-            self.cell
+        let max_abs = if parallel {
+            self.pts
                 .par_chunks_mut(CHUNK)
+                .zip(self.cell.par_chunks_mut(CHUNK))
                 .zip(xs.par_chunks(CHUNK).zip(ys.par_chunks(CHUNK)))
-                .for_each(|(c, (x, y))| {
-                    for ((c, &x), &y) in c.iter_mut().zip(x).zip(y) {
-                        *c = cell_id(x, y);
-                    }
-                });
+                .map(|((p, c), (x, y))| fill(p, c, x, y))
+                .reduce(|| 0.0, f32::max)
         } else {
-            for ((c, &x), &y) in self.cell.iter_mut().zip(xs).zip(ys) {
-                *c = cell_id(x, y);
+            fill(&mut self.pts, &mut self.cell, xs, ys)
+        };
+        self.scale = bounds.size().map_or(max_abs, |s| max_abs.max(s.x).max(s.y));
+
+        // Pass 2: a histogram of buckets (runs of 2^shift cells) per chunk of points.
+        let mut shift = 0;
+        while (cells + (1 << shift) - 1) >> shift > BUCKETS {
+            shift += 1;
+        }
+        let buckets = (cells + (1 << shift) - 1) >> shift;
+        let chunk_len = n.div_ceil(parts).max(1);
+        let chunks = n.div_ceil(chunk_len);
+        self.histogram.clear();
+        self.histogram.resize(chunks * buckets, 0);
+        let count = |row: &mut [u32], cell: &[u32]| {
+            for &c in cell {
+                row[(c >> shift) as usize] += 1;
+            }
+        };
+        if parallel {
+            self.histogram
+                .par_chunks_mut(buckets)
+                .zip(self.cell.par_chunks(chunk_len))
+                .for_each(|(row, cell)| count(row, cell));
+        } else {
+            for (row, cell) in self
+                .histogram
+                .chunks_mut(buckets)
+                .zip(self.cell.chunks(chunk_len))
+            {
+                count(row, cell);
+            }
+        }
+        // Bucket starts, and each chunk's first slot in each bucket: chunk order within a bucket
+        // keeps the scatter stable.
+        self.bucket_start.resize(buckets + 1, 0);
+        let mut run = 0u32;
+        for b in 0..buckets {
+            self.bucket_start[b] = run;
+            for t in 0..chunks {
+                let h = &mut self.histogram[t * buckets + b];
+                (*h, run) = (run, run + *h);
+            }
+        }
+        self.bucket_start[buckets] = run;
+
+        // Pass 3: each chunk scatters its `(cell, index)` pairs into its own slots. The slots of
+        // different chunks interleave, so the pairs are relaxed atomics (plain stores on x86).
+        self.pairs.0.resize_with(n, || AtomicU64::new(0));
+        let pairs = &self.pairs.0[..n];
+        let scatter = |t: usize, row: &mut [u32], cell: &[u32]| {
+            let first = t * chunk_len;
+            for (i, &c) in cell.iter().enumerate() {
+                let slot = &mut row[(c >> shift) as usize];
+                pairs[*slot as usize]
+                    .store(u64::from(c) << 32 | (first + i) as u64, Ordering::Relaxed);
+                *slot += 1;
+            }
+        };
+        if parallel {
+            self.histogram
+                .par_chunks_mut(buckets)
+                .zip(self.cell.par_chunks(chunk_len))
+                .enumerate()
+                .for_each(|(t, (row, cell))| scatter(t, row, cell));
+        } else {
+            for (t, (row, cell)) in self
+                .histogram
+                .chunks_mut(buckets)
+                .zip(self.cell.chunks(chunk_len))
+                .enumerate()
+            {
+                scatter(t, row, cell);
             }
         }
 
-        // Pass 2: counts per cell, then prefix sums.
+        // Pass 4: within each bucket, a counting sort by cell, in cache; buckets own disjoint
+        // ranges of the outputs, so they run in parallel.
         self.cell_start.resize(cells + 1, 0);
         self.cell_start[0] = 0;
-        count_cells(&mut self.cell_start[1..], 0, &self.cell, parts);
-        let mut sum = 0u32;
-        for c in &mut self.cell_start[1..] {
-            sum += *c;
-            *c = sum;
-        }
-
-        // Pass 3: scatter, cells split into blocks of about n / parts points each.
-        self.blocks.clear();
-        self.blocks.push(0);
-        for t in 1..parts {
-            let target = (n * t / parts) as u32;
-            let c = self.cell_start.partition_point(|&s| s < target).min(cells);
-            self.blocks
-                .push((c as u32).max(*self.blocks.last().unwrap_or(&0)));
-        }
-        self.blocks.push(cells as u32);
         self.cursor.resize(cells, 0);
         self.order.resize(n, 0);
         self.sorted_x.resize(n, 0.0);
         self.sorted_y.resize(n, 0.0);
-        scatter(
-            &self.blocks,
-            &self.cell_start,
-            Scatter {
-                cursor: &mut self.cursor,
-                order: &mut self.order,
-                sorted_x: &mut self.sorted_x,
-                sorted_y: &mut self.sorted_y,
-            },
-            &self.cell,
-            xs,
-            ys,
-        );
+        let shared = Shared {
+            bucket_start: &self.bucket_start,
+            pairs: &self.pairs.0[..n],
+            pts: &self.pts,
+            shift,
+            cells,
+            parallel,
+        };
+        let out = Out {
+            cell_end: &mut self.cell_start[1..],
+            cursor: &mut self.cursor,
+            order: &mut self.order,
+            sorted_x: &mut self.sorted_x,
+            sorted_y: &mut self.sorted_y,
+        };
+        sort_buckets(&shared, 0, buckets, out);
     }
 }
 
-/// Writes into `counts` (the cells `first..first + counts.len()`) how many entries of `cell` fall
-/// in each, splitting the cells over `parts` workers.
-fn count_cells(counts: &mut [u32], first: u32, cell: &[u32], parts: usize) {
-    if parts <= 1 || counts.len() < 2 {
-        counts.fill(0);
-        let len = counts.len() as u32;
-        for &c in cell {
-            let k = c.wrapping_sub(first);
-            if k < len {
-                counts[k as usize] += 1;
-            }
-        }
-        return;
-    }
-    let half = parts / 2;
-    let mid = counts.len() * half / parts;
-    let (a, b) = counts.split_at_mut(mid);
-    rayon::join(
-        || count_cells(a, first, cell, half),
-        || count_cells(b, first + mid as u32, cell, parts - half),
-    );
+/// Buckets at most: few enough that the bucket scatter writes to cache-resident streams.
+const BUCKETS: usize = 1024;
+/// A worker sorts at least this many points' buckets before splitting further.
+const LEAF_POINTS: u32 = 16 * 1024;
+
+/// Read-only inputs of [`sort_buckets`].
+struct Shared<'a> {
+    bucket_start: &'a [u32],
+    pairs: &'a [AtomicU64],
+    pts: &'a [Vec2],
+    shift: u32,
+    cells: usize,
+    parallel: bool,
 }
 
-/// Output slices of the scatter for a block of cells.
-struct Scatter<'a> {
+/// The outputs of [`sort_buckets`] for a range of buckets: their cells' entries of
+/// `cell_start[1..]` and cursors, and their points' range of the sorted arrays.
+struct Out<'a> {
+    cell_end: &'a mut [u32],
     cursor: &'a mut [u32],
     order: &'a mut [u32],
     sorted_x: &'a mut [f32],
     sorted_y: &'a mut [f32],
 }
 
-impl Scatter<'_> {
+impl Out<'_> {
     fn split_at(self, cell: usize, point: usize) -> (Self, Self) {
+        let (e0, e1) = self.cell_end.split_at_mut(cell);
         let (c0, c1) = self.cursor.split_at_mut(cell);
         let (o0, o1) = self.order.split_at_mut(point);
         let (x0, x1) = self.sorted_x.split_at_mut(point);
         let (y0, y1) = self.sorted_y.split_at_mut(point);
         (
-            Scatter {
+            Out {
+                cell_end: e0,
                 cursor: c0,
                 order: o0,
                 sorted_x: x0,
                 sorted_y: y0,
             },
-            Scatter {
+            Out {
+                cell_end: e1,
                 cursor: c1,
                 order: o1,
                 sorted_x: x1,
@@ -494,53 +584,64 @@ impl Scatter<'_> {
     }
 }
 
-/// Places every point of the cells `blocks[0]..blocks[last]` into `out`, which covers exactly
-/// those cells' output range; splits the blocks between workers.
-fn scatter(
-    blocks: &[u32],
-    cell_start: &[u32],
-    out: Scatter<'_>,
-    cell: &[u32],
-    xs: &[f32],
-    ys: &[f32],
-) {
-    let (first, last) = (blocks[0] as usize, blocks[blocks.len() - 1] as usize);
-    if blocks.len() > 2 {
-        let m = blocks.len() / 2;
-        let mid = blocks[m] as usize;
-        let (a, b) = out.split_at(mid - first, (cell_start[mid] - cell_start[first]) as usize);
+/// Sorts the points of buckets `b0..b1` by cell (stable) into `out`, and writes their cells' ends.
+fn sort_buckets(sh: &Shared<'_>, b0: usize, b1: usize, out: Out<'_>) {
+    let first_cell = (b0 << sh.shift).min(sh.cells);
+    let points = sh.bucket_start[b1] - sh.bucket_start[b0];
+    if sh.parallel && b1 - b0 > 1 && points > LEAF_POINTS {
+        let bm = usize::midpoint(b0, b1);
+        let mid_cell = (bm << sh.shift).min(sh.cells);
+        let (a, b) = out.split_at(
+            mid_cell - first_cell,
+            (sh.bucket_start[bm] - sh.bucket_start[b0]) as usize,
+        );
         rayon::join(
-            || scatter(&blocks[..=m], cell_start, a, cell, xs, ys),
-            || scatter(&blocks[m..], cell_start, b, cell, xs, ys),
+            || sort_buckets(sh, b0, bm, a),
+            || sort_buckets(sh, bm, b1, b),
         );
         return;
     }
-    let base = cell_start[first];
-    for (cur, &start) in out.cursor.iter_mut().zip(&cell_start[first..last]) {
-        *cur = start - base;
-    }
-    let len = (last - first) as u32;
-    for (i, &c) in cell.iter().enumerate() {
-        let k = c.wrapping_sub(first as u32);
-        if k < len {
-            let slot = &mut out.cursor[k as usize];
-            let at = *slot as usize;
+    let base = sh.bucket_start[b0];
+    for b in b0..b1 {
+        let c0 = (b << sh.shift).min(sh.cells);
+        let c1 = ((b + 1) << sh.shift).min(sh.cells);
+        let (lo, hi) = (sh.bucket_start[b], sh.bucket_start[b + 1]);
+        let pairs = &sh.pairs[lo as usize..hi as usize];
+        let ends = &mut out.cell_end[c0 - first_cell..c1 - first_cell];
+        let cursor = &mut out.cursor[c0 - first_cell..c1 - first_cell];
+        ends.fill(0);
+        for pair in pairs {
+            let c = (pair.load(Ordering::Relaxed) >> 32) as usize;
+            ends[c - c0] += 1;
+        }
+        let mut run = lo;
+        for (end, cur) in ends.iter_mut().zip(cursor.iter_mut()) {
+            *cur = run - base;
+            run += *end;
+            *end = run;
+        }
+        for pair in pairs {
+            let pair = pair.load(Ordering::Relaxed);
+            let (c, i) = ((pair >> 32) as usize, pair as u32);
+            let slot = &mut cursor[c - c0];
+            let k = *slot as usize;
             *slot += 1;
-            out.order[at] = i as u32;
-            out.sorted_x[at] = xs[i];
-            out.sorted_y[at] = ys[i];
+            let p = sh.pts[i as usize];
+            out.order[k] = i;
+            out.sorted_x[k] = p.x;
+            out.sorted_y[k] = p.y;
         }
     }
 }
 
 /// Lower and upper corners of the points' bounding box (zero when there are none).
-fn bounding_box(xs: &[f32], ys: &[f32]) -> (Vec2, Vec2) {
+fn bounding_box(xs: &[f32], ys: &[f32], parallel: bool) -> (Vec2, Vec2) {
     if xs.is_empty() {
         return (Vec2::ZERO, Vec2::ZERO);
     }
     let fold = |(lo, hi): (f32, f32), &v: &f32| (lo.min(v), hi.max(v));
     let init = (f32::INFINITY, f32::NEG_INFINITY);
-    let ((x0, x1), (y0, y1)) = if xs.len() >= PARALLEL_MIN_POINTS {
+    let ((x0, x1), (y0, y1)) = if parallel {
         let axis = |v: &[f32]| {
             v.par_chunks(CHUNK)
                 .map(|c| c.iter().fold(init, fold))
@@ -565,7 +666,7 @@ impl NeighbourIndex for GridIndex {
     }
 
     fn neighbours_of(&self, i: usize, r: f32, out: &mut Vec<Neighbour>) {
-        self.gather(Vec2::new(self.xs[i], self.ys[i]), r, i, out);
+        self.gather(self.pts[i], r, i, out);
     }
 
     fn neighbours_at(&self, p: Vec2, r: f32, out: &mut Vec<Neighbour>) {
@@ -573,7 +674,7 @@ impl NeighbourIndex for GridIndex {
     }
 
     fn len(&self) -> usize {
-        self.xs.len()
+        self.pts.len()
     }
 }
 
@@ -694,6 +795,15 @@ mod tests {
         g.rebuild(&xs[..100], &ys[..100], Bounds::Open, 0.0);
         assert!(g.cells_x() * g.cells_y() <= 400);
         check_layout(&g, &xs[..100], &ys[..100]);
+        // An infinite radius: one cell, and every point found.
+        for bounds in [Bounds::Open, Bounds::torus(100.0, 100.0).unwrap()] {
+            g.rebuild(&xs[..100], &ys[..100], bounds, f32::INFINITY);
+            assert_eq!((g.cells_x(), g.cells_y()), (1, 1));
+            check_layout(&g, &xs[..100], &ys[..100]);
+            let mut out = Vec::new();
+            g.neighbours_of(3, f32::INFINITY, &mut out);
+            assert_eq!(out.len(), 99);
+        }
     }
 
     #[test]

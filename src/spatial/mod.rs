@@ -78,6 +78,8 @@ pub trait NeighbourIndex {
 
     /// Every `j` with `dist_sq <= r * r` from the point `p`, written into `out` (cleared first) in
     /// ascending index order.
+    ///
+    /// On a torus `p` must lie in the world (wrap it with [`Bounds::wrap`] first).
     fn neighbours_at(&self, p: Vec2, r: f32, out: &mut Vec<Neighbour>);
 
     /// Up to `k` nearest points within `r` of `p`, leaving out `exclude` if given, written into
