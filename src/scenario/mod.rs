@@ -10,7 +10,9 @@
 //! proportion to their `count`s, except groups marked `fixed`.
 
 mod builtin;
+mod fields;
 mod spec;
 
 pub use builtin::{BUILTIN, builtin, builtin_names};
+pub use fields::{FieldSpec, GoalSpec, MapSource, WalkerSpec};
 pub use spec::{DensitySpec, GroupSpec, Scenario, Spawn, WorldSpec};

@@ -36,6 +36,9 @@ pub struct Scenario {
     pub world: WorldSpec,
     /// The groups, in order (group index = position in this list).
     pub groups: Vec<GroupSpec>,
+    /// A grid field (goal channels, walls, walkers). Default: none.
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub field: Option<super::fields::FieldSpec>,
 }
 
 fn default_seed() -> u64 {
@@ -114,6 +117,8 @@ pub enum Spawn {
         /// The points.
         points: Vec<Vec2>,
     },
+    /// Uniformly over the free cells of the scenario's `[field]`.
+    FreeCells,
 }
 
 /// One group: its count, spawn region and profile. The profile's keys (`model`, `max_speed`,
@@ -204,6 +209,9 @@ impl Scenario {
             location: e.span().map(|sp| line_col(text, sp.start)),
             message: e.message().trim().to_string(),
         })?;
+        if let Some(f) = &mut s.field {
+            f.resolve_paths(source_name);
+        }
         if s.name.is_empty() {
             s.name = Path::new(source_name)
                 .file_stem()
@@ -295,6 +303,13 @@ impl Scenario {
                     }
                 }
                 Spawn::Uniform => {}
+                Spawn::FreeCells if self.field.is_none() => {
+                    return Err(Error::Invalid {
+                        name: "spawn".into(),
+                        reason: "`free_cells` spawning needs a `[field]`".into(),
+                    });
+                }
+                Spawn::FreeCells => {}
             }
         }
         Ok(())
@@ -396,6 +411,10 @@ impl Scenario {
         for g in &self.groups {
             world.add_group(g.params.clone())?;
         }
+        let field = match &self.field {
+            Some(f) => Some(f.add_to(&mut world, self.seed)?),
+            None => None,
+        };
         for (gi, g) in self.groups.iter().enumerate() {
             let mut rng = ChaCha8Rng::seed_from_u64(
                 self.seed ^ (0x5eed_0000_u64 + gi as u64).wrapping_mul(0x9e37_79b9_7f4a_7c15),
@@ -417,6 +436,7 @@ impl Scenario {
                         *center + Vec2::from_angle(a) * r
                     }
                     Spawn::Points { points } => points[k],
+                    Spawn::FreeCells => super::fields::free_point(&world, &mut rng)?,
                 };
                 let position = bounds.wrap(position);
                 let heading = rng.random::<f32>() * 2.0 * PI;
@@ -429,6 +449,9 @@ impl Scenario {
                     ..AgentInit::default()
                 })?;
             }
+        }
+        if let (Some(f), Some(id)) = (&self.field, field) {
+            f.finish(&mut world, id)?;
         }
         Ok(world)
     }

@@ -196,6 +196,18 @@ pub enum Behaviour {
         /// Cut-off radius (> 0): farther agents are ignored.
         radius: f32,
     },
+    /// Follow a world field's flow towards its goals (document 001): the desired velocity is the
+    /// bilinearly sampled flow direction at full speed; an agent on a goal cell of its channel,
+    /// or one that has arrived since the channel's goals last changed, brakes to rest. Yields
+    /// nothing when the field or channel does not exist.
+    FollowField {
+        /// The field, as numbered by `World::add_field`. Default: 0.
+        #[serde(default)]
+        field: usize,
+        /// The goal channel of that field. Default: 0.
+        #[serde(default)]
+        channel: usize,
+    },
 }
 
 /// Which neighbours a flocking behaviour sees.
@@ -284,6 +296,7 @@ impl Behaviour {
             Behaviour::Alignment { .. } => "alignment",
             Behaviour::Cohesion { .. } => "cohesion",
             Behaviour::Repulsion { .. } => "repulsion",
+            Behaviour::FollowField { .. } => "follow_field",
         }
     }
 
@@ -304,6 +317,7 @@ impl Behaviour {
             | Behaviour::Alignment { .. }
             | Behaviour::Cohesion { .. }
             | Behaviour::Repulsion { .. } => None,
+            Behaviour::FollowField { .. } => None,
         }
     }
 
@@ -363,6 +377,7 @@ impl Behaviour {
                 non_negative("repulsion.exponent", *exponent)?;
                 positive("repulsion.radius", *radius)?;
             }
+            Behaviour::FollowField { .. } => {}
         }
         Ok(())
     }

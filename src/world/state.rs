@@ -45,6 +45,8 @@ pub struct World {
     pub(crate) index: SpatialIndex,
     /// Reorder agents by grid cell every this many frames (0: never).
     pub(crate) reorder_every: u32,
+    /// Goal fields, walls and grid walkers.
+    pub(crate) fields: super::fields::FieldSet,
 }
 
 impl World {
@@ -65,6 +67,7 @@ impl World {
             scratch: Scratch::default(),
             index: SpatialIndex::new(IndexKind::Grid),
             reorder_every: DEFAULT_REORDER_EVERY,
+            fields: Default::default(),
         }
     }
 

@@ -71,6 +71,8 @@ pub(crate) struct SteerCtx<'a> {
     pub flock: &'a [FlockSpec],
     /// Cell-ordered copies for the grid kernel (`None`: use the scalar traversal).
     pub sorted: Option<&'a SortedCopies>,
+    /// The world's fields (read only).
+    pub fields: &'a super::fields::FieldSet,
 }
 
 /// A resolved target: its position (nearest image) and velocity.
@@ -401,6 +403,15 @@ impl SteerCtx<'_> {
                 Steering::linear(steering::cohesion(sums, velocity, max_speed))
             }
             Behaviour::Repulsion { .. } => Steering::linear(sums.repulsion),
+            Behaviour::FollowField { field, channel } => Steering::linear(self.fields.follow(
+                field,
+                channel,
+                self.agents.ids[i],
+                position,
+                velocity,
+                max_speed,
+                kinematic,
+            )),
         }
     }
 }
@@ -444,6 +455,7 @@ impl World {
         // 1. index: rebuilt when some group queries neighbours; agents reordered by cell when due
         let t = Instant::now();
         let use_kernel = self.prepare_index();
+        self.fields.prepare(&self.agents, &self.groups, self.seed, self.frame);
         phases.index = t.elapsed();
 
         // 2. steer
@@ -487,6 +499,7 @@ impl World {
         // 4. bounds
         let t = Instant::now();
         apply_bounds(&mut self.agents, self.bounds);
+        self.fields.after_move(&mut self.agents, dt, exec == Execution::Parallel);
         phases.bounds = t.elapsed();
 
         self.frame += 1;
@@ -523,6 +536,7 @@ impl World {
             index: &self.index,
             flock: &self.scratch.flock,
             sorted: use_kernel.then_some(&self.scratch.sorted),
+            fields: &self.fields,
         };
         let s = &mut self.scratch.out;
         let kernel = |base: usize,
