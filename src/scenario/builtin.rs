@@ -8,8 +8,14 @@ pub const BUILTIN: &[(&str, &str)] = &[
     ("wander", include_str!("../../scenarios/wander.toml")),
     ("flock", include_str!("../../scenarios/flock.toml")),
     ("fields", include_str!("../../scenarios/fields.toml")),
-    ("fields-large", include_str!("../../scenarios/fields-large.toml")),
-    ("fields-walkers", include_str!("../../scenarios/fields-walkers.toml")),
+    (
+        "fields-large",
+        include_str!("../../scenarios/fields-large.toml"),
+    ),
+    (
+        "fields-walkers",
+        include_str!("../../scenarios/fields-walkers.toml"),
+    ),
 ];
 
 /// The names of the built-in scenarios.

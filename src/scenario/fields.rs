@@ -69,6 +69,17 @@ pub enum MapSource {
         /// Seed of the walk. Default: the scenario's seed.
         seed: Option<u64>,
     },
+    /// Connected branching tunnels, fast at any size (see [`OccupancyGrid::tunnels`]).
+    Tunnels {
+        /// Columns.
+        width: u32,
+        /// Rows.
+        height: u32,
+        /// Share of wall cells, in `[0, 1)`.
+        obstacles: f32,
+        /// Seed of the walks. Default: the scenario's seed.
+        seed: Option<u64>,
+    },
 }
 
 /// The goals of one channel.
@@ -139,6 +150,17 @@ impl FieldSpec {
                 goals: Vec::new(),
                 spawns: Vec::new(),
             },
+            MapSource::Tunnels {
+                width,
+                height,
+                obstacles,
+                seed: s,
+            } => MapFile {
+                source_name: "<tunnels>".into(),
+                grid: OccupancyGrid::tunnels(*width, *height, *obstacles, s.unwrap_or(seed))?,
+                goals: Vec::new(),
+                spawns: Vec::new(),
+            },
         };
         let grid = map.grid.with_geometry(self.cell_size, self.origin)?;
         Ok(MapFile { grid, ..map })
@@ -184,11 +206,9 @@ pub(crate) fn free_point(world: &World, rng: &mut ChaCha8Rng) -> Result<Vec2> {
         reason: "`free_cells` spawning needs a `[field]` with at least one free cell".into(),
     };
     let grid = world.field(0).ok_or_else(no_field)?.grid();
-    if grid.free_count() == 0 {
-        return Err(no_field());
-    }
     let size = Vec2::new(grid.width() as f32, grid.height() as f32);
-    loop {
+    // A field has goals, so some cell is free; give up only on absurdly sparse grids.
+    for _ in 0..1 << 24 {
         let u = Vec2::new(rng.random::<f32>(), rng.random::<f32>()) * size;
         let (x, y) = (
             (u.x as u32).min(grid.width() - 1),
@@ -200,4 +220,5 @@ pub(crate) fn free_point(world: &World, rng: &mut ChaCha8Rng) -> Result<Vec2> {
             return Ok(p);
         }
     }
+    Err(no_field())
 }

@@ -64,6 +64,28 @@ pub(crate) struct FieldSet {
     prev_y: Vec<f32>,
     /// Channel rebuilds so far.
     rebuilds: u64,
+    /// Scratch of the reordering sort.
+    sort_keys: Vec<u64>,
+}
+
+/// Reorders agents by the row-major cell of `grid` they stand in (agents outside last), so that
+/// field lookups walk memory in order. Stable for agents sharing a cell.
+fn reorder_by_cell(agents: &mut Agents, grid: &OccupancyGrid, keys: &mut Vec<u64>) {
+    let w = grid.width() as u64;
+    keys.clear();
+    keys.par_extend(
+        (agents.pos_x.par_iter(), agents.pos_y.par_iter())
+            .into_par_iter()
+            .enumerate()
+            .map(|(i, (&x, &y))| {
+                let cell = cell_of(grid, Vec2::new(x, y))
+                    .map_or(u64::from(u32::MAX), |(cx, cy)| cy as u64 * w + cx as u64);
+                (cell << 32) | i as u64
+            }),
+    );
+    keys.par_sort_unstable();
+    let perm: Vec<u32> = keys.iter().map(|&k| k as u32).collect();
+    agents.reorder(&perm);
 }
 
 /// A 64-bit mix (splitmix64's finaliser) for derived seeds.
@@ -166,24 +188,41 @@ impl FieldSet {
     }
 
     /// The index-phase work: due goal shuffles, rebuilds of dirty channels (resetting the
-    /// arrival flags of their followers), the groups' follow specs, and frame-start positions.
+    /// arrival flags of their followers), the groups' follow specs, reordering agents by field
+    /// cell when due (every `reorder_every` frames, only when no group queries neighbours: the
+    /// neighbour index reorders them otherwise), and frame-start positions.
     pub(crate) fn prepare(
         &mut self,
-        agents: &Agents,
+        agents: &mut Agents,
         groups: &[super::GroupParams],
         seed: u64,
         frame: u64,
+        reorder_every: u32,
     ) {
         if self.fields.is_empty() {
             return;
         }
+        let flocking = groups
+            .iter()
+            .any(|g| super::neighbours::FlockSpec::of(g).active);
+        if !flocking
+            && !agents.is_empty()
+            && reorder_every > 0
+            && frame.is_multiple_of(u64::from(reorder_every))
+        {
+            reorder_by_cell(agents, self.fields[0].channels.grid(), &mut self.sort_keys);
+        }
         self.follow.clear();
         self.follow.extend(groups.iter().map(|g| {
-            g.steering.behaviours.iter().find_map(|w| match w.behaviour {
-                Behaviour::FollowField { field, channel } => Some((field, channel)),
-                _ => None,
-            })
+            g.steering
+                .behaviours
+                .iter()
+                .find_map(|w| match w.behaviour {
+                    Behaviour::FollowField { field, channel } => Some((field, channel)),
+                    _ => None,
+                })
         }));
+        let agents = &*agents;
         let mut rebuilt: Vec<(usize, usize)> = Vec::new();
         for (fi, f) in self.fields.iter_mut().enumerate() {
             if f.shuffle_every > 0 && frame > 0 && frame.is_multiple_of(f.shuffle_every) {
@@ -232,7 +271,11 @@ impl FieldSet {
         max_speed: f32,
         kinematic: bool,
     ) -> Vec2 {
-        let Some(flow) = self.fields.get(field).and_then(|f| f.channels.flow(channel)) else {
+        let Some(flow) = self
+            .fields
+            .get(field)
+            .and_then(|f| f.channels.flow(channel))
+        else {
             return Vec2::ZERO;
         };
         let dir = if self.arrived_of(id) {
@@ -329,7 +372,11 @@ impl FieldSet {
             let Some(&Some((field, channel))) = self.follow.get(g) else {
                 continue;
             };
-            let Some(flow) = self.fields.get(field).and_then(|f| f.channels.flow(channel)) else {
+            let Some(flow) = self
+                .fields
+                .get(field)
+                .and_then(|f| f.channels.flow(channel))
+            else {
                 continue;
             };
             if let Some((x, y)) = flow.world_to_cell(agents.position(i))
@@ -344,17 +391,14 @@ impl FieldSet {
 impl FieldSet {
     fn get_mut(&mut self, field: usize) -> Result<&mut WorldField> {
         let count = self.fields.len();
-        self.fields
-            .get_mut(field)
-            .ok_or_else(|| Error::Invalid {
-                name: "field".into(),
-                reason: format!("no field {field} (there are {count})"),
-            })
+        self.fields.get_mut(field).ok_or_else(|| Error::Invalid {
+            name: "field".into(),
+            reason: format!("no field {field} (there are {count})"),
+        })
     }
 }
 
 impl World {
-
     /// Adds a field (an occupancy grid with its goal channels) and returns its number, which
     /// `follow_field` behaviours name. Dirty channels are built at the start of the next step.
     ///
@@ -426,7 +470,10 @@ impl World {
         channel: usize,
         goals: &[(u32, u32)],
     ) -> Result<()> {
-        self.fields.get_mut(field)?.channels.set_goals(channel, goals)
+        self.fields
+            .get_mut(field)?
+            .channels
+            .set_goals(channel, goals)
     }
 
     /// Re-randomises the goals of one channel: `n` distinct free cells drawn with `seed`.
@@ -440,7 +487,8 @@ impl World {
         n: usize,
         seed: u64,
     ) -> Result<()> {
-        self.fields.get_mut(field)?
+        self.fields
+            .get_mut(field)?
             .channels
             .randomize_goals(channel, n, seed)
     }
@@ -487,10 +535,7 @@ impl World {
             let taken = (0..self.agents.len())
                 .find(|&i| cell_of(grid, self.agents.position(i)) == Some((x as usize, y as usize)))
                 .map(|i| self.agents.ids[i]);
-            let walker = f
-                .walkers
-                .iter()
-                .any(|w| w.walkers.occupant(x, y).is_some());
+            let walker = f.walkers.iter().any(|w| w.walkers.occupant(x, y).is_some());
             if let Some(id) = taken {
                 return Err(Error::Invalid {
                     name: "cell".into(),
@@ -504,7 +549,10 @@ impl World {
                 });
             }
         }
-        self.fields.get_mut(field)?.channels.set_blocked(x, y, blocked)
+        self.fields
+            .get_mut(field)?
+            .channels
+            .set_blocked(x, y, blocked)
     }
 
     /// Turns the agents of `group` into grid walkers on `field` following `channel` (the notes'

@@ -455,7 +455,9 @@ impl World {
         // 1. index: rebuilt when some group queries neighbours; agents reordered by cell when due
         let t = Instant::now();
         let use_kernel = self.prepare_index();
-        self.fields.prepare(&self.agents, &self.groups, self.seed, self.frame);
+        let (seed, frame, every) = (self.seed, self.frame, self.reorder_every);
+        self.fields
+            .prepare(&mut self.agents, &self.groups, seed, frame, every);
         phases.index = t.elapsed();
 
         // 2. steer
@@ -499,7 +501,8 @@ impl World {
         // 4. bounds
         let t = Instant::now();
         apply_bounds(&mut self.agents, self.bounds);
-        self.fields.after_move(&mut self.agents, dt, exec == Execution::Parallel);
+        self.fields
+            .after_move(&mut self.agents, dt, exec == Execution::Parallel);
         phases.bounds = t.elapsed();
 
         self.frame += 1;
