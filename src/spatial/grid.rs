@@ -45,7 +45,7 @@ const CHUNK: usize = 8 * 1024;
 /// The largest number of cells a grid ever has.
 const MAX_CELLS: usize = 1 << 22;
 
-/// A uniform-grid neighbour index. See the [module docs](self) for its layout.
+/// A uniform-grid neighbour index. See the module docs of `spatial/grid.rs` for its layout.
 #[derive(Clone, Debug)]
 pub struct GridIndex {
     bounds: Bounds,

@@ -366,24 +366,35 @@ impl FieldSet {
         for id in arrivals {
             self.set_arrived(id, true);
         }
-        // Followers standing on a goal of their channel arrive.
-        for i in 0..n {
-            let g = agents.group[i] as usize;
-            let Some(&Some((field, channel))) = self.follow.get(g) else {
-                continue;
+        // Followers standing on a goal of their channel arrive (found in parallel, in index
+        // order, then flagged).
+        let (fields, follow) = (&self.fields, &self.follow);
+        let agents = &*agents;
+        let on_goal = |i: usize| {
+            let Some(&Some((field, channel))) = follow.get(agents.group[i] as usize) else {
+                return false;
             };
-            let Some(flow) = self
-                .fields
-                .get(field)
-                .and_then(|f| f.channels.flow(channel))
-            else {
-                continue;
+            let Some(flow) = fields.get(field).and_then(|f| f.channels.flow(channel)) else {
+                return false;
             };
-            if let Some((x, y)) = flow.world_to_cell(agents.position(i))
-                && flow.is_goal(x, y)
-            {
-                self.set_arrived(agents.ids[i], true);
-            }
+            flow.world_to_cell(agents.position(i))
+                .is_some_and(|(x, y)| flow.is_goal(x, y))
+        };
+        let found: Vec<AgentId> = if exec_parallel {
+            (0..n)
+                .into_par_iter()
+                .with_min_len(WALL_CHUNK)
+                .filter(|&i| on_goal(i))
+                .map(|i| agents.ids[i])
+                .collect()
+        } else {
+            (0..n)
+                .filter(|&i| on_goal(i))
+                .map(|i| agents.ids[i])
+                .collect()
+        };
+        for id in found {
+            self.set_arrived(id, true);
         }
     }
 }
