@@ -1,5 +1,6 @@
 //! Field builds (BFS potential, Dijkstra integration, flow) at 512^2, 2048^2 and 4096^2 cells
-//! with 4 goals, and flow-field sampling for 100,000 points.
+//! with 4 goals, flow-field sampling for 100,000 points, and one `World::step` of the
+//! `fields-large` scenario (100,000 agents following a 2048^2 flow field) on 1 and 2 threads.
 //!
 //! Grids: 512^2 is a cave (drunkard's walk, 50% obstacles, connected); the larger ones are open
 //! ground with 20% scattered obstacles (the free space is one large component).
@@ -76,5 +77,40 @@ fn sampling(c: &mut Criterion) {
     g.finish();
 }
 
-criterion_group!(benches, builds, sampling);
+/// The `fields-large` world (2048^2 tunnels, 4 goals, 100,000 agents) with `follow_field` as
+/// the only behaviour, stepped once so that its field is built. Every iteration steps the same
+/// world on (agents keep walking towards the goals).
+fn following_world() -> throng::World {
+    let mut s = throng::scenario::builtin("fields-large").unwrap();
+    s.groups[0]
+        .params
+        .steering
+        .behaviours
+        .retain(|w| w.behaviour.name() == "follow_field");
+    let mut world = s.build().unwrap();
+    world.step(s.dt).unwrap();
+    world
+}
+
+fn following(c: &mut Criterion) {
+    let mut g = c.benchmark_group("follow");
+    g.sample_size(20);
+    g.throughput(Throughput::Elements(100_000));
+    {
+        let name = "follow";
+        let mut world = following_world();
+        for threads in [1usize, 2] {
+            let pool = rayon::ThreadPoolBuilder::new()
+                .num_threads(threads)
+                .build()
+                .unwrap();
+            g.bench_function(BenchmarkId::new(format!("{name}/100000"), threads), |b| {
+                b.iter(|| pool.install(|| world.step(1.0 / 30.0).unwrap()))
+            });
+        }
+    }
+    g.finish();
+}
+
+criterion_group!(benches, builds, sampling, following);
 criterion_main!(benches);

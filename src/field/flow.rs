@@ -9,7 +9,8 @@
 //! around the point are blended bilinearly, using only cells the point's own cell may step to
 //! (so a direction never leaks through a wall's corner), and the blend is then cleared of any
 //! component that points into a wall next to the point's cell. The result is a unit vector or
-//! zero; moving along it by less than one cell never enters a wall.
+//! zero with a positive component along the own cell's direction (else that direction itself);
+//! moving along it by less than one cell never enters a wall.
 //!
 //! Invariants: directions are one of the eight unit steps; goal cells, walls and unreachable
 //! cells have no direction; building is parallel over rows and deterministic.
@@ -151,7 +152,7 @@ impl FlowField {
         let open = |q: usize| self.codes[q] != NONE;
         // Bilinear weights over the 2x2 block of cell centres around `p`.
         let g = l.cell_space(p) - 0.5;
-        let (bx, by) = (g.x.floor(), g.y.floor());
+        let (bx, by) = (floor(g.x), floor(g.y));
         let (fx, fy) = (g.x - bx, g.y - by);
         // Offsets of the block's lower-left cell from the own cell: each 0 or -1.
         let ox = bx as i64 - i64::from(cx);
@@ -199,8 +200,20 @@ impl FlowField {
                 v.y = 0.0;
             }
         }
-        v.try_normalize().unwrap_or(own_dir)
+        // Clearing may leave only a sideways part (the blend leaned into a wall): then the own
+        // cell's direction is the only safe progress.
+        match v.try_normalize() {
+            Some(r) if r.dot(own_dir) > 0.0 => r,
+            _ => own_dir,
+        }
     }
+}
+
+/// `v.floor()` for `v > -2^31` without a libm call on targets lacking SSE4.1.
+#[inline]
+fn floor(v: f32) -> f32 {
+    let t = v as i32 as f32;
+    if t > v { t - 1.0 } else { t }
 }
 
 #[inline]

@@ -153,8 +153,9 @@ impl Lattice {
         if !(u.x >= 0.0 && u.y >= 0.0) {
             return None;
         }
-        let (x, y) = (u.x.floor(), u.y.floor());
-        (x < self.width as f32 && y < self.height as f32).then_some((x as u32, y as u32))
+        // Truncation is the floor for non-negative values, and saturates for huge ones.
+        let (x, y) = (u.x as u32, u.y as u32);
+        (x < self.width && y < self.height).then_some((x, y))
     }
 
     /// The world position of cell `(x, y)`'s centre.

@@ -16,6 +16,15 @@ pub const BUILTIN: &[(&str, &str)] = &[
     ("path", include_str!("../../scenarios/path.toml")),
     ("leader", include_str!("../../scenarios/leader.toml")),
     ("formation", include_str!("../../scenarios/formation.toml")),
+    ("fields", include_str!("../../scenarios/fields.toml")),
+    (
+        "fields-large",
+        include_str!("../../scenarios/fields-large.toml"),
+    ),
+    (
+        "fields-walkers",
+        include_str!("../../scenarios/fields-walkers.toml"),
+    ),
 ];
 
 /// The names of the built-in scenarios.

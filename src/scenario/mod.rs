@@ -10,11 +10,13 @@
 //! proportion to their `count`s, except groups marked `fixed`.
 
 mod builtin;
+mod fields;
 mod group;
 mod obstacles;
 mod spec;
 
 pub use builtin::{BUILTIN, builtin, builtin_names};
+pub use fields::{FieldSpec, GoalSpec, MapSource, WalkerSpec};
 pub use group::{AgentRef, FormationSpec, Members};
 pub use obstacles::{GravitySpec, ObstacleSpec, PolygonSpec, RandomCircles, RandomGravity};
 pub use spec::{DensitySpec, GroupSpec, Scenario, Spawn, WorldSpec};

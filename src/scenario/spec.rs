@@ -48,6 +48,9 @@ pub struct Scenario {
     /// Gravity points (document 000). Default: none.
     #[serde(default)]
     pub gravity: super::GravitySpec,
+    /// A grid field (goal channels, walls, walkers). Default: none.
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub field: Option<super::fields::FieldSpec>,
 }
 
 fn default_seed() -> u64 {
@@ -126,6 +129,8 @@ pub enum Spawn {
         /// The points.
         points: Vec<Vec2>,
     },
+    /// Uniformly over the free cells of the scenario's `[field]`.
+    FreeCells,
 }
 
 /// One group: its count, spawn region and profile. The profile's keys (`model`, `max_speed`,
@@ -216,6 +221,9 @@ impl Scenario {
             location: e.span().map(|sp| line_col(text, sp.start)),
             message: e.message().trim().to_string(),
         })?;
+        if let Some(f) = &mut s.field {
+            f.resolve_paths(source_name);
+        }
         if s.name.is_empty() {
             s.name = Path::new(source_name)
                 .file_stem()
@@ -309,6 +317,13 @@ impl Scenario {
                     }
                 }
                 Spawn::Uniform => {}
+                Spawn::FreeCells if self.field.is_none() => {
+                    return Err(Error::Invalid {
+                        name: "spawn".into(),
+                        reason: "`free_cells` spawning needs a `[field]`".into(),
+                    });
+                }
+                Spawn::FreeCells => {}
             }
         }
         for f in &self.formations {
@@ -417,6 +432,10 @@ impl Scenario {
         for g in &self.groups {
             world.add_group(g.params.clone())?;
         }
+        let field = match &self.field {
+            Some(f) => Some(f.add_to(&mut world, self.seed)?),
+            None => None,
+        };
         for (gi, g) in self.groups.iter().enumerate() {
             let mut rng = ChaCha8Rng::seed_from_u64(
                 self.seed ^ (0x5eed_0000_u64 + gi as u64).wrapping_mul(0x9e37_79b9_7f4a_7c15),
@@ -425,7 +444,7 @@ impl Scenario {
             for k in 0..n {
                 let position = match &g.spawn {
                     Spawn::Points { points } => points[k],
-                    _ => g.spawn_point(&mut rng, bounds),
+                    _ => g.spawn_point(&mut rng, bounds, &world)?,
                 };
                 let mut position = bounds.wrap(position);
                 // Random spawns that land inside an obstacle are drawn again.
@@ -440,7 +459,7 @@ impl Scenario {
                             reason: format!("group {gi}: no free spot found outside the obstacles"),
                         });
                     }
-                    position = bounds.wrap(g.spawn_point(&mut rng, bounds));
+                    position = bounds.wrap(g.spawn_point(&mut rng, bounds, &world)?);
                 }
                 let heading = rng.random::<f32>() * 2.0 * PI;
                 let velocity = Vec2::from_angle(heading) * g.initial_speed.min(g.params.max_speed);
@@ -457,14 +476,18 @@ impl Scenario {
         for f in &self.formations {
             f.add_to(&mut world)?;
         }
+        if let (Some(f), Some(id)) = (&self.field, field) {
+            f.finish(&mut world, id)?;
+        }
         Ok(world)
     }
 }
 
 impl GroupSpec {
-    /// A random spawn position (not for [`Spawn::Points`], which has no randomness).
-    fn spawn_point(&self, rng: &mut ChaCha8Rng, bounds: Bounds) -> Vec2 {
-        match &self.spawn {
+    /// A random spawn position (for [`Spawn::Points`], the first point).
+    fn spawn_point(&self, rng: &mut ChaCha8Rng, bounds: Bounds, world: &World) -> Result<Vec2> {
+        Ok(match &self.spawn {
+            Spawn::FreeCells => super::fields::free_point(world, rng)?,
             Spawn::Uniform => {
                 let size = bounds.size().unwrap_or(Vec2::ONE);
                 Vec2::new(rng.random::<f32>() * size.x, rng.random::<f32>() * size.y)
@@ -479,7 +502,7 @@ impl GroupSpec {
                 *center + Vec2::from_angle(a) * r
             }
             Spawn::Points { points } => points.first().copied().unwrap_or(Vec2::ZERO),
-        }
+        })
     }
 
     /// The number of agents this group spawns.

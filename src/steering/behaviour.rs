@@ -274,6 +274,18 @@ pub enum Behaviour {
         #[serde(flatten)]
         params: crate::group::JumpParams,
     },
+    /// Follow a world field's flow towards its goals (document 001): the desired velocity is the
+    /// bilinearly sampled flow direction at full speed; an agent on a goal cell of its channel,
+    /// or one that has arrived since the channel's goals last changed, brakes to rest. Yields
+    /// nothing when the field or channel does not exist.
+    FollowField {
+        /// The field, as numbered by `World::add_field`. Default: 0.
+        #[serde(default)]
+        field: usize,
+        /// The goal channel of that field. Default: 0.
+        #[serde(default)]
+        channel: usize,
+    },
 }
 
 /// Which neighbours a flocking behaviour sees.
@@ -380,6 +392,7 @@ impl Behaviour {
             Behaviour::FollowLeader { .. } => "follow_leader",
             Behaviour::KeepFormation { .. } => "keep_formation",
             Behaviour::Jump { .. } => "jump",
+            Behaviour::FollowField { .. } => "follow_field",
         }
     }
 
@@ -408,7 +421,8 @@ impl Behaviour {
             | Behaviour::AntiGravity
             | Behaviour::FollowPath { .. }
             | Behaviour::KeepFormation { .. }
-            | Behaviour::Jump { .. } => None,
+            | Behaviour::Jump { .. }
+            | Behaviour::FollowField { .. } => None,
         }
     }
 
@@ -505,6 +519,7 @@ impl Behaviour {
                     });
                 }
             }
+            Behaviour::FollowField { .. } => {}
         }
         Ok(())
     }

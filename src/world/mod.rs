@@ -14,6 +14,7 @@
 //! scalar reference the parallel step is tested against.
 
 mod builder;
+mod fields;
 mod formation;
 mod group;
 mod neighbours;

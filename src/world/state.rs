@@ -51,6 +51,8 @@ pub struct World {
     pub(crate) gravity: GravityField,
     /// Paths and formations (group movement).
     pub(crate) group_movement: super::formation::GroupMovement,
+    /// Goal fields, walls and grid walkers.
+    pub(crate) fields: super::fields::FieldSet,
 }
 
 impl World {
@@ -74,6 +76,7 @@ impl World {
             obstacles: Obstacles::new(),
             gravity: GravityField::default(),
             group_movement: Default::default(),
+            fields: Default::default(),
         }
     }
 

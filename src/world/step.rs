@@ -93,6 +93,8 @@ pub(crate) struct SteerCtx<'a> {
     pub obstacles: &'a Obstacles,
     pub gravity: &'a GravityField,
     pub group_movement: &'a super::formation::GroupMovement,
+    /// The world's fields (read only).
+    pub fields: &'a super::fields::FieldSet,
 }
 
 /// A resolved target: its position (nearest image) and velocity.
@@ -533,6 +535,15 @@ impl SteerCtx<'_> {
             | Behaviour::Jump { .. } => {
                 self.group_behaviour(i, b, g, kinematic, position, velocity, max_speed)
             }
+            Behaviour::FollowField { field, channel } => Steering::linear(self.fields.follow(
+                field,
+                channel,
+                self.agents.ids[i],
+                position,
+                velocity,
+                max_speed,
+                kinematic,
+            )),
         }
     }
 }
@@ -579,6 +590,9 @@ impl World {
         self.advance_gravity(dt);
         let use_kernel = self.prepare_index();
         self.prepare_nearest();
+        let (seed, frame, every) = (self.seed, self.frame, self.reorder_every);
+        self.fields
+            .prepare(&mut self.agents, &self.groups, seed, frame, every);
         phases.index = t.elapsed();
 
         // 2. steer (formations re-form first, sequentially)
@@ -630,6 +644,8 @@ impl World {
         if !self.obstacles.is_empty() {
             self.resolve_obstacles(exec);
         }
+        self.fields
+            .after_move(&mut self.agents, dt, exec == Execution::Parallel);
         phases.bounds = t.elapsed();
 
         self.frame += 1;
@@ -670,6 +686,7 @@ impl World {
             obstacles: &self.obstacles,
             gravity: &self.gravity,
             group_movement: &self.group_movement,
+            fields: &self.fields,
         };
         let s = &mut self.scratch.out;
         let kernel = |base: usize,

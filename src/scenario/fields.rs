@@ -1,0 +1,224 @@
+//! The `[field]` table of a scenario: a grid (ASCII map or generated), its goal channels, goal
+//! re-randomisation and grid walkers (documented in `docs/SCENARIOS.md`, "Fields").
+//!
+//! Invariants: relative map paths are resolved against the scenario file's folder when the file
+//! is parsed; every random draw (caves, goals, spawn cells) derives from the scenario's seed.
+
+use std::path::{Path, PathBuf};
+
+use glam::Vec2;
+use rand::RngExt;
+use rand_chacha::ChaCha8Rng;
+use serde::{Deserialize, Serialize};
+
+use crate::error::{Error, Result};
+use crate::field::{
+    GoalChannels, MapFile, Neighbourhood, OccupancyGrid, WalkPolicy, random_free_cells,
+};
+use crate::world::World;
+
+/// A scenario's field: the grid, its channels and walkers.
+#[derive(Clone, Debug, PartialEq, Serialize, Deserialize)]
+#[serde(deny_unknown_fields)]
+pub struct FieldSpec {
+    /// Where the cells come from.
+    pub map: MapSource,
+    /// Side of a cell in world units (> 0). Default: 1.
+    #[serde(default = "one")]
+    pub cell_size: f32,
+    /// World position of the lower corner of cell `(0, 0)`. Default: `[0, 0]`.
+    #[serde(default)]
+    pub origin: Vec2,
+    /// Potential decay per step, in `(0, 1)`. Default: 0.99.
+    #[serde(default = "default_decay")]
+    pub decay: f32,
+    /// `"four"` or `"eight"`. Default: eight.
+    #[serde(default = "eight")]
+    pub neighbourhood: Neighbourhood,
+    /// One entry per goal channel (channel `k` is entry `k`). Default: one channel with the
+    /// map's `G` cells.
+    #[serde(default = "map_goals")]
+    pub channels: Vec<GoalSpec>,
+    /// Re-randomise every channel's goals every this many steps (0: never). Default: 0.
+    #[serde(default)]
+    pub shuffle_every: u64,
+    /// How many goals each channel gets when re-randomised. Default: 4.
+    #[serde(default = "four")]
+    pub shuffle_goals: usize,
+    /// Groups whose agents move as grid walkers. Default: none.
+    #[serde(default)]
+    pub walkers: Vec<WalkerSpec>,
+}
+
+/// The cells of a field.
+#[derive(Clone, Debug, PartialEq, Serialize, Deserialize)]
+#[serde(rename_all = "snake_case", deny_unknown_fields)]
+pub enum MapSource {
+    /// An ASCII map file (`#` wall, `.` free, `G` goal, `S` spawn), relative to the scenario.
+    File(PathBuf),
+    /// An ASCII map written inline.
+    Ascii(String),
+    /// A connected cave (see [`OccupancyGrid::caves`]).
+    Caves {
+        /// Columns.
+        width: u32,
+        /// Rows.
+        height: u32,
+        /// Share of wall cells, in `[0, 1)`.
+        obstacles: f32,
+        /// Seed of the walk. Default: the scenario's seed.
+        seed: Option<u64>,
+    },
+    /// Connected branching tunnels, fast at any size (see [`OccupancyGrid::tunnels`]).
+    Tunnels {
+        /// Columns.
+        width: u32,
+        /// Rows.
+        height: u32,
+        /// Share of wall cells, in `[0, 1)`.
+        obstacles: f32,
+        /// Seed of the walks. Default: the scenario's seed.
+        seed: Option<u64>,
+    },
+}
+
+/// The goals of one channel.
+#[derive(Clone, Debug, PartialEq, Serialize, Deserialize)]
+#[serde(rename_all = "snake_case", deny_unknown_fields)]
+pub enum GoalSpec {
+    /// The map's `G` cells.
+    Map,
+    /// These cells.
+    Cells(Vec<(u32, u32)>),
+    /// This many distinct random free cells.
+    Random(usize),
+}
+
+/// A group moved by grid walkers.
+#[derive(Clone, Debug, PartialEq, Serialize, Deserialize)]
+#[serde(deny_unknown_fields)]
+pub struct WalkerSpec {
+    /// The group (index in `groups`).
+    pub group: usize,
+    /// The channel its walkers follow. Default: 0.
+    #[serde(default)]
+    pub channel: usize,
+    /// `"queue"` or `"next_best"`. Default: queue.
+    #[serde(default)]
+    pub policy: WalkPolicy,
+}
+
+fn one() -> f32 {
+    1.0
+}
+fn four() -> usize {
+    4
+}
+fn default_decay() -> f32 {
+    0.99
+}
+fn eight() -> Neighbourhood {
+    Neighbourhood::Eight
+}
+fn map_goals() -> Vec<GoalSpec> {
+    vec![GoalSpec::Map]
+}
+
+impl FieldSpec {
+    /// Makes a relative map path relative to the folder of `source_name` (the scenario file).
+    pub(crate) fn resolve_paths(&mut self, source_name: &str) {
+        if let MapSource::File(p) = &mut self.map
+            && p.is_relative()
+            && let Some(dir) = Path::new(source_name).parent()
+        {
+            *p = dir.join(&*p);
+        }
+    }
+
+    fn map(&self, seed: u64) -> Result<MapFile> {
+        let map = match &self.map {
+            MapSource::File(p) => OccupancyGrid::load_ascii(p)?,
+            MapSource::Ascii(text) => OccupancyGrid::parse_ascii(text, "<field.map.ascii>")?,
+            MapSource::Caves {
+                width,
+                height,
+                obstacles,
+                seed: s,
+            } => MapFile {
+                source_name: "<caves>".into(),
+                grid: OccupancyGrid::caves(*width, *height, *obstacles, s.unwrap_or(seed))?,
+                goals: Vec::new(),
+                spawns: Vec::new(),
+            },
+            MapSource::Tunnels {
+                width,
+                height,
+                obstacles,
+                seed: s,
+            } => MapFile {
+                source_name: "<tunnels>".into(),
+                grid: OccupancyGrid::tunnels(*width, *height, *obstacles, s.unwrap_or(seed))?,
+                goals: Vec::new(),
+                spawns: Vec::new(),
+            },
+        };
+        let grid = map.grid.with_geometry(self.cell_size, self.origin)?;
+        Ok(MapFile { grid, ..map })
+    }
+
+    /// Builds the grid and channels and adds them to `world` (before any agent is spawned).
+    pub(crate) fn add_to(&self, world: &mut World, seed: u64) -> Result<usize> {
+        let map = self.map(seed)?;
+        if self.channels.is_empty() {
+            return Err(Error::Invalid {
+                name: "field.channels".into(),
+                reason: "at least one channel is required".into(),
+            });
+        }
+        let mut channels = GoalChannels::new(map.grid.clone(), self.decay, self.neighbourhood)?;
+        for (k, g) in self.channels.iter().enumerate() {
+            let goals = match g {
+                GoalSpec::Map => map.require_goals()?.to_vec(),
+                GoalSpec::Cells(c) => c.clone(),
+                GoalSpec::Random(n) => {
+                    random_free_cells(&map.grid, *n, seed ^ 0x60a1_0000 ^ k as u64)?
+                }
+            };
+            channels.add_channel(&goals)?;
+        }
+        world.add_field(channels)
+    }
+
+    /// Goal re-randomisation and walkers, once the agents are spawned.
+    pub(crate) fn finish(&self, world: &mut World, field: usize) -> Result<()> {
+        world.shuffle_field_goals_every(field, self.shuffle_every, self.shuffle_goals)?;
+        for w in &self.walkers {
+            world.add_walkers(field, w.group, w.channel, w.policy)?;
+        }
+        Ok(())
+    }
+}
+
+/// A uniformly random point on the free cells of the world's first field (rejection sampling).
+pub(crate) fn free_point(world: &World, rng: &mut ChaCha8Rng) -> Result<Vec2> {
+    let no_field = || Error::Invalid {
+        name: "spawn".into(),
+        reason: "`free_cells` spawning needs a `[field]` with at least one free cell".into(),
+    };
+    let grid = world.field(0).ok_or_else(no_field)?.grid();
+    let size = Vec2::new(grid.width() as f32, grid.height() as f32);
+    // A field has goals, so some cell is free; give up only on absurdly sparse grids.
+    for _ in 0..1 << 24 {
+        let u = Vec2::new(rng.random::<f32>(), rng.random::<f32>()) * size;
+        let (x, y) = (
+            (u.x as u32).min(grid.width() - 1),
+            (u.y as u32).min(grid.height() - 1),
+        );
+        let inner = (u - Vec2::new(x as f32, y as f32)).clamp(Vec2::splat(0.01), Vec2::splat(0.99));
+        let p = grid.origin() + (Vec2::new(x as f32, y as f32) + inner) * grid.cell_size();
+        if grid.is_free(x, y) && grid.world_to_cell(p) == Some((x, y)) {
+            return Ok(p);
+        }
+    }
+    Err(no_field())
+}
