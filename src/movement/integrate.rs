@@ -147,75 +147,65 @@ fn check_lengths(state: &MotionState<'_>, steer: &SteeringBuffers<'_>, n: usize)
 }
 
 fn integrate_chunk(
-    s: MotionState<'_>,
+    mut s: MotionState<'_>,
     st: SteeringBuffers<'_>,
     params: &[IntegrationParams],
     dt: f32,
     simd: bool,
 ) {
-    let n = s.pos_x.len();
-    // Angular part first: it reads the pre-update velocity (dynamic model, face velocity). The
-    // headings of eight agents at a time come from one vector atan2; the scalar reference takes
-    // lane 0 of the same function, so both paths give the same bits.
-    let mut k = 0;
-    while k < n {
-        let lanes = if simd { (n - k).min(LANES) } else { 1 };
-        let mut hx = [0.0_f32; LANES];
-        let mut hy = [0.0_f32; LANES];
-        for l in 0..lanes {
-            let i = k + l;
-            let p = &params[st.group[i] as usize];
-            (hx[l], hy[l]) = if p.kinematic {
-                (st.lin_x[i], st.lin_y[i])
-            } else {
-                (s.vel_x[i], s.vel_y[i])
-            };
+    if !simd {
+        for i in 0..s.pos_x.len() {
+            integrate_one(&mut s, &st, params, dt, i);
         }
-        let heading = f32x8::from(hy).atan2(f32x8::from(hx)).to_array();
-        for l in 0..lanes {
-            let i = k + l;
-            let p = &params[st.group[i] as usize];
-            let moving = hx[l] * hx[l] + hy[l] * hy[l] > 0.0;
-            if p.face_velocity && moving {
-                s.orientation[i] = wrap_orientation(heading[l]);
-            }
-            if p.kinematic {
-                let rot = st.ang[i].clamp(-p.max_rotation, p.max_rotation);
-                if !p.face_velocity {
-                    s.orientation[i] = wrap_orientation(s.orientation[i] + rot * dt);
-                }
-                s.rotation[i] = rot;
-            } else {
-                if !p.face_velocity {
-                    s.orientation[i] = wrap_orientation(s.orientation[i] + s.rotation[i] * dt);
-                }
-                s.rotation[i] =
-                    (s.rotation[i] + st.ang[i] * dt).clamp(-p.max_rotation, p.max_rotation);
-            }
-        }
-        k += lanes;
+        return;
     }
-    // Linear part.
-    let simd_end = if simd { n - n % LANES } else { 0 };
+    let n = s.pos_x.len();
     let dt8 = f32x8::splat(dt);
-    let one = f32x8::splat(1.0);
-    let zero = f32x8::splat(0.0);
+    let zero = f32x8::ZERO;
+    let one = f32x8::ONE;
+    let tau = f32x8::splat(TAU);
     let mut i = 0;
-    while i < simd_end {
+    while i < n {
+        let lanes = (n - i).min(LANES);
+        // Gather the lanes (a short last block is padded with inert zeros).
         let mut kin = [0.0_f32; LANES];
-        let mut damp = [0.0_f32; LANES];
-        for l in 0..LANES {
+        let mut face = [0.0_f32; LANES];
+        let mut damp = [1.0_f32; LANES];
+        let mut max_rot = [0.0_f32; LANES];
+        for l in 0..lanes {
             let p = &params[st.group[i + l] as usize];
             kin[l] = if p.kinematic { 1.0 } else { 0.0 };
+            face[l] = if p.face_velocity { 1.0 } else { 0.0 };
             damp[l] = p.damp;
+            max_rot[l] = p.max_rotation;
         }
         let kin = f32x8::from(kin).simd_gt(zero);
+        let face = f32x8::from(face).simd_gt(zero);
         let damp = f32x8::from(damp);
-        let vx = load(s.vel_x, i);
-        let vy = load(s.vel_y, i);
-        let lx = load(st.lin_x, i);
-        let ly = load(st.lin_y, i);
-        let ms = load(st.max_speed, i);
+        let max_rot = f32x8::from(max_rot);
+        let vx = load(s.vel_x, i, lanes);
+        let vy = load(s.vel_y, i, lanes);
+        let lx = load(st.lin_x, i, lanes);
+        let ly = load(st.lin_y, i, lanes);
+        let ang = load(st.ang, i, lanes);
+        let ms = load(st.max_speed, i, lanes);
+        let orient = load(s.orientation, i, lanes);
+        let rot = load(s.rotation, i, lanes);
+
+        // Angular part (reads the pre-update velocity in the dynamic model).
+        let hx = kin.bitselect(lx, vx);
+        let hy = kin.bitselect(ly, vy);
+        let moving = (hx * hx + hy * hy).simd_gt(zero);
+        let heading = hy.atan2(hx);
+        let heading = wrap8(heading.simd_lt(zero).bitselect(heading + tau, heading));
+        let rot_kin = clamp8(ang, max_rot);
+        let rot_dyn = clamp8(rot + ang * dt8, max_rot);
+        let turning = kin.bitselect(rot_kin, rot);
+        let integrated = wrap8(orient + turning * dt8);
+        let new_orient = face.bitselect(moving.bitselect(heading, orient), integrated);
+        let new_rot = kin.bitselect(rot_kin, rot_dyn);
+
+        // Linear part.
         let dvx = (vx + lx * dt8) * damp;
         let dvy = (vy + ly * dt8) * damp;
         let mut nvx = kin.bitselect(lx, dvx);
@@ -227,43 +217,223 @@ fn integrate_chunk(
         nvy = over.bitselect(nvy * scale, nvy);
         let mx = kin.bitselect(nvx, vx);
         let my = kin.bitselect(nvy, vy);
-        store(s.pos_x, i, load(s.pos_x, i) + mx * dt8);
-        store(s.pos_y, i, load(s.pos_y, i) + my * dt8);
-        store(s.vel_x, i, nvx);
-        store(s.vel_y, i, nvy);
+        let px = load(s.pos_x, i, lanes) + mx * dt8;
+        let py = load(s.pos_y, i, lanes) + my * dt8;
+
+        store(s.pos_x, i, lanes, px);
+        store(s.pos_y, i, lanes, py);
+        store(s.vel_x, i, lanes, nvx);
+        store(s.vel_y, i, lanes, nvy);
+        store(s.orientation, i, lanes, new_orient);
+        store(s.rotation, i, lanes, new_rot);
         i += LANES;
-    }
-    for i in simd_end..n {
-        let p = &params[st.group[i] as usize];
-        let (vx, vy) = (s.vel_x[i], s.vel_y[i]);
-        let (lx, ly) = (st.lin_x[i], st.lin_y[i]);
-        let ms = st.max_speed[i];
-        let (mut nvx, mut nvy) = if p.kinematic {
-            (lx, ly)
-        } else {
-            ((vx + lx * dt) * p.damp, (vy + ly * dt) * p.damp)
-        };
-        let sp_sq = nvx * nvx + nvy * nvy;
-        if sp_sq > ms * ms {
-            let scale = ms / sp_sq.sqrt();
-            nvx *= scale;
-            nvy *= scale;
-        }
-        let (mx, my) = if p.kinematic { (nvx, nvy) } else { (vx, vy) };
-        s.pos_x[i] += mx * dt;
-        s.pos_y[i] += my * dt;
-        s.vel_x[i] = nvx;
-        s.vel_y[i] = nvy;
     }
 }
 
+/// `x` clamped to `[-limit, limit]` (NaN-free inputs).
 #[inline(always)]
-fn load(s: &[f32], i: usize) -> f32x8 {
-    let a: [f32; LANES] = s[i..i + LANES].try_into().expect("8 lanes");
+fn clamp8(x: f32x8, limit: f32x8) -> f32x8 {
+    let lo = -limit;
+    let x = x.simd_lt(lo).bitselect(lo, x);
+    x.simd_gt(limit).bitselect(limit, x)
+}
+
+/// Angles into `[0, 2pi)`: one turn added or taken away covers every step the limits allow;
+/// anything farther is reduced with `floor`, lane by lane, exactly as [`wrap_one`] does.
+#[inline(always)]
+fn wrap8(a: f32x8) -> f32x8 {
+    let tau = f32x8::splat(TAU);
+    let zero = f32x8::ZERO;
+    let a = a.simd_ge(tau).bitselect(a - tau, a);
+    let a = a.simd_lt(zero).bitselect(a + tau, a);
+    let outside = a.simd_lt(zero) | a.simd_ge(tau);
+    if outside.any() {
+        f32x8::from(a.to_array().map(reduce_turns))
+    } else {
+        a
+    }
+}
+
+/// The scalar form of [`wrap8`], operation for operation.
+#[inline]
+fn wrap_one(a: f32) -> f32 {
+    let a = if a >= TAU { a - TAU } else { a };
+    let a = if a < 0.0 { a + TAU } else { a };
+    reduce_turns(a)
+}
+
+/// Whole turns taken away from an angle more than one turn outside `[0, 2pi)`.
+#[inline]
+fn reduce_turns(a: f32) -> f32 {
+    if (0.0..TAU).contains(&a) {
+        return a;
+    }
+    let r = a - TAU * (a / TAU).floor();
+    if (0.0..TAU).contains(&r) { r } else { 0.0 }
+}
+
+/// One agent, in plain scalar code: the reference the SIMD path is tested against bit for bit.
+/// The heading's `atan2` is the same polynomial as the lanes' (lane 0 of it).
+fn integrate_one(
+    s: &mut MotionState<'_>,
+    st: &SteeringBuffers<'_>,
+    params: &[IntegrationParams],
+    dt: f32,
+    i: usize,
+) {
+    let p = &params[st.group[i] as usize];
+    let (vx, vy) = (s.vel_x[i], s.vel_y[i]);
+    let (lx, ly) = (st.lin_x[i], st.lin_y[i]);
+    let (hx, hy) = if p.kinematic { (lx, ly) } else { (vx, vy) };
+    let moving = hx * hx + hy * hy > 0.0;
+    let heading = f32x8::splat(hy).atan2(f32x8::splat(hx)).to_array()[0];
+    let heading = wrap_one(if heading < 0.0 {
+        heading + TAU
+    } else {
+        heading
+    });
+    let clamp = |x: f32| {
+        let x = if x < -p.max_rotation {
+            -p.max_rotation
+        } else {
+            x
+        };
+        if x > p.max_rotation {
+            p.max_rotation
+        } else {
+            x
+        }
+    };
+    let rot_kin = clamp(st.ang[i]);
+    let rot_dyn = clamp(s.rotation[i] + st.ang[i] * dt);
+    let turning = if p.kinematic { rot_kin } else { s.rotation[i] };
+    let integrated = wrap_one(s.orientation[i] + turning * dt);
+    let orientation = if p.face_velocity {
+        if moving { heading } else { s.orientation[i] }
+    } else {
+        integrated
+    };
+    let rotation = if p.kinematic { rot_kin } else { rot_dyn };
+
+    let (mut nvx, mut nvy) = if p.kinematic {
+        (lx, ly)
+    } else {
+        ((vx + lx * dt) * p.damp, (vy + ly * dt) * p.damp)
+    };
+    let ms = st.max_speed[i];
+    let sp_sq = nvx * nvx + nvy * nvy;
+    if sp_sq > ms * ms {
+        let scale = ms / sp_sq.sqrt();
+        nvx *= scale;
+        nvy *= scale;
+    }
+    let (mx, my) = if p.kinematic { (nvx, nvy) } else { (vx, vy) };
+    let (px, py) = (s.pos_x[i] + mx * dt, s.pos_y[i] + my * dt);
+    s.pos_x[i] = px;
+    s.pos_y[i] = py;
+    s.vel_x[i] = nvx;
+    s.vel_y[i] = nvy;
+    s.orientation[i] = orientation;
+    s.rotation[i] = rotation;
+}
+
+#[inline(always)]
+fn load(s: &[f32], i: usize, lanes: usize) -> f32x8 {
+    let mut a = [0.0_f32; LANES];
+    a[..lanes].copy_from_slice(&s[i..i + lanes]);
     f32x8::from(a)
 }
 
 #[inline(always)]
-fn store(s: &mut [f32], i: usize, v: f32x8) {
-    s[i..i + LANES].copy_from_slice(&v.to_array());
+fn store(s: &mut [f32], i: usize, lanes: usize, v: f32x8) {
+    s[i..i + lanes].copy_from_slice(&v.to_array()[..lanes]);
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use crate::rng::AgentRng;
+
+    fn params() -> Vec<IntegrationParams> {
+        let mut v = Vec::new();
+        for kinematic in [false, true] {
+            for face_velocity in [false, true] {
+                for (damp, max_rotation) in [(1.0, 3.0), (0.9, 500.0)] {
+                    v.push(IntegrationParams {
+                        kinematic,
+                        damp,
+                        max_rotation,
+                        face_velocity,
+                    });
+                }
+            }
+        }
+        v
+    }
+
+    #[test]
+    fn simd_lanes_equal_the_scalar_reference_bit_for_bit() {
+        let n = 1037; // not a multiple of the lane count
+        let mut r = AgentRng::new(5, 0, 0, 0);
+        let mut f = |scale: f32| r.signed() * scale;
+        let mut cols: Vec<Vec<f32>> = (0..6).map(|_| Vec::new()).collect();
+        let (mut lx, mut ly, mut ang, mut ms, mut grp) = (vec![], vec![], vec![], vec![], vec![]);
+        for i in 0..n {
+            cols[0].push(f(100.0));
+            cols[1].push(f(100.0));
+            // Some agents at rest, some fast.
+            let v = if i % 7 == 0 { 0.0 } else { 10.0 };
+            cols[2].push(f(v));
+            cols[3].push(f(v));
+            cols[4].push((f(1.0) + 1.0) * TAU * 0.5);
+            cols[5].push(f(600.0));
+            lx.push(if i % 11 == 0 { 0.0 } else { f(30.0) });
+            ly.push(f(30.0));
+            ang.push(f(1000.0));
+            ms.push(1.0 + (f(1.0) + 1.0) * 4.0);
+            grp.push((i % 8) as u32);
+        }
+        let p = params();
+        let dt = 0.05;
+        let run = |simd: bool| {
+            let mut c = cols.clone();
+            let [px, py, vx, vy, or, rot] = &mut c[..] else {
+                unreachable!()
+            };
+            let state = MotionState {
+                pos_x: px,
+                pos_y: py,
+                vel_x: vx,
+                vel_y: vy,
+                orientation: or,
+                rotation: rot,
+            };
+            let steer = SteeringBuffers {
+                lin_x: &lx,
+                lin_y: &ly,
+                ang: &ang,
+                max_speed: &ms,
+                group: &grp,
+            };
+            if simd {
+                integrate(state, steer, &p, dt)
+            } else {
+                integrate_scalar(state, steer, &p, dt)
+            }
+            c
+        };
+        let (a, b) = (run(true), run(false));
+        for (ca, cb) in a.iter().zip(&b) {
+            for (x, y) in ca.iter().zip(cb) {
+                assert_eq!(x.to_bits(), y.to_bits());
+            }
+        }
+        for &o in &a[4] {
+            assert!((0.0..TAU).contains(&o), "orientation {o}");
+        }
+        for i in 0..n {
+            let speed = a[2][i].hypot(a[3][i]);
+            assert!(speed <= ms[i] * (1.0 + 1e-6), "speed {speed} > {}", ms[i]);
+        }
+    }
 }
