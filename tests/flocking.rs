@@ -251,3 +251,27 @@ fn mean_neighbours_matches_the_scenario_density() {
         stats.mean_neighbours
     );
 }
+
+#[test]
+fn the_flocking_fast_path_equals_the_general_loop() {
+    // The same flock with an angular-only extra behaviour takes the general path; positions and
+    // velocities must not change by a bit (orientation follows the velocity either way).
+    let make = |extra: bool| {
+        let mut w = flock_world(1200, 1.0, 2.0, 0.5, 9);
+        if extra {
+            let mut g = w.groups()[0].clone();
+            g.steering.behaviours.push(Weighted::new(
+                Behaviour::LookWhereYouAreGoing {
+                    params: Default::default(),
+                },
+                1.0,
+            ));
+            w.set_group_params(0, g).unwrap();
+        }
+        for _ in 0..40 {
+            w.step(DT).unwrap();
+        }
+        snapshot(&w)
+    };
+    assert_eq!(make(false), make(true));
+}

@@ -46,7 +46,13 @@ pub(crate) struct FlockSpec {
     pub repel: Option<(f32, f32, f32)>,
     /// Neighbour cap.
     pub cap: Option<u32>,
+    /// When the profile is nothing but separation, alignment and cohesion in a weighted sum:
+    /// its entries in list order as `(slot, weight)`, so steering can skip the general loop.
+    pub pure: Option<([(u8, f32); PURE_MAX], u8)>,
 }
+
+/// Longest flocking-only profile served by the fast path.
+pub(crate) const PURE_MAX: usize = 4;
 
 impl FlockSpec {
     /// The spec of a group's profile (a behaviour listed twice: the last one counts).
@@ -56,6 +62,11 @@ impl FlockSpec {
             cap: g.max_neighbours,
             ..FlockSpec::default()
         };
+        let mut pure = [(0u8, 0.0f32); PURE_MAX];
+        let mut pure_len = 0usize;
+        let mut is_pure = g.steering.combine == crate::steering::Combine::WeightedSum
+            && !g.steering.behaviours.is_empty()
+            && g.steering.behaviours.len() <= PURE_MAX;
         for w in &g.steering.behaviours {
             let (slot, hood) = match &w.behaviour {
                 Behaviour::Separation { hood } => (SEP, hood),
@@ -69,16 +80,27 @@ impl FlockSpec {
                     s.repel = Some((*strength, *exponent, radius * radius));
                     s.active = true;
                     s.query_r = s.query_r.max(*radius);
+                    is_pure = false;
                     continue;
                 }
-                _ => continue,
+                _ => {
+                    is_pure = false;
+                    continue;
+                }
             };
+            if is_pure {
+                pure[pure_len] = (slot as u8, w.weight);
+                pure_len += 1;
+            }
             s.active = true;
             s.on[slot] = true;
             s.r_sq[slot] = hood.radius * hood.radius;
             s.cos[slot] = hood.view_cos;
             s.same[slot] = hood.same_group;
             s.query_r = s.query_r.max(hood.radius);
+        }
+        if is_pure {
+            s.pure = Some((pure, pure_len as u8));
         }
         s
     }

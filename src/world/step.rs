@@ -164,9 +164,31 @@ impl SteerCtx<'_> {
         let a = self.agents;
         let g = &self.groups[a.group[i] as usize];
         let kinematic = g.model == MovementModel::Kinematic;
-        let position = a.position(i);
         let velocity = a.velocity(i);
         let orientation = a.orientation[i];
+        if let Some((entries, len)) = self.flock[a.group[i] as usize].pure {
+            // Flocking only: the same sum as the general loop below, without its dispatch.
+            let sums = self.sums(i, velocity, orientation);
+            let max_speed = a.max_speed[i];
+            let mut total = Vec2::ZERO;
+            for &(slot, weight) in &entries[..len as usize] {
+                let f = match (slot, kinematic) {
+                    (0, true) => steering::desired(sums.separation, max_speed),
+                    (0, false) => steering::separation(&sums, velocity, max_speed),
+                    (1, true) => steering::desired(sums.alignment, max_speed),
+                    (1, false) => steering::alignment(&sums, velocity, max_speed),
+                    (_, true) => steering::desired(sums.cohesion, max_speed),
+                    (_, false) => steering::cohesion(&sums, velocity, max_speed),
+                };
+                total += f * weight;
+            }
+            return (
+                self.finish(g, kinematic, Steering::linear(total)),
+                a.wander[i],
+                sums.count,
+            );
+        }
+        let position = a.position(i);
         let rotation = a.rotation[i];
         let max_speed = a.max_speed[i];
         let mut wander_angle = a.wander[i];
@@ -208,7 +230,15 @@ impl SteerCtx<'_> {
         if priority {
             total = running.total();
         }
-        let out = if kinematic {
+        let out = self.finish(g, kinematic, total);
+        (out, wander_angle, sums.count)
+    }
+
+    /// The combined request turned into the integrator's input: for the dynamic model the
+    /// acceleration `force / mass` clamped to the maximum, and the angular acceleration clamped.
+    #[inline]
+    fn finish(&self, g: &GroupParams, kinematic: bool, total: Steering) -> Steering {
+        if kinematic {
             total
         } else {
             let acc = steering::truncate(total.linear / g.mass, g.max_acceleration);
@@ -218,8 +248,7 @@ impl SteerCtx<'_> {
                     .angular
                     .clamp(-g.max_angular_acceleration, g.max_angular_acceleration),
             }
-        };
-        (out, wander_angle, sums.count)
+        }
     }
 
     #[allow(clippy::too_many_arguments)]
