@@ -35,6 +35,8 @@ pub(crate) struct Scratch {
     prev_y: Vec<f32>,
     /// The reordering permutation.
     perm: Vec<u32>,
+    /// Per group: the largest `nearest` search radius that targets it.
+    within: Vec<f32>,
 }
 
 /// A neighbour index over the agents of one group, for `Target::Nearest`.
@@ -804,7 +806,9 @@ impl World {
     fn prepare_nearest(&mut self) {
         let groups = self.groups.len();
         self.scratch.nearest.resize_with(groups, || None);
-        let mut within = vec![0.0_f32; groups];
+        let mut within = std::mem::take(&mut self.scratch.within);
+        within.clear();
+        within.resize(groups, 0.0);
         for g in &self.groups {
             for w in &g.steering.behaviours {
                 if let Some(Target::Nearest { group, within: r }) = w.behaviour.target()
@@ -814,7 +818,7 @@ impl World {
                 }
             }
         }
-        for (g, r) in within.into_iter().enumerate() {
+        for (g, &r) in within.iter().enumerate() {
             if r <= 0.0 {
                 self.scratch.nearest[g] = None;
                 continue;
@@ -833,6 +837,7 @@ impl World {
             }
             ni.index.rebuild(&ni.xs, &ni.ys, self.bounds, r);
         }
+        self.scratch.within = within;
     }
 
     /// The hard non-penetration step: no centre inside a circle, no move across a wall.
