@@ -7,6 +7,8 @@ pub mod agents;
 pub mod bounds;
 pub mod error;
 pub mod rng;
+#[cfg(feature = "render")]
+pub mod render;
 
 pub use agents::{AgentId, AgentInit, Agents};
 pub use bounds::Bounds;
