@@ -55,6 +55,8 @@ pub mod scenario;
 pub mod spatial;
 pub mod steering;
 pub mod world;
+#[cfg(feature = "render")]
+pub mod render;
 
 pub use agents::{AgentId, AgentInit, Agents};
 pub use bounds::Bounds;
