@@ -50,13 +50,13 @@ pub mod gravity;
 pub mod group;
 pub mod movement;
 pub mod obstacles;
+#[cfg(feature = "render")]
+pub mod render;
 pub mod rng;
 pub mod scenario;
 pub mod spatial;
 pub mod steering;
 pub mod world;
-#[cfg(feature = "render")]
-pub mod render;
 
 pub use agents::{AgentId, AgentInit, Agents};
 pub use bounds::Bounds;

@@ -240,3 +240,72 @@ fn every_builtin_is_a_runnable_file() {
         assert!(o.status.success(), "{name}: {}", stderr(&o));
     }
 }
+
+#[cfg(feature = "render")]
+#[test]
+fn render_writes_a_gif_and_a_png_of_the_stated_size_and_frame_count() {
+    let gif_path = tmp("run.gif");
+    // A square world: 300 x 300 pixels; frames 0, 4, 8 and 12.
+    let o = throng(&[
+        "demo",
+        "wander",
+        "--agents",
+        "500",
+        "--steps",
+        "12",
+        "--every",
+        "4",
+        "--size",
+        "300",
+        "--quiet",
+        "--render",
+        gif_path.to_str().unwrap(),
+    ]);
+    assert!(o.status.success(), "{}", stderr(&o));
+    let mut options = gif::DecodeOptions::new();
+    options.set_color_output(gif::ColorOutput::Indexed);
+    let mut decoder = options
+        .read_info(std::fs::File::open(&gif_path).unwrap())
+        .unwrap();
+    assert_eq!((decoder.width(), decoder.height()), (300, 300));
+    let mut frames = 0;
+    while let Some(frame) = decoder.read_next_frame().unwrap() {
+        assert_eq!((frame.width, frame.height), (300, 300));
+        frames += 1;
+    }
+    assert_eq!(frames, 4);
+
+    let png_path = tmp("last.png");
+    let o = throng(&[
+        "demo",
+        "obstacles",
+        "--agents",
+        "300",
+        "--steps",
+        "3",
+        "--size",
+        "240",
+        "--quiet",
+        "--render",
+        png_path.to_str().unwrap(),
+    ]);
+    assert!(o.status.success(), "{}", stderr(&o));
+    let decoder = png::Decoder::new(std::io::BufReader::new(
+        std::fs::File::open(&png_path).unwrap(),
+    ));
+    let reader = decoder.read_info().unwrap();
+    let info = reader.info();
+    assert_eq!((info.width, info.height), (240, 240));
+
+    assert_one_line_failure(
+        &[
+            "demo",
+            "wander",
+            "--steps",
+            "2",
+            "--render",
+            tmp("x.bmp").to_str().unwrap(),
+        ],
+        ".gif",
+    );
+}

@@ -37,9 +37,11 @@ mod output;
 mod palette;
 mod scene;
 mod viewport;
+mod world;
 
 pub use canvas::{Canvas, MAX_SIDE, check_size};
 pub use output::{GifRecorder, write_png};
 pub use palette::Palette;
 pub use scene::{AgentStyle, FlowOverlay, HeatMap, Scene, draw_scene};
 pub use viewport::Viewport;
+pub use world::{WorldPainter, world_extent};

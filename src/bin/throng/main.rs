@@ -91,6 +91,9 @@ struct RunArgs {
     /// Write an animated GIF (`.gif`) or the last frame as PNG (`.png`).
     #[arg(long)]
     render: Option<PathBuf>,
+    /// Longest side of the picture written by --render, pixels.
+    #[arg(long, default_value_t = 800)]
+    size: u32,
     /// Write trajectories as long-format CSV: frame,t,id,x,y,vx,vy,heading.
     #[arg(long)]
     trajectories: Option<PathBuf>,
@@ -222,7 +225,16 @@ fn run_scenario(s: Scenario, args: &RunArgs) -> Result<()> {
         Some(k) => k,
         None => (s.steps / 20).max(1),
     };
-    let mut outputs = Outputs::open(args.render.as_deref(), args.trajectories.as_deref(), &world)?;
+    let options = output::RenderOptions {
+        size: args.size,
+        frame_seconds: s.dt * every as f32,
+    };
+    let mut outputs = Outputs::open(
+        args.render.as_deref(),
+        args.trajectories.as_deref(),
+        &world,
+        options,
+    )?;
     let show_progress = !args.quiet && std::io::stdout().is_terminal() && s.steps >= 200;
     let progress = show_progress.then(|| indicatif::ProgressBar::new(s.steps));
     let log = |line: String| match &progress {
