@@ -18,7 +18,7 @@ pub struct Outputs {
 #[cfg(feature = "render")]
 #[derive(Debug)]
 enum Target {
-    Gif(throng::render::GifRecorder),
+    Gif(Box<throng::render::GifRecorder>),
     Png(std::path::PathBuf),
 }
 
@@ -87,7 +87,7 @@ impl Outputs {
         let target = match ext.as_deref() {
             Some("gif") => {
                 let delay = (options.frame_seconds * 100.0).round().clamp(2.0, 65_535.0) as u16;
-                Target::Gif(GifRecorder::create(path, w, h, delay)?)
+                Target::Gif(Box::new(GifRecorder::create(path, w, h, delay)?))
             }
             Some("png") => Target::Png(path.to_path_buf()),
             _ => {
