@@ -139,6 +139,15 @@ impl FlowField {
             .is_some_and(|p| self.codes[p] == GOAL)
     }
 
+    /// Whether world point `p` lies in a goal cell (`false` outside the grid).
+    #[must_use]
+    #[inline]
+    pub fn is_goal_at(&self, p: Vec2) -> bool {
+        self.lattice
+            .world_to_cell(p)
+            .is_some_and(|(x, y)| self.codes[self.lattice.index(x, y)] == GOAL)
+    }
+
     /// Whether a goal can be reached from `(x, y)` (goals included).
     #[must_use]
     pub fn is_reachable(&self, x: u32, y: u32) -> bool {
