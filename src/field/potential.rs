@@ -14,6 +14,11 @@
 //!
 //! Cells no goal can reach, and walls, hold [`PotentialField::UNREACHABLE`] (`-1.0`), never a
 //! potential a reachable cell could have.
+//!
+//! [`PotentialField::bfs`] and [`PotentialField::rebuild`] compute exactly that field faster (a
+//! level-by-level search that stores step counts only, potentials derived afterwards from a
+//! table of the same repeated products); [`PotentialField::bfs_reference`] is the literal
+//! algorithm, kept so tests can check the two agree bit for bit.
 
 use super::lattice::{DIAGONAL_SIDES, Lattice, Neighbourhood, check_goals, padded_map};
 use super::occupancy::OccupancyGrid;
@@ -85,8 +90,8 @@ impl PotentialField {
     /// Builds the field of `goals` on `grid`: potential 1 at every goal, times `decay` per step.
     /// Duplicate goals are harmless.
     ///
-    /// This is the notes' algorithm as it stands: each popped cell reads its own potential and
-    /// gives `current * decay` to every unset free neighbour, recording the step count beside it.
+    /// The result is the notes' algorithm's (see [`PotentialField::bfs_reference`]), bit for
+    /// bit; see the module docs for how it is computed.
     ///
     /// # Examples
     /// ```

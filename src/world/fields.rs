@@ -143,6 +143,9 @@ fn can_move(grid: &OccupancyGrid, a: Vec2, b: Vec2) -> bool {
     }
 }
 
+/// The flow a group follows and its channel's goal cells.
+type GoalCheck<'a> = (&'a FlowField, &'a [(u32, u32)]);
+
 /// A grid's walls as the per-agent wall check reads them, with the cell lookup of
 /// [`cell_of`] made cheap: when the cell size is a power of two, multiplying by its reciprocal
 /// is exact, so it gives the same cells as the division.
@@ -489,7 +492,7 @@ impl FieldSet {
         let fields = &self.fields;
         // Per group: the flow its agents follow and that channel's goals, looked up once. A
         // short goal list is searched instead of the flow's cells (no memory traffic).
-        let flows: Vec<Option<(&FlowField, &[(u32, u32)])>> = self
+        let flows: Vec<Option<GoalCheck>> = self
             .follow
             .iter()
             .map(|fc| {
