@@ -1,5 +1,6 @@
 //! Field builds (BFS potential, Dijkstra integration, flow) at 512^2, 2048^2 and 4096^2 cells
-//! with 4 goals, flow-field sampling for 100,000 points, and one `World::step` of the
+//! with 4 goals (fresh, and `_rebuild`: in place reusing the buffers; `_reference`: the literal
+//! reference BFS, at 2048^2 only), flow-field sampling for 100,000 points, and one `World::step` of the
 //! `fields-large` scenario (100,000 agents following a 2048^2 flow field) on 1 and 2 threads.
 //!
 //! Grids: 512^2 is a cave (drunkard's walk, 50% obstacles, connected); the larger ones are open
@@ -35,6 +36,25 @@ fn builds(c: &mut Criterion) {
             g.bench_with_input(BenchmarkId::new(name, side), &side, |b, _| {
                 b.iter(|| PotentialField::bfs(&grid, black_box(&goals), 0.99, n).unwrap())
             });
+            // In place, as goal channels rebuild: the field's buffers are reused.
+            let mut field = PotentialField::bfs(&grid, &goals, 0.99, n).unwrap();
+            g.bench_with_input(
+                BenchmarkId::new(format!("{name}_rebuild"), side),
+                &side,
+                |b, _| b.iter(|| field.rebuild(&grid, black_box(&goals)).unwrap()),
+            );
+            if side == 2048 {
+                g.bench_with_input(
+                    BenchmarkId::new(format!("{name}_reference"), side),
+                    &side,
+                    |b, _| {
+                        b.iter(|| {
+                            PotentialField::bfs_reference(&grid, black_box(&goals), 0.99, n)
+                                .unwrap()
+                        })
+                    },
+                );
+            }
         }
         g.bench_with_input(BenchmarkId::new("dijkstra8", side), &side, |b, _| {
             b.iter(|| {
@@ -46,6 +66,12 @@ fn builds(c: &mut Criterion) {
         g.bench_with_input(BenchmarkId::new("flow_from_bfs8", side), &side, |b, _| {
             b.iter(|| FlowField::from_potential(black_box(&field)))
         });
+        let mut flow = FlowField::from_potential(&field);
+        g.bench_with_input(
+            BenchmarkId::new("flow_from_bfs8_rebuild", side),
+            &side,
+            |b, _| b.iter(|| flow.rebuild_from_potential(black_box(&field))),
+        );
     }
     g.finish();
 }

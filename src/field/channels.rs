@@ -176,9 +176,18 @@ impl GoalChannels {
             .par_iter_mut()
             .filter(|c| c.dirty)
             .map(|c| {
-                let field = PotentialField::bfs(grid, &c.goals, decay, neighbourhood)?;
-                let flow = FlowField::from_potential(&field);
-                c.built = Some((field, flow));
+                // Rebuild in place when possible: the buffers are kept, so no fresh pages.
+                match &mut c.built {
+                    Some((field, flow)) => {
+                        field.rebuild(grid, &c.goals)?;
+                        flow.rebuild_from_potential(field);
+                    }
+                    None => {
+                        let field = PotentialField::bfs(grid, &c.goals, decay, neighbourhood)?;
+                        let flow = FlowField::from_potential(&field);
+                        c.built = Some((field, flow));
+                    }
+                }
                 c.dirty = false;
                 Ok(())
             })

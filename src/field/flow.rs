@@ -19,8 +19,8 @@ use glam::Vec2;
 use rayon::prelude::*;
 
 use super::integration::IntegrationField;
-use super::lattice::{DIRECTIONS, Lattice, UNIT};
-use super::potential::{PotentialField, UNSET};
+use super::lattice::{DIAGONAL_SIDES, DIRECTIONS, Lattice, UNIT};
+use super::potential::{PotentialField, UNSET, WALL};
 
 /// Direction code of a goal cell.
 const GOAL: u8 = 8;
@@ -52,15 +52,42 @@ impl FlowField {
     /// ```
     #[must_use]
     pub fn from_potential(field: &PotentialField) -> Self {
-        let lattice = field.lattice;
-        let codes = build(&lattice, |p| match field.steps[p] {
-            0 => GOAL,
-            s if s >= UNSET => NONE,
-            _ => field
-                .best_from(p, |_| true)
-                .map_or(NONE, |q| code_of(&lattice, p, q)),
-        });
-        FlowField { lattice, codes }
+        let mut flow = FlowField {
+            lattice: field.lattice,
+            codes: Vec::new(),
+        };
+        flow.rebuild_from_potential(field);
+        flow
+    }
+
+    /// Rebuilds this flow in place from `field` (as [`FlowField::from_potential`], reusing the
+    /// buffer when the size is unchanged).
+    pub fn rebuild_from_potential(&mut self, field: &PotentialField) {
+        use super::lattice::Neighbourhood;
+        let l = field.lattice;
+        self.lattice = l;
+        if self.codes.len() != l.len {
+            self.codes = vec![NONE; l.len];
+        }
+        let steps = &field.steps[..];
+        let eight = field.neighbourhood == Neighbourhood::Eight;
+        let (w, h) = (l.width as usize, l.height as usize);
+        self.codes
+            .par_chunks_mut(l.stride)
+            .enumerate()
+            .with_min_len(16)
+            .for_each(|(row, out)| {
+                if row == 0 || row > h {
+                    out.fill(NONE);
+                    return;
+                }
+                out[0] = NONE;
+                out[w + 1] = NONE;
+                let base = row * l.stride;
+                for (x, o) in out[1..=w].iter_mut().enumerate() {
+                    *o = potential_code(steps, base + x + 1, &l.offsets, eight);
+                }
+            });
     }
 
     /// The flow of an integration field: each cell points to its cheapest allowed neighbour.
@@ -110,6 +137,15 @@ impl FlowField {
         self.lattice
             .checked_index(x, y)
             .is_some_and(|p| self.codes[p] == GOAL)
+    }
+
+    /// Whether world point `p` lies in a goal cell (`false` outside the grid).
+    #[must_use]
+    #[inline]
+    pub fn is_goal_at(&self, p: Vec2) -> bool {
+        self.lattice
+            .world_to_cell(p)
+            .is_some_and(|(x, y)| self.codes[self.lattice.index(x, y)] == GOAL)
     }
 
     /// Whether a goal can be reached from `(x, y)` (goals included).
@@ -214,6 +250,44 @@ impl FlowField {
 fn floor(v: f32) -> f32 {
     let t = v as i32 as f32;
     if t > v { t - 1.0 } else { t }
+}
+
+/// The direction code of padded cell `p` of a potential field with step counts `steps`: the
+/// first neighbour in [`DIRECTIONS`] order with the fewest steps, fewer than `p`'s, that may be
+/// stepped to (a diagonal needs both sides not walls), as
+/// [`PotentialField::best_neighbour`].
+#[inline]
+fn potential_code(steps: &[u32], p: usize, o: &[isize; 8], eight: bool) -> u8 {
+    let own = steps[p];
+    if own == 0 {
+        return GOAL;
+    }
+    if own >= UNSET {
+        return NONE;
+    }
+    // `best` starts below UNSET, so walls and unreached cells are never taken.
+    let mut best = own;
+    let mut code = NONE;
+    for (k, &off) in o[..4].iter().enumerate() {
+        let s = steps[p.wrapping_add_signed(off)];
+        if s < best {
+            best = s;
+            code = k as u8;
+        }
+    }
+    if eight {
+        for (k, &(a, b)) in DIAGONAL_SIDES.iter().enumerate() {
+            let s = steps[p.wrapping_add_signed(o[k + 4])];
+            if s < best
+                && steps[p.wrapping_add_signed(o[a])] != WALL
+                && steps[p.wrapping_add_signed(o[b])] != WALL
+            {
+                best = s;
+                code = (k + 4) as u8;
+            }
+        }
+    }
+    code
 }
 
 #[inline]

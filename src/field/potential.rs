@@ -14,6 +14,11 @@
 //!
 //! Cells no goal can reach, and walls, hold [`PotentialField::UNREACHABLE`] (`-1.0`), never a
 //! potential a reachable cell could have.
+//!
+//! [`PotentialField::bfs`] and [`PotentialField::rebuild`] compute exactly that field faster (a
+//! level-by-level search that stores step counts only, potentials derived afterwards from a
+//! table of the same repeated products); [`PotentialField::bfs_reference`] is the literal
+//! algorithm, kept so tests can check the two agree bit for bit.
 
 use super::lattice::{DIAGONAL_SIDES, Lattice, Neighbourhood, check_goals, padded_map};
 use super::occupancy::OccupancyGrid;
@@ -35,7 +40,35 @@ pub struct PotentialField {
     /// Padded step counts, or `WALL` / `UNSET`.
     pub(crate) steps: Vec<u32>,
     reachable: usize,
+    /// Buffers of the search, kept for [`PotentialField::rebuild`].
+    scratch: Scratch,
 }
+
+/// The search's reusable buffers. Not part of a field's value: every two compare equal.
+#[derive(Clone, Debug, Default)]
+struct Scratch {
+    /// Padded cell states: `FREE`, `SEEN` or `BLOCKED` (wall or border).
+    state: Vec<u8>,
+    /// The FIFO, a ring of power-of-two length.
+    ring: Vec<u32>,
+    /// `decay` multiplied by itself once per step: `table[s]` is the potential at `s` steps.
+    table: Vec<f32>,
+}
+
+impl PartialEq for Scratch {
+    fn eq(&self, _: &Self) -> bool {
+        true
+    }
+}
+
+/// Cell state of the search: free and not yet queued.
+const FREE: u8 = 0;
+/// Cell state of the search: queued (its step count is final).
+const SEEN: u8 = 1;
+/// Cell state of the search: a wall or the border.
+const BLOCKED: u8 = 2;
+/// Padded rows per parallel task of the derived passes.
+const ROWS_PER_TASK: usize = 16;
 
 /// Checks a decay factor: finite and strictly between 0 and 1.
 pub(crate) fn check_decay(decay: f32) -> Result<f32> {
@@ -57,8 +90,8 @@ impl PotentialField {
     /// Builds the field of `goals` on `grid`: potential 1 at every goal, times `decay` per step.
     /// Duplicate goals are harmless.
     ///
-    /// This is the notes' algorithm as it stands: each popped cell reads its own potential and
-    /// gives `current * decay` to every unset free neighbour, recording the step count beside it.
+    /// The result is the notes' algorithm's (see [`PotentialField::bfs_reference`]), bit for
+    /// bit; see the module docs for how it is computed.
     ///
     /// # Examples
     /// ```
@@ -76,6 +109,58 @@ impl PotentialField {
     /// [`Error::NonFinite`] or [`Error::OutOfRange`] unless `decay` lies in `(0, 1)`;
     /// [`Error::Invalid`] when `goals` is empty or a goal is outside the grid or on a wall.
     pub fn bfs(
+        grid: &OccupancyGrid,
+        goals: &[(u32, u32)],
+        decay: f32,
+        neighbourhood: Neighbourhood,
+    ) -> Result<Self> {
+        let decay = check_decay(decay)?;
+        check_goals(grid, goals)?;
+        let mut field = PotentialField {
+            lattice: Lattice::of(grid),
+            neighbourhood,
+            decay,
+            potential: Vec::new(),
+            steps: Vec::new(),
+            reachable: 0,
+            scratch: Scratch::default(),
+        };
+        field.search(grid, goals);
+        Ok(field)
+    }
+
+    /// Rebuilds the field in place for `goals` on `grid` (which may differ from the grid it was
+    /// built on, in walls or in size), with the same decay and neighbourhood, reusing its
+    /// buffers. The result equals a fresh [`PotentialField::bfs`].
+    ///
+    /// # Examples
+    /// ```
+    /// # fn main() -> throng::Result<()> {
+    /// use throng::field::{Neighbourhood, OccupancyGrid, PotentialField};
+    /// let map = OccupancyGrid::parse_ascii("G..\n...\n", "<map>")?;
+    /// let mut field = PotentialField::bfs(&map.grid, &map.goals, 0.5, Neighbourhood::Four)?;
+    /// field.rebuild(&map.grid, &[(2, 1)])?;
+    /// assert_eq!(field.steps(0, 0), Some(3));
+    /// # Ok(()) }
+    /// ```
+    ///
+    /// # Errors
+    /// [`Error::Invalid`] as [`PotentialField::bfs`] for bad goals; the field is then unchanged.
+    pub fn rebuild(&mut self, grid: &OccupancyGrid, goals: &[(u32, u32)]) -> Result<()> {
+        check_goals(grid, goals)?;
+        self.lattice = Lattice::of(grid);
+        self.search(grid, goals);
+        Ok(())
+    }
+
+    /// The reference build: the notes' algorithm literally, each popped cell giving
+    /// `current * decay` to every unset free neighbour, with fresh buffers. Slower than
+    /// [`PotentialField::bfs`], which must return the same field; kept for tests to compare
+    /// against.
+    ///
+    /// # Errors
+    /// As [`PotentialField::bfs`].
+    pub fn bfs_reference(
         grid: &OccupancyGrid,
         goals: &[(u32, u32)],
         decay: f32,
@@ -108,7 +193,60 @@ impl PotentialField {
             potential,
             steps,
             reachable,
+            scratch: Scratch::default(),
         })
+    }
+
+    /// The build behind [`PotentialField::bfs`] and [`PotentialField::rebuild`] (goals checked,
+    /// `self.lattice` set to `grid`'s).
+    ///
+    /// It finds the same step counts as the reference in three passes: a parallel fill of a
+    /// one-byte cell state; a level-by-level search over that state with a small ring FIFO
+    /// that writes only the step count of each cell it pops (queueing is branch-free: a
+    /// neighbour is always written at the tail, which advances only when the neighbour was
+    /// free); and a parallel pass that marks unreached cells and walls and derives every
+    /// potential from its step count through a table of repeated products, so each value is
+    /// bit for bit the reference's `current * decay` chain.
+    fn search(&mut self, grid: &OccupancyGrid, goals: &[(u32, u32)]) {
+        let l = self.lattice;
+        let Scratch { state, ring, table } = &mut self.scratch;
+        fill_state(grid, &l, state);
+        // Fresh buffers come zeroed from the allocator, untouched until written (in parallel
+        // below), and every cell is written before it is read.
+        if self.steps.len() != l.len {
+            self.steps = vec![0; l.len];
+        }
+        if self.potential.len() != l.len {
+            self.potential = vec![0.0; l.len];
+        }
+        if ring.len() < 1024 {
+            *ring = vec![0; 1024];
+        }
+        let mut tail = 0usize;
+        for &(x, y) in goals {
+            let p = l.index(x, y);
+            if state[p] == FREE {
+                state[p] = SEEN;
+                let mask = ring.len() - 1;
+                ring[tail & mask] = p as u32;
+                tail += 1;
+                if tail + 8 >= ring.len() {
+                    grow(ring, 0, tail);
+                }
+            }
+        }
+        let levels = match self.neighbourhood {
+            Neighbourhood::Four => search4(&l, state, &mut self.steps, ring, tail),
+            Neighbourhood::Eight => search8(&l, state, &mut self.steps, ring, tail),
+        };
+        self.reachable = levels.1;
+        table.clear();
+        let mut v = 1.0_f32;
+        for _ in 0..levels.0 {
+            table.push(v);
+            v *= self.decay;
+        }
+        derive(&l, state, table, &mut self.steps, &mut self.potential);
     }
 
     /// Number of columns.
@@ -230,6 +368,155 @@ impl PotentialField {
         }
         best.map(|(_, q)| q)
     }
+}
+
+/// Fills `state` with the padded cell states of `grid`: `BLOCKED` on walls and the border,
+/// `FREE` elsewhere (parallel over rows).
+fn fill_state(grid: &OccupancyGrid, l: &Lattice, state: &mut Vec<u8>) {
+    use rayon::prelude::*;
+    if state.len() != l.len {
+        *state = vec![BLOCKED; l.len];
+    }
+    let w = l.width as usize;
+    let h = l.height as usize;
+    let cells = grid.cells();
+    state
+        .par_chunks_mut(l.stride)
+        .enumerate()
+        .with_min_len(64)
+        .for_each(|(row, line)| {
+            if row == 0 || row > h {
+                line.fill(BLOCKED);
+                return;
+            }
+            line[0] = BLOCKED;
+            line[w + 1] = BLOCKED;
+            for (o, c) in line[1..=w].iter_mut().zip(&cells[(row - 1) * w..row * w]) {
+                *o = if c.is_free() { FREE } else { BLOCKED };
+            }
+        });
+}
+
+/// Doubles the ring, keeping the entries `head..tail` (counted from the start of the search)
+/// at their positions modulo the new length.
+#[cold]
+fn grow(ring: &mut Vec<u32>, head: usize, tail: usize) {
+    let old_mask = ring.len() - 1;
+    let mut bigger = vec![0u32; ring.len() * 2];
+    let mask = bigger.len() - 1;
+    for i in head..tail {
+        bigger[i & mask] = ring[i & old_mask];
+    }
+    *ring = bigger;
+}
+
+/// The level-by-level 4-neighbourhood search from the `tail` queued goals. Returns the number
+/// of levels and the number of cells queued.
+fn search4(
+    l: &Lattice,
+    state: &mut [u8],
+    steps: &mut [u32],
+    ring: &mut Vec<u32>,
+    mut tail: usize,
+) -> (usize, usize) {
+    let o = [l.offsets[0], l.offsets[1], l.offsets[2], l.offsets[3]];
+    let mut head = 0usize;
+    let mut level = 0u32;
+    while head < tail {
+        let end = tail;
+        while head < end {
+            if tail - head + 8 > ring.len() {
+                grow(ring, head, tail);
+            }
+            let r = &mut ring[..];
+            let mask = r.len() - 1;
+            let p = r[head & mask] as usize;
+            head += 1;
+            steps[p] = level;
+            for off in o {
+                let q = p.wrapping_add_signed(off);
+                let f = u8::from(state[q] == FREE);
+                state[q] |= f;
+                r[tail & mask] = q as u32;
+                tail += usize::from(f);
+            }
+        }
+        level += 1;
+    }
+    (level as usize, tail)
+}
+
+/// The level-by-level 8-neighbourhood search (no corner cutting); see [`search4`].
+fn search8(
+    l: &Lattice,
+    state: &mut [u8],
+    steps: &mut [u32],
+    ring: &mut Vec<u32>,
+    mut tail: usize,
+) -> (usize, usize) {
+    let o = l.offsets;
+    let mut head = 0usize;
+    let mut level = 0u32;
+    while head < tail {
+        let end = tail;
+        while head < end {
+            if tail - head + 8 > ring.len() {
+                grow(ring, head, tail);
+            }
+            let r = &mut ring[..];
+            let mask = r.len() - 1;
+            let p = r[head & mask] as usize;
+            head += 1;
+            steps[p] = level;
+            let mut open = [false; 4];
+            for (k, open) in open.iter_mut().enumerate() {
+                let q = p.wrapping_add_signed(o[k]);
+                let s = state[q];
+                *open = s != BLOCKED;
+                let f = u8::from(s == FREE);
+                state[q] = s | f;
+                r[tail & mask] = q as u32;
+                tail += usize::from(f);
+            }
+            for (k, &(a, b)) in DIAGONAL_SIDES.iter().enumerate() {
+                let q = p.wrapping_add_signed(o[k + 4]);
+                let f = u8::from(state[q] == FREE && open[a] && open[b]);
+                state[q] |= f;
+                r[tail & mask] = q as u32;
+                tail += usize::from(f);
+            }
+        }
+        level += 1;
+    }
+    (level as usize, tail)
+}
+
+/// The last pass: `WALL` / `UNSET` step counts and `UNREACHABLE` potentials where the search
+/// did not reach, `table[steps]` where it did (parallel over rows).
+fn derive(l: &Lattice, state: &[u8], table: &[f32], steps: &mut [u32], potential: &mut [f32]) {
+    use rayon::prelude::*;
+    let chunk = l.stride * ROWS_PER_TASK;
+    (
+        state.par_chunks(chunk),
+        steps.par_chunks_mut(chunk),
+        potential.par_chunks_mut(chunk),
+    )
+        .into_par_iter()
+        .for_each(|(st, sp, po)| {
+            for ((&c, s), v) in st.iter().zip(sp.iter_mut()).zip(po.iter_mut()) {
+                match c {
+                    SEEN => *v = table[*s as usize],
+                    FREE => {
+                        *s = UNSET;
+                        *v = PotentialField::UNREACHABLE;
+                    }
+                    _ => {
+                        *s = WALL;
+                        *v = PotentialField::UNREACHABLE;
+                    }
+                }
+            }
+        });
 }
 
 fn bfs4(

@@ -25,7 +25,7 @@ use rayon::prelude::*;
 use super::state::World;
 use crate::agents::{AgentId, Agents};
 use crate::error::{Error, Result};
-use crate::field::{GoalChannels, GridWalkers, OccupancyGrid, WalkPolicy};
+use crate::field::{FlowField, GoalChannels, GridWalkers, OccupancyGrid, WalkPolicy};
 use crate::steering::Behaviour;
 
 /// Agents per parallel task of the wall check.
@@ -49,6 +49,20 @@ struct WorldField {
     /// ... to this many goals each.
     shuffle_count: usize,
     walkers: Vec<WalkerGroup>,
+    /// One bit per cell of the grid (row-major), set on walls: the wall check's compact copy
+    /// of the grid, kept in step with it by [`World::set_field_blocked`].
+    wall_bits: Vec<u64>,
+}
+
+/// The wall bits of `grid` (see `WorldField::wall_bits`).
+fn wall_bits(grid: &OccupancyGrid) -> Vec<u64> {
+    let mut bits = vec![0u64; grid.len().div_ceil(64)];
+    for (i, c) in grid.cells().iter().enumerate() {
+        if !c.is_free() {
+            bits[i / 64] |= 1 << (i % 64);
+        }
+    }
+    bits
 }
 
 /// The world's fields and their per-step state (see the module docs).
@@ -126,6 +140,113 @@ fn can_move(grid: &OccupancyGrid, a: Vec2, b: Vec2) -> bool {
             c[ay * w + bx].is_free() || c[by * w + ax].is_free()
         }
         _ => true,
+    }
+}
+
+/// The flow a group follows and its channel's goal cells.
+type GoalCheck<'a> = (&'a FlowField, &'a [(u32, u32)]);
+
+/// A grid's walls as the per-agent wall check reads them, with the cell lookup of
+/// [`cell_of`] made cheap: when the cell size is a power of two, multiplying by its reciprocal
+/// is exact, so it gives the same cells as the division.
+#[derive(Clone, Copy)]
+struct Walls<'a> {
+    grid: &'a OccupancyGrid,
+    /// The grid's wall bits.
+    bits: &'a [u64],
+    origin: Vec2,
+    cell_size: f32,
+    /// `1 / cell_size` when that is exact.
+    inverse: Option<f32>,
+    half: f32,
+    width: usize,
+    height: usize,
+}
+
+impl<'a> Walls<'a> {
+    fn of(grid: &'a OccupancyGrid, bits: &'a [u64]) -> Self {
+        debug_assert_eq!(bits, &wall_bits(grid)[..]);
+        let cell_size = grid.cell_size();
+        let inverse = 1.0 / cell_size;
+        let exact = cell_size.is_normal()
+            && inverse.is_normal()
+            && cell_size.to_bits() & 0x007f_ffff == 0
+            && inverse * cell_size == 1.0;
+        Walls {
+            grid,
+            bits,
+            origin: grid.origin(),
+            cell_size,
+            inverse: exact.then_some(inverse),
+            half: 0.5 * cell_size,
+            width: grid.width() as usize,
+            height: grid.height() as usize,
+        }
+    }
+
+    /// [`cell_of`] as a row-major cell index.
+    #[inline]
+    fn cell(&self, p: Vec2) -> Option<usize> {
+        let d = p - self.origin;
+        let u = match self.inverse {
+            Some(inv) => d * inv,
+            None => d / self.cell_size,
+        };
+        if !(u.x >= 0.0 && u.y >= 0.0) {
+            return None;
+        }
+        let (x, y) = (u.x as usize, u.y as usize);
+        (x < self.width && y < self.height).then_some(y * self.width + x)
+    }
+
+    #[inline]
+    fn is_wall(&self, cell: Option<usize>) -> bool {
+        cell.is_some_and(|c| self.wall(c))
+    }
+
+    /// Whether row-major cell `c` is a wall.
+    #[inline]
+    fn wall(&self, c: usize) -> bool {
+        self.bits[c / 64] >> (c % 64) & 1 != 0
+    }
+
+    /// Whether [`resolve`] leaves a move from `prev` to `p` as it is (velocity included): no
+    /// move; or `p` not in a wall and in `prev`'s cell; or a start inside a wall; or a move of
+    /// one sub-step (at most half a cell per axis) that [`can_move`] allows and that lands
+    /// exactly on `p`. Everything else goes through [`resolve`].
+    #[inline]
+    fn unchanged(&self, prev: Vec2, p: Vec2) -> bool {
+        if p == prev {
+            return true;
+        }
+        let (a, b) = (self.cell(prev), self.cell(p));
+        let wall_b = self.is_wall(b);
+        if !wall_b && a == b {
+            return true;
+        }
+        if self.is_wall(a) {
+            return true;
+        }
+        if wall_b {
+            return false;
+        }
+        let d = p - prev;
+        let n = ((d.x.abs().max(d.y.abs()) / self.half).ceil() as u32).clamp(1, 1 << 16);
+        if n != 1 || prev + d != p {
+            return false;
+        }
+        // One sub-step to `p`, which is not in a wall: allowed unless it changes cell
+        // diagonally past two walls.
+        match (a, b) {
+            (Some(a), Some(b))
+                if a % self.width != b % self.width && a / self.width != b / self.width =>
+            {
+                let (ax, ay) = (a % self.width, a / self.width);
+                let (bx, by) = (b % self.width, b / self.width);
+                !self.wall(ay * self.width + bx) || !self.wall(by * self.width + ax)
+            }
+            _ => true,
+        }
     }
 }
 
@@ -301,7 +422,7 @@ impl FieldSet {
         let n = agents.len();
         debug_assert_eq!(self.prev_x.len(), n);
         for f in &self.fields {
-            let grid = f.channels.grid();
+            let walls = Walls::of(f.channels.grid(), &f.wall_bits);
             let kernel = |px: &mut [f32],
                           py: &mut [f32],
                           vx: &mut [f32],
@@ -309,12 +430,12 @@ impl FieldSet {
                           ox: &[f32],
                           oy: &[f32]| {
                 for k in 0..px.len() {
-                    let (p, v) = resolve(
-                        grid,
-                        Vec2::new(ox[k], oy[k]),
-                        Vec2::new(px[k], py[k]),
-                        Vec2::new(vx[k], vy[k]),
-                    );
+                    let prev = Vec2::new(ox[k], oy[k]);
+                    let p = Vec2::new(px[k], py[k]);
+                    if walls.unchanged(prev, p) {
+                        continue;
+                    }
+                    let (p, v) = resolve(walls.grid, prev, p, Vec2::new(vx[k], vy[k]));
                     (px[k], py[k], vx[k], vy[k]) = (p.x, p.y, v.x, v.y);
                 }
             };
@@ -368,17 +489,32 @@ impl FieldSet {
         }
         // Followers standing on a goal of their channel arrive (found in parallel, in index
         // order, then flagged).
-        let (fields, follow) = (&self.fields, &self.follow);
+        let fields = &self.fields;
+        // Per group: the flow its agents follow and that channel's goals, looked up once. A
+        // short goal list is searched instead of the flow's cells (no memory traffic).
+        let flows: Vec<Option<GoalCheck>> = self
+            .follow
+            .iter()
+            .map(|fc| {
+                let (field, channel) = (*fc)?;
+                let channels = &fields.get(field)?.channels;
+                Some((channels.flow(channel)?, channels.goals(channel).ok()?))
+            })
+            .collect();
+        if flows.iter().all(Option::is_none) {
+            return;
+        }
         let agents = &*agents;
         let on_goal = |i: usize| {
-            let Some(&Some((field, channel))) = follow.get(agents.group[i] as usize) else {
+            let Some(&Some((flow, goals))) = flows.get(agents.group[i] as usize) else {
                 return false;
             };
-            let Some(flow) = fields.get(field).and_then(|f| f.channels.flow(channel)) else {
-                return false;
-            };
-            flow.world_to_cell(agents.position(i))
-                .is_some_and(|(x, y)| flow.is_goal(x, y))
+            let p = Vec2::new(agents.pos_x[i], agents.pos_y[i]);
+            if goals.len() <= 16 {
+                flow.world_to_cell(p).is_some_and(|c| goals.contains(&c))
+            } else {
+                flow.is_goal_at(p)
+            }
         };
         let found: Vec<AgentId> = if exec_parallel {
             (0..n)
@@ -448,11 +584,13 @@ impl World {
                 ),
             });
         }
+        let bits = wall_bits(grid);
         self.fields.fields.push(WorldField {
             channels,
             shuffle_every: 0,
             shuffle_count: 0,
             walkers: Vec::new(),
+            wall_bits: bits,
         });
         Ok(self.fields.fields.len() - 1)
     }
@@ -560,10 +698,15 @@ impl World {
                 });
             }
         }
-        self.fields
-            .get_mut(field)?
-            .channels
-            .set_blocked(x, y, blocked)
+        let f = self.fields.get_mut(field)?;
+        f.channels.set_blocked(x, y, blocked)?;
+        let i = y as usize * f.channels.grid().width() as usize + x as usize;
+        if blocked {
+            f.wall_bits[i / 64] |= 1 << (i % 64);
+        } else {
+            f.wall_bits[i / 64] &= !(1 << (i % 64));
+        }
+        Ok(())
     }
 
     /// Turns the agents of `group` into grid walkers on `field` following `channel` (the notes'
@@ -722,6 +865,41 @@ mod tests {
             Vec2::new(2.0, 3.0),
         );
         assert_eq!((p, v), (Vec2::new(0.7, 0.9), Vec2::new(2.0, 0.0)));
+    }
+
+    /// The fast path changes nothing: where it keeps a move, [`resolve`] keeps it too.
+    #[test]
+    fn the_unchanged_shortcut_agrees_with_resolve() {
+        use rand::{RngExt, SeedableRng};
+        for (cell_size, origin) in [
+            (1.0, Vec2::ZERO),
+            (0.5, Vec2::new(-3.0, 2.0)),
+            (0.7, Vec2::ONE),
+        ] {
+            let g = OccupancyGrid::caves(24, 24, 0.5, 3)
+                .unwrap()
+                .with_geometry(cell_size, origin)
+                .unwrap();
+            let bits = wall_bits(&g);
+            let walls = Walls::of(&g, &bits);
+            let mut rng = rand_chacha::ChaCha8Rng::seed_from_u64(9);
+            let mut kept = 0;
+            for _ in 0..20_000 {
+                let prev = origin
+                    + Vec2::new(rng.random_range(-1.0..25.0), rng.random_range(-1.0..25.0))
+                        * cell_size;
+                let step = if rng.random_bool(0.8) { 0.6 } else { 3.0 };
+                let p = prev
+                    + Vec2::new(rng.random_range(-step..step), rng.random_range(-step..step))
+                        * cell_size;
+                let v = Vec2::new(1.0, -2.0);
+                if walls.unchanged(prev, p) {
+                    kept += 1;
+                    assert_eq!(resolve(&g, prev, p, v), (p, v), "{prev} -> {p}");
+                }
+            }
+            assert!(kept > 5_000, "{kept}");
+        }
     }
 
     #[test]
