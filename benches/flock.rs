@@ -1,6 +1,6 @@
 //! The `flock` scenario's step at 10,000, 100,000 and 1,000,000 agents on 1 and 2 threads, at the
-//! starting density (about 18 neighbours per agent), plus the scalar reference traversal (the
-//! k-d tree backend) at 10,000 for comparison.
+//! starting density (about 18 neighbours per agent), and the grid, k-d tree and brute-force
+//! backends side by side at 20,000.
 
 use criterion::{BenchmarkId, Criterion, Throughput, criterion_group, criterion_main};
 use throng::scenario::builtin;
