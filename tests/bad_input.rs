@@ -234,3 +234,39 @@ fn bad_behaviour_parameters_are_rejected() {
         Err(Error::NonFinite { name: "weight", .. })
     ));
 }
+
+#[test]
+fn references_to_missing_fields_and_groups_are_rejected_at_the_step() {
+    let follow = SteeringProfile::single(Behaviour::FollowField {
+        field: 0,
+        channel: 2,
+    });
+    let mut w = World::builder()
+        .group(GroupParams::dynamic(follow))
+        .agent(AgentInit::default())
+        .build()
+        .unwrap();
+    let err = w.step(0.1).unwrap_err();
+    assert!(
+        matches!(err, Error::Invalid { .. }) && err.to_string().contains("field 0 channel 2"),
+        "{err}"
+    );
+    assert_eq!(w.frame(), 0, "nothing stepped");
+
+    let hunt = SteeringProfile::single(Behaviour::Seek {
+        target: Target::Nearest {
+            group: 5,
+            within: 10.0,
+        },
+        threshold: 0.0,
+    });
+    let mut w = World::builder()
+        .group(GroupParams::dynamic(hunt))
+        .agent(AgentInit::default())
+        .build()
+        .unwrap();
+    assert!(matches!(
+        w.step(0.1),
+        Err(Error::UnknownGroup { group: 5, count: 1 })
+    ));
+}

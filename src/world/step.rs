@@ -610,6 +610,7 @@ impl World {
         if !(dt.is_finite() && dt > 0.0) {
             return Err(Error::InvalidTimeStep { dt: f64::from(dt) });
         }
+        self.check_references()?;
         let start = Instant::now();
         let n = self.agents.len();
         let mut phases = PhaseTimes::default();
@@ -790,6 +791,37 @@ impl World {
     /// Rebuilds the neighbour index when some group needs neighbours, reorders the agents by
     /// grid cell when due, and fills the grid kernel's copies. Returns whether the grid kernel
     /// is ready.
+    /// Checks that every field, channel and group a behaviour names exists. Groups may be added
+    /// before the fields they follow, so this runs at each step (a few comparisons per behaviour).
+    fn check_references(&self) -> Result<()> {
+        let groups = self.groups.len();
+        for (gi, g) in self.groups.iter().enumerate() {
+            for w in &g.steering.behaviours {
+                if let Behaviour::FollowField { field, channel } = w.behaviour {
+                    let ok = self.field(field).is_some_and(|f| channel < f.len());
+                    if !ok {
+                        return Err(Error::Invalid {
+                            name: format!("group {gi} ({}) follow_field", g.name),
+                            reason: format!(
+                                "field {field} channel {channel} does not exist (the world has {} fields)",
+                                self.field_count()
+                            ),
+                        });
+                    }
+                }
+                if let Some(Target::Nearest { group, .. }) = w.behaviour.target()
+                    && group >= groups
+                {
+                    return Err(Error::UnknownGroup {
+                        group,
+                        count: groups,
+                    });
+                }
+            }
+        }
+        Ok(())
+    }
+
     /// Moves scripted and agent-borne gravity points and reindexes them.
     fn advance_gravity(&mut self, dt: f32) {
         if self.gravity.is_empty() {
