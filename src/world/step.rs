@@ -620,11 +620,7 @@ impl World {
         //    gravity points moved and reindexed; per-group indices for nearest-agent targets
         let t = Instant::now();
         self.advance_gravity(dt);
-        let use_kernel = self.prepare_index();
-        self.prepare_nearest();
-        let (seed, frame, every) = (self.seed, self.frame, self.reorder_every);
-        self.fields
-            .prepare(&mut self.agents, &self.groups, seed, frame, every);
+        let use_kernel = self.index_phase();
         phases.index = t.elapsed();
 
         // 2. steer (formations re-form first, sequentially)
@@ -773,8 +769,10 @@ impl World {
         if !(dt.is_finite() && dt > 0.0) {
             return Err(Error::InvalidTimeStep { dt: f64::from(dt) });
         }
+        self.check_references()?;
         self.scratch.out.resize(self.agents.len());
-        let use_kernel = self.prepare_index();
+        let use_kernel = self.index_phase();
+        self.update_formations();
         self.steer_phase(dt, Execution::Parallel, use_kernel);
         let o = &self.scratch.out;
         Ok((0..self.agents.len())
@@ -791,6 +789,18 @@ impl World {
     /// Rebuilds the neighbour index when some group needs neighbours, reorders the agents by
     /// grid cell when due, and fills the grid kernel's copies. Returns whether the grid kernel
     /// is ready.
+    /// Everything the steering pass reads besides the agents: the neighbour index (and the
+    /// reordering), the nearest-of-group indices, and the fields' rebuilds. Returns whether the
+    /// grid kernel is ready.
+    fn index_phase(&mut self) -> bool {
+        let use_kernel = self.prepare_index();
+        self.prepare_nearest();
+        let (seed, frame, every) = (self.seed, self.frame, self.reorder_every);
+        self.fields
+            .prepare(&mut self.agents, &self.groups, seed, frame, every);
+        use_kernel
+    }
+
     /// Checks that every field, channel and group a behaviour names exists. Groups may be added
     /// before the fields they follow, so this runs at each step (a few comparisons per behaviour).
     fn check_references(&self) -> Result<()> {
