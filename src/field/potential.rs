@@ -16,8 +16,8 @@
 //! potential a reachable cell could have.
 //!
 //! [`PotentialField::bfs`] and [`PotentialField::rebuild`] compute exactly that field faster (a
-//! level-by-level search that stores step counts only, potentials derived afterwards from a
-//! table of the same repeated products); [`PotentialField::bfs_reference`] is the literal
+//! search over two-byte step counts, widened to `u32` when the levels outgrow them, potentials
+//! derived afterwards from a table of the same repeated products); [`PotentialField::bfs_reference`] is the literal
 //! algorithm, kept so tests can check the two agree bit for bit.
 
 use super::lattice::{DIAGONAL_SIDES, Lattice, Neighbourhood, check_goals, padded_map};
@@ -47,8 +47,8 @@ pub struct PotentialField {
 /// The search's reusable buffers. Not part of a field's value: every two compare equal.
 #[derive(Clone, Debug, Default)]
 struct Scratch {
-    /// Padded cell states: `FREE`, `SEEN` or `BLOCKED` (wall or border).
-    state: Vec<u8>,
+    /// Padded search cells (see [`StepCell`]), while the step counts fit in a `u16`.
+    state: Vec<u16>,
     /// The FIFO, a ring of power-of-two length.
     ring: Vec<u32>,
     /// `decay` multiplied by itself once per step: `table[s]` is the potential at `s` steps.
@@ -61,12 +61,6 @@ impl PartialEq for Scratch {
     }
 }
 
-/// Cell state of the search: free and not yet queued.
-const FREE: u8 = 0;
-/// Cell state of the search: queued (its step count is final).
-const SEEN: u8 = 1;
-/// Cell state of the search: a wall or the border.
-const BLOCKED: u8 = 2;
 /// Padded rows per parallel task of the derived passes.
 const ROWS_PER_TASK: usize = 16;
 
@@ -201,52 +195,52 @@ impl PotentialField {
     /// `self.lattice` set to `grid`'s).
     ///
     /// It finds the same step counts as the reference in three passes: a parallel fill of a
-    /// one-byte cell state; a level-by-level search over that state with a small ring FIFO
-    /// that writes only the step count of each cell it pops (queueing is branch-free: a
-    /// neighbour is always written at the tail, which advances only when the neighbour was
-    /// free); and a parallel pass that marks unreached cells and walls and derives every
-    /// potential from its step count through a table of repeated products, so each value is
-    /// bit for bit the reference's `current * decay` chain.
+    /// two-byte search cell per padded cell (`FREE`, `BLOCKED`, or a step count); a FIFO search
+    /// over those cells with a small ring that sets a neighbour's step count as it queues it
+    /// (branch-free: a neighbour is always written at the tail, which advances only when the
+    /// neighbour was free), touching no other array; and a parallel pass that widens the cells
+    /// to the `u32` step counts (`UNSET`, `WALL`) and derives every potential through a table of
+    /// repeated products, so each value is bit for bit the reference's `current * decay` chain.
+    /// When the levels outgrow a `u16`, the search starts again on the `u32` step counts.
     fn search(&mut self, grid: &OccupancyGrid, goals: &[(u32, u32)]) {
         let l = self.lattice;
         let Scratch { state, ring, table } = &mut self.scratch;
-        fill_state(grid, &l, state);
-        // Fresh buffers come zeroed from the allocator, untouched until written (in parallel
-        // below), and every cell is written before it is read.
-        if self.steps.len() != l.len {
-            self.steps = vec![0; l.len];
-        }
-        if self.potential.len() != l.len {
-            self.potential = vec![0.0; l.len];
-        }
         if ring.len() < 1024 {
             *ring = vec![0; 1024];
         }
-        let mut tail = 0usize;
-        for &(x, y) in goals {
-            let p = l.index(x, y);
-            if state[p] == FREE {
-                state[p] = SEEN;
-                let mask = ring.len() - 1;
-                ring[tail & mask] = p as u32;
-                tail += 1;
-                if tail + 8 >= ring.len() {
-                    grow(ring, 0, tail);
-                }
+        let eight = self.neighbourhood == Neighbourhood::Eight;
+        fill_state(grid, &l, state);
+        let found = run_search(&l, eight, state, ring, goals);
+        let (levels, reached) = match found {
+            Some(found) => found,
+            None => {
+                // More levels than a `u16` holds: search on the step counts themselves.
+                fill_state(grid, &l, &mut self.steps);
+                run_search(&l, eight, &mut self.steps, ring, goals)
+                    .expect("a u32 step count holds every level")
             }
-        }
-        let levels = match self.neighbourhood {
-            Neighbourhood::Four => search4(&l, state, &mut self.steps, ring, tail),
-            Neighbourhood::Eight => search8(&l, state, &mut self.steps, ring, tail),
         };
-        self.reachable = levels.1;
+        self.reachable = reached;
         table.clear();
         let mut v = 1.0_f32;
-        for _ in 0..levels.0 {
+        for _ in 0..levels {
             table.push(v);
             v *= self.decay;
         }
-        derive(&l, state, table, &mut self.steps, &mut self.potential);
+        if self.potential.len() != l.len {
+            // Fresh and zeroed from the allocator; every cell is written below.
+            self.potential = vec![0.0; l.len];
+        }
+        if found.is_some() {
+            if self.steps.len() != l.len {
+                self.steps = vec![0; l.len];
+            }
+            table.resize(1 << 16, Self::UNREACHABLE);
+            let table: &[f32; 1 << 16] = table[..].try_into().expect("a table of every u16");
+            derive16(&l, state, table, &mut self.steps, &mut self.potential);
+        } else {
+            derive32(&l, &self.steps, table, &mut self.potential);
+        }
     }
 
     /// Number of columns.
@@ -370,31 +364,107 @@ impl PotentialField {
     }
 }
 
-/// Fills `state` with the padded cell states of `grid`: `BLOCKED` on walls and the border,
-/// `FREE` elsewhere (parallel over rows).
-fn fill_state(grid: &OccupancyGrid, l: &Lattice, state: &mut Vec<u8>) {
+/// A search cell: a step count, or [`StepCell::FREE`] (not reached yet) or
+/// [`StepCell::BLOCKED`] (a wall or the border). `u32` cells use the encoding of
+/// [`PotentialField::steps`] (`UNSET`, `WALL`).
+trait StepCell: Copy + Eq + Send + Sync {
+    /// Not reached yet; also the first step count the type cannot hold.
+    const FREE: Self;
+    /// A wall or the border.
+    const BLOCKED: Self;
+    /// Step count 0.
+    const ZERO: Self;
+    /// The next step count (at most `FREE`).
+    fn succ(self) -> Self;
+    /// As a `u32`.
+    fn get(self) -> u32;
+}
+
+impl StepCell for u16 {
+    const FREE: Self = u16::MAX - 1;
+    const BLOCKED: Self = u16::MAX;
+    const ZERO: Self = 0;
+    #[inline]
+    fn succ(self) -> Self {
+        self + 1
+    }
+    #[inline]
+    fn get(self) -> u32 {
+        u32::from(self)
+    }
+}
+
+impl StepCell for u32 {
+    const FREE: Self = UNSET;
+    const BLOCKED: Self = WALL;
+    const ZERO: Self = 0;
+    #[inline]
+    fn succ(self) -> Self {
+        self + 1
+    }
+    #[inline]
+    fn get(self) -> u32 {
+        self
+    }
+}
+
+/// Fills `state` with the padded cells of `grid`: `BLOCKED` on walls and the border, `FREE`
+/// elsewhere (parallel over rows).
+fn fill_state<T: StepCell>(grid: &OccupancyGrid, l: &Lattice, state: &mut Vec<T>) {
     use rayon::prelude::*;
     if state.len() != l.len {
-        *state = vec![BLOCKED; l.len];
+        state.clear();
+        state.resize(l.len, T::BLOCKED);
     }
     let w = l.width as usize;
     let h = l.height as usize;
     let cells = grid.cells();
     state
-        .par_chunks_mut(l.stride)
+        .par_chunks_mut(l.stride * ROWS_PER_TASK)
         .enumerate()
-        .with_min_len(64)
-        .for_each(|(row, line)| {
-            if row == 0 || row > h {
-                line.fill(BLOCKED);
-                return;
-            }
-            line[0] = BLOCKED;
-            line[w + 1] = BLOCKED;
-            for (o, c) in line[1..=w].iter_mut().zip(&cells[(row - 1) * w..row * w]) {
-                *o = if c.is_free() { FREE } else { BLOCKED };
+        .for_each(|(task, lines)| {
+            for (i, line) in lines.chunks_mut(l.stride).enumerate() {
+                let row = task * ROWS_PER_TASK + i;
+                if row == 0 || row > h {
+                    line.fill(T::BLOCKED);
+                    continue;
+                }
+                line[0] = T::BLOCKED;
+                line[w + 1] = T::BLOCKED;
+                for (o, c) in line[1..=w].iter_mut().zip(&cells[(row - 1) * w..row * w]) {
+                    *o = if c.is_free() { T::FREE } else { T::BLOCKED };
+                }
             }
         });
+}
+
+/// Queues the goals (step count 0) and runs the search. Returns the number of levels and of
+/// cells reached, or `None` when the levels outgrow `T`.
+fn run_search<T: StepCell>(
+    l: &Lattice,
+    eight: bool,
+    state: &mut [T],
+    ring: &mut Vec<u32>,
+    goals: &[(u32, u32)],
+) -> Option<(usize, usize)> {
+    let mut tail = 0usize;
+    for &(x, y) in goals {
+        let p = l.index(x, y);
+        if state[p] == T::FREE {
+            state[p] = T::ZERO;
+            let mask = ring.len() - 1;
+            ring[tail & mask] = p as u32;
+            tail += 1;
+            if tail + 8 >= ring.len() {
+                grow(ring, 0, tail);
+            }
+        }
+    }
+    if eight {
+        search8(l, state, ring, tail)
+    } else {
+        search4(l, state, ring, tail)
+    }
 }
 
 /// Doubles the ring, keeping the entries `head..tail` (counted from the start of the search)
@@ -410,90 +480,107 @@ fn grow(ring: &mut Vec<u32>, head: usize, tail: usize) {
     *ring = bigger;
 }
 
-/// The level-by-level 4-neighbourhood search from the `tail` queued goals. Returns the number
-/// of levels and the number of cells queued.
-fn search4(
+/// The 4-neighbourhood search from the `tail` queued goals: a FIFO of cells whose step count
+/// is set when queued (branch-free: a neighbour is always written at the tail, which advances
+/// only when the neighbour was free). Returns the number of levels and of cells queued, or
+/// `None` when the levels outgrow `T`.
+fn search4<T: StepCell>(
     l: &Lattice,
-    state: &mut [u8],
-    steps: &mut [u32],
+    state: &mut [T],
     ring: &mut Vec<u32>,
     mut tail: usize,
-) -> (usize, usize) {
+) -> Option<(usize, usize)> {
     let o = [l.offsets[0], l.offsets[1], l.offsets[2], l.offsets[3]];
     let mut head = 0usize;
-    let mut level = 0u32;
+    let mut last = T::ZERO;
     while head < tail {
+        // A level of `n` cells queues at most `4 n` more while it is popped.
         let end = tail;
-        while head < end {
-            if tail - head + 8 > ring.len() {
-                grow(ring, head, tail);
-            }
-            let r = &mut ring[..];
-            let mask = r.len() - 1;
-            let p = r[head & mask] as usize;
-            head += 1;
-            steps[p] = level;
+        while 5 * (end - head) + 8 > ring.len() {
+            grow(ring, head, tail);
+        }
+        let r = &mut ring[..];
+        let mask = r.len() - 1;
+        last = state[r[head & mask] as usize];
+        let s = last.succ();
+        if s == T::FREE {
+            return None;
+        }
+        for i in head..end {
+            let p = r[i & mask] as usize;
             for off in o {
                 let q = p.wrapping_add_signed(off);
-                let f = u8::from(state[q] == FREE);
-                state[q] |= f;
+                let c = state[q];
+                let f = c == T::FREE;
+                state[q] = if f { s } else { c };
                 r[tail & mask] = q as u32;
                 tail += usize::from(f);
             }
         }
-        level += 1;
+        head = end;
     }
-    (level as usize, tail)
+    Some((last.get() as usize + 1, tail))
 }
 
-/// The level-by-level 8-neighbourhood search (no corner cutting); see [`search4`].
-fn search8(
+/// The 8-neighbourhood search (no corner cutting); see [`search4`].
+fn search8<T: StepCell>(
     l: &Lattice,
-    state: &mut [u8],
-    steps: &mut [u32],
+    state: &mut [T],
     ring: &mut Vec<u32>,
     mut tail: usize,
-) -> (usize, usize) {
+) -> Option<(usize, usize)> {
     let o = l.offsets;
     let mut head = 0usize;
-    let mut level = 0u32;
+    let mut last = T::ZERO;
     while head < tail {
+        // A level of `n` cells queues at most `8 n` more while it is popped.
         let end = tail;
-        while head < end {
-            if tail - head + 8 > ring.len() {
-                grow(ring, head, tail);
-            }
-            let r = &mut ring[..];
-            let mask = r.len() - 1;
-            let p = r[head & mask] as usize;
-            head += 1;
-            steps[p] = level;
+        while 9 * (end - head) + 8 > ring.len() {
+            grow(ring, head, tail);
+        }
+        let r = &mut ring[..];
+        let mask = r.len() - 1;
+        last = state[r[head & mask] as usize];
+        let s = last.succ();
+        if s == T::FREE {
+            return None;
+        }
+        for i in head..end {
+            let p = r[i & mask] as usize;
             let mut open = [false; 4];
             for (k, open) in open.iter_mut().enumerate() {
                 let q = p.wrapping_add_signed(o[k]);
-                let s = state[q];
-                *open = s != BLOCKED;
-                let f = u8::from(s == FREE);
-                state[q] = s | f;
+                let c = state[q];
+                *open = c != T::BLOCKED;
+                let f = c == T::FREE;
+                state[q] = if f { s } else { c };
                 r[tail & mask] = q as u32;
                 tail += usize::from(f);
             }
             for (k, &(a, b)) in DIAGONAL_SIDES.iter().enumerate() {
                 let q = p.wrapping_add_signed(o[k + 4]);
-                let f = u8::from(state[q] == FREE && open[a] && open[b]);
-                state[q] |= f;
+                let c = state[q];
+                let f = c == T::FREE && open[a] && open[b];
+                state[q] = if f { s } else { c };
                 r[tail & mask] = q as u32;
                 tail += usize::from(f);
             }
         }
-        level += 1;
+        head = end;
     }
-    (level as usize, tail)
+    Some((last.get() as usize + 1, tail))
 }
 
-/// The last pass: `WALL` / `UNSET` step counts and `UNREACHABLE` potentials where the search
-/// did not reach, `table[steps]` where it did (parallel over rows).
-fn derive(l: &Lattice, state: &[u8], table: &[f32], steps: &mut [u32], potential: &mut [f32]) {
+/// The last pass of a `u16` search (parallel over rows): the step counts (`WALL` / `UNSET`
+/// where the search did not reach) and the potentials (`table[steps]`; `table` covers every
+/// `u16`, [`PotentialField::UNREACHABLE`] at `FREE` and `BLOCKED`).
+fn derive16(
+    l: &Lattice,
+    state: &[u16],
+    table: &[f32; 1 << 16],
+    steps: &mut [u32],
+    potential: &mut [f32],
+) {
     use rayon::prelude::*;
     let chunk = l.stride * ROWS_PER_TASK;
     (
@@ -504,17 +591,32 @@ fn derive(l: &Lattice, state: &[u8], table: &[f32], steps: &mut [u32], potential
         .into_par_iter()
         .for_each(|(st, sp, po)| {
             for ((&c, s), v) in st.iter().zip(sp.iter_mut()).zip(po.iter_mut()) {
-                match c {
-                    SEEN => *v = table[*s as usize],
-                    FREE => {
-                        *s = UNSET;
-                        *v = PotentialField::UNREACHABLE;
-                    }
-                    _ => {
-                        *s = WALL;
-                        *v = PotentialField::UNREACHABLE;
-                    }
-                }
+                // `FREE` and `BLOCKED` widen to `UNSET` and `WALL`.
+                let c32 = u32::from(c);
+                *s = if c >= <u16 as StepCell>::FREE {
+                    c32 | 0xFFFF_0000
+                } else {
+                    c32
+                };
+                *v = table[usize::from(c)];
+            }
+        });
+}
+
+/// The last pass of a `u32` search, run on the step counts themselves (parallel over rows):
+/// the potentials, `table[steps]` where the search reached, `UNREACHABLE` elsewhere.
+fn derive32(l: &Lattice, steps: &[u32], table: &[f32], potential: &mut [f32]) {
+    use rayon::prelude::*;
+    let chunk = l.stride * ROWS_PER_TASK;
+    (steps.par_chunks(chunk), potential.par_chunks_mut(chunk))
+        .into_par_iter()
+        .for_each(|(st, po)| {
+            for (&c, v) in st.iter().zip(po.iter_mut()) {
+                *v = if c >= UNSET {
+                    PotentialField::UNREACHABLE
+                } else {
+                    table[c as usize]
+                };
             }
         });
 }
