@@ -204,19 +204,21 @@ impl PotentialField {
     /// When the levels outgrow a `u16`, the search starts again on the `u32` step counts.
     fn search(&mut self, grid: &OccupancyGrid, goals: &[(u32, u32)]) {
         let l = self.lattice;
+        let strips = Strips::of(&l);
         let Scratch { state, ring, table } = &mut self.scratch;
         if ring.len() < 1024 {
             *ring = vec![0; 1024];
         }
         let eight = self.neighbourhood == Neighbourhood::Eight;
-        fill_state(grid, &l, state);
-        let found = run_search(&l, eight, state, ring, goals);
+        fill_state(grid, &strips, state);
+        let found = run_search(&strips, eight, state, ring, goals);
+        let mut wide = Vec::new();
         let (levels, reached) = match found {
             Some(found) => found,
             None => {
-                // More levels than a `u16` holds: search on the step counts themselves.
-                fill_state(grid, &l, &mut self.steps);
-                run_search(&l, eight, &mut self.steps, ring, goals)
+                // More levels than a `u16` holds: search again on `u32` cells.
+                fill_state(grid, &strips, &mut wide);
+                run_search(&strips, eight, &mut wide, ring, goals)
                     .expect("a u32 step count holds every level")
             }
         };
@@ -227,19 +229,35 @@ impl PotentialField {
             table.push(v);
             v *= self.decay;
         }
+        // Fresh buffers come zeroed from the allocator; every cell is written below.
         if self.potential.len() != l.len {
-            // Fresh and zeroed from the allocator; every cell is written below.
             self.potential = vec![0.0; l.len];
         }
+        if self.steps.len() != l.len {
+            self.steps = vec![0; l.len];
+        }
         if found.is_some() {
-            if self.steps.len() != l.len {
-                self.steps = vec![0; l.len];
-            }
             table.resize(1 << 16, Self::UNREACHABLE);
             let table: &[f32; 1 << 16] = table[..].try_into().expect("a table of every u16");
-            derive16(&l, state, table, &mut self.steps, &mut self.potential);
+            derive(&strips, state, &mut self.steps, &mut self.potential, |c| {
+                // `FREE` and `BLOCKED` widen to `UNSET` and `WALL`.
+                let c32 = u32::from(c);
+                let s = if c >= <u16 as StepCell>::FREE {
+                    c32 | 0xFFFF_0000
+                } else {
+                    c32
+                };
+                (s, table[usize::from(c)])
+            });
         } else {
-            derive32(&l, &self.steps, table, &mut self.potential);
+            derive(&strips, &wide, &mut self.steps, &mut self.potential, |c| {
+                let v = if c >= UNSET {
+                    Self::UNREACHABLE
+                } else {
+                    table[c as usize]
+                };
+                (c, v)
+            });
         }
     }
 
@@ -365,8 +383,7 @@ impl PotentialField {
 }
 
 /// A search cell: a step count, or [`StepCell::FREE`] (not reached yet) or
-/// [`StepCell::BLOCKED`] (a wall or the border). `u32` cells use the encoding of
-/// [`PotentialField::steps`] (`UNSET`, `WALL`).
+/// [`StepCell::BLOCKED`] (a wall, the border, or a column past the border).
 trait StepCell: Copy + Eq + Send + Sync {
     /// Not reached yet; also the first step count the type cannot hold.
     const FREE: Self;
@@ -408,32 +425,93 @@ impl StepCell for u32 {
     }
 }
 
-/// Fills `state` with the padded cells of `grid`: `BLOCKED` on walls and the border, `FREE`
-/// elsewhere (parallel over rows).
-fn fill_state<T: StepCell>(grid: &OccupancyGrid, l: &Lattice, state: &mut Vec<T>) {
-    use rayon::prelude::*;
-    if state.len() != l.len {
-        state.clear();
-        state.resize(l.len, T::BLOCKED);
+/// Columns per strip of the search layout (a power of two).
+const STRIP: usize = 64;
+
+/// The search's cell layout: the padded grid cut into vertical strips of [`STRIP`] columns
+/// (the last one filled up with blocked columns), each stored row after row. A 4 KiB page of
+/// two-byte cells then holds a 64 x 32 block instead of two rows, so a BFS frontier, which
+/// crosses many rows, touches far fewer pages per level than in the row-major layout.
+#[derive(Clone, Copy, Debug)]
+struct Strips {
+    /// Padded columns (`width + 2`).
+    stride: usize,
+    /// Padded rows (`height + 2`).
+    rows: usize,
+    /// Number of strips.
+    count: usize,
+    /// Cells per strip (`rows * STRIP`).
+    len: usize,
+}
+
+impl Strips {
+    fn of(l: &Lattice) -> Self {
+        let rows = l.len / l.stride;
+        Strips {
+            stride: l.stride,
+            rows,
+            count: l.stride.div_ceil(STRIP),
+            len: rows * STRIP,
+        }
     }
-    let w = l.width as usize;
-    let h = l.height as usize;
+
+    /// Index of padded column `px`, row `py`.
+    #[inline]
+    fn at(&self, px: usize, py: usize) -> usize {
+        (px / STRIP) * self.len + py * STRIP + px % STRIP
+    }
+
+    /// The cell right of `p`.
+    #[inline]
+    fn right(&self, p: usize) -> usize {
+        if p % STRIP == STRIP - 1 {
+            p + self.len - (STRIP - 1)
+        } else {
+            p + 1
+        }
+    }
+
+    /// The cell left of `p`.
+    #[inline]
+    fn left(&self, p: usize) -> usize {
+        if p.is_multiple_of(STRIP) {
+            p - self.len + (STRIP - 1)
+        } else {
+            p - 1
+        }
+    }
+}
+
+/// Fills `state` with the cells of `grid` in the strip layout: `BLOCKED` on walls, the border
+/// and past it, `FREE` elsewhere (parallel over strips).
+fn fill_state<T: StepCell>(grid: &OccupancyGrid, s: &Strips, state: &mut Vec<T>) {
+    use rayon::prelude::*;
+    let total = s.count * s.len;
+    if state.len() != total {
+        state.clear();
+        state.resize(total, T::BLOCKED);
+    }
+    let w = s.stride - 2;
     let cells = grid.cells();
     state
-        .par_chunks_mut(l.stride * ROWS_PER_TASK)
+        .par_chunks_mut(s.len)
         .enumerate()
-        .for_each(|(task, lines)| {
-            for (i, line) in lines.chunks_mut(l.stride).enumerate() {
-                let row = task * ROWS_PER_TASK + i;
-                if row == 0 || row > h {
+        .for_each(|(strip, lines)| {
+            // Padded columns `x0..x1` of this strip hold grid columns `x0 - 1..x1 - 1`.
+            let x0 = (strip * STRIP).max(1);
+            let x1 = ((strip + 1) * STRIP).min(w + 1);
+            let first = x0 - strip * STRIP;
+            for (py, line) in lines.chunks_mut(STRIP).enumerate() {
+                if py == 0 || py + 1 == s.rows || x0 >= x1 {
                     line.fill(T::BLOCKED);
                     continue;
                 }
-                line[0] = T::BLOCKED;
-                line[w + 1] = T::BLOCKED;
-                for (o, c) in line[1..=w].iter_mut().zip(&cells[(row - 1) * w..row * w]) {
+                line[..first].fill(T::BLOCKED);
+                let row = &cells[(py - 1) * w + x0 - 1..(py - 1) * w + x1 - 1];
+                for (o, c) in line[first..first + row.len()].iter_mut().zip(row) {
                     *o = if c.is_free() { T::FREE } else { T::BLOCKED };
                 }
+                line[first + row.len()..].fill(T::BLOCKED);
             }
         });
 }
@@ -441,7 +519,7 @@ fn fill_state<T: StepCell>(grid: &OccupancyGrid, l: &Lattice, state: &mut Vec<T>
 /// Queues the goals (step count 0) and runs the search. Returns the number of levels and of
 /// cells reached, or `None` when the levels outgrow `T`.
 fn run_search<T: StepCell>(
-    l: &Lattice,
+    s: &Strips,
     eight: bool,
     state: &mut [T],
     ring: &mut Vec<u32>,
@@ -449,7 +527,7 @@ fn run_search<T: StepCell>(
 ) -> Option<(usize, usize)> {
     let mut tail = 0usize;
     for &(x, y) in goals {
-        let p = l.index(x, y);
+        let p = s.at(x as usize + 1, y as usize + 1);
         if state[p] == T::FREE {
             state[p] = T::ZERO;
             let mask = ring.len() - 1;
@@ -461,9 +539,9 @@ fn run_search<T: StepCell>(
         }
     }
     if eight {
-        search8(l, state, ring, tail)
+        search::<T, true>(s, state, ring, tail)
     } else {
-        search4(l, state, ring, tail)
+        search::<T, false>(s, state, ring, tail)
     }
 }
 
@@ -480,41 +558,52 @@ fn grow(ring: &mut Vec<u32>, head: usize, tail: usize) {
     *ring = bigger;
 }
 
-/// The 4-neighbourhood search from the `tail` queued goals: a FIFO of cells whose step count
+/// The search from the `tail` queued goals, level by level: a FIFO of cells whose step count
 /// is set when queued (branch-free: a neighbour is always written at the tail, which advances
-/// only when the neighbour was free). Returns the number of levels and of cells queued, or
-/// `None` when the levels outgrow `T`.
-fn search4<T: StepCell>(
-    l: &Lattice,
+/// only when the neighbour was free), diagonals (when `EIGHT`) only between two open sides.
+/// Returns the number of levels and of cells queued, or `None` when the levels outgrow `T`.
+fn search<T: StepCell, const EIGHT: bool>(
+    s: &Strips,
     state: &mut [T],
     ring: &mut Vec<u32>,
     mut tail: usize,
 ) -> Option<(usize, usize)> {
-    let o = [l.offsets[0], l.offsets[1], l.offsets[2], l.offsets[3]];
+    let per = if EIGHT { 8 } else { 4 };
     let mut head = 0usize;
     let mut last = T::ZERO;
     while head < tail {
-        // A level of `n` cells queues at most `4 n` more while it is popped.
+        // A level of `n` cells queues at most `per * n` more while it is popped.
         let end = tail;
-        while 5 * (end - head) + 8 > ring.len() {
+        while (per + 1) * (end - head) + 8 > ring.len() {
             grow(ring, head, tail);
         }
         let r = &mut ring[..];
         let mask = r.len() - 1;
         last = state[r[head & mask] as usize];
-        let s = last.succ();
-        if s == T::FREE {
+        let step = last.succ();
+        if step == T::FREE {
             return None;
         }
         for i in head..end {
             let p = r[i & mask] as usize;
-            for off in o {
-                let q = p.wrapping_add_signed(off);
+            let mut visit = |q: usize, allowed: bool| {
                 let c = state[q];
-                let f = c == T::FREE;
-                state[q] = if f { s } else { c };
+                let f = c == T::FREE && allowed;
+                state[q] = if f { step } else { c };
                 r[tail & mask] = q as u32;
                 tail += usize::from(f);
+                c != T::BLOCKED
+            };
+            let (right, left) = (s.right(p), s.left(p));
+            let open_r = visit(right, true);
+            let open_l = visit(left, true);
+            let open_d = visit(p + STRIP, true);
+            let open_u = visit(p - STRIP, true);
+            if EIGHT {
+                visit(right + STRIP, open_r && open_d);
+                visit(left + STRIP, open_l && open_d);
+                visit(right - STRIP, open_r && open_u);
+                visit(left - STRIP, open_l && open_u);
             }
         }
         head = end;
@@ -522,101 +611,32 @@ fn search4<T: StepCell>(
     Some((last.get() as usize + 1, tail))
 }
 
-/// The 8-neighbourhood search (no corner cutting); see [`search4`].
-fn search8<T: StepCell>(
-    l: &Lattice,
-    state: &mut [T],
-    ring: &mut Vec<u32>,
-    mut tail: usize,
-) -> Option<(usize, usize)> {
-    let o = l.offsets;
-    let mut head = 0usize;
-    let mut last = T::ZERO;
-    while head < tail {
-        // A level of `n` cells queues at most `8 n` more while it is popped.
-        let end = tail;
-        while 9 * (end - head) + 8 > ring.len() {
-            grow(ring, head, tail);
-        }
-        let r = &mut ring[..];
-        let mask = r.len() - 1;
-        last = state[r[head & mask] as usize];
-        let s = last.succ();
-        if s == T::FREE {
-            return None;
-        }
-        for i in head..end {
-            let p = r[i & mask] as usize;
-            let mut open = [false; 4];
-            for (k, open) in open.iter_mut().enumerate() {
-                let q = p.wrapping_add_signed(o[k]);
-                let c = state[q];
-                *open = c != T::BLOCKED;
-                let f = c == T::FREE;
-                state[q] = if f { s } else { c };
-                r[tail & mask] = q as u32;
-                tail += usize::from(f);
-            }
-            for (k, &(a, b)) in DIAGONAL_SIDES.iter().enumerate() {
-                let q = p.wrapping_add_signed(o[k + 4]);
-                let c = state[q];
-                let f = c == T::FREE && open[a] && open[b];
-                state[q] = if f { s } else { c };
-                r[tail & mask] = q as u32;
-                tail += usize::from(f);
-            }
-        }
-        head = end;
-    }
-    Some((last.get() as usize + 1, tail))
-}
-
-/// The last pass of a `u16` search (parallel over rows): the step counts (`WALL` / `UNSET`
-/// where the search did not reach) and the potentials (`table[steps]`; `table` covers every
-/// `u16`, [`PotentialField::UNREACHABLE`] at `FREE` and `BLOCKED`).
-fn derive16(
-    l: &Lattice,
-    state: &[u16],
-    table: &[f32; 1 << 16],
+/// The last pass (parallel over rows): every padded cell's step count and potential from its
+/// search cell, through `widen`.
+fn derive<T: StepCell>(
+    s: &Strips,
+    state: &[T],
     steps: &mut [u32],
     potential: &mut [f32],
+    widen: impl Fn(T) -> (u32, f32) + Sync,
 ) {
     use rayon::prelude::*;
-    let chunk = l.stride * ROWS_PER_TASK;
-    (
-        state.par_chunks(chunk),
-        steps.par_chunks_mut(chunk),
-        potential.par_chunks_mut(chunk),
-    )
+    let chunk = s.stride * ROWS_PER_TASK;
+    (steps.par_chunks_mut(chunk), potential.par_chunks_mut(chunk))
         .into_par_iter()
-        .for_each(|(st, sp, po)| {
-            for ((&c, s), v) in st.iter().zip(sp.iter_mut()).zip(po.iter_mut()) {
-                // `FREE` and `BLOCKED` widen to `UNSET` and `WALL`.
-                let c32 = u32::from(c);
-                *s = if c >= <u16 as StepCell>::FREE {
-                    c32 | 0xFFFF_0000
-                } else {
-                    c32
-                };
-                *v = table[usize::from(c)];
-            }
-        });
-}
-
-/// The last pass of a `u32` search, run on the step counts themselves (parallel over rows):
-/// the potentials, `table[steps]` where the search reached, `UNREACHABLE` elsewhere.
-fn derive32(l: &Lattice, steps: &[u32], table: &[f32], potential: &mut [f32]) {
-    use rayon::prelude::*;
-    let chunk = l.stride * ROWS_PER_TASK;
-    (steps.par_chunks(chunk), potential.par_chunks_mut(chunk))
-        .into_par_iter()
-        .for_each(|(st, po)| {
-            for (&c, v) in st.iter().zip(po.iter_mut()) {
-                *v = if c >= UNSET {
-                    PotentialField::UNREACHABLE
-                } else {
-                    table[c as usize]
-                };
+        .enumerate()
+        .for_each(|(task, (sp, po))| {
+            let rows = sp.chunks_mut(s.stride).zip(po.chunks_mut(s.stride));
+            for (i, (sp, po)) in rows.enumerate() {
+                let py = task * ROWS_PER_TASK + i;
+                let pieces = sp.chunks_mut(STRIP).zip(po.chunks_mut(STRIP));
+                for (strip, (sp, po)) in pieces.enumerate() {
+                    let at = strip * s.len + py * STRIP;
+                    let st = &state[at..at + sp.len()];
+                    for ((&c, o), v) in st.iter().zip(sp.iter_mut()).zip(po.iter_mut()) {
+                        (*o, *v) = widen(c);
+                    }
+                }
             }
         });
 }
