@@ -16,9 +16,11 @@
 //! potential a reachable cell could have.
 //!
 //! [`PotentialField::bfs`] and [`PotentialField::rebuild`] compute exactly that field faster (a
-//! search over two-byte step counts, widened to `u32` when the levels outgrow them, potentials
-//! derived afterwards from a table of the same repeated products); [`PotentialField::bfs_reference`] is the literal
-//! algorithm, kept so tests can check the two agree bit for bit.
+//! search over two-byte step counts in a strip layout, widened to `u32` when the levels outgrow
+//! them, potentials derived afterwards from a table of the same repeated products);
+//! [`PotentialField::bfs_reference`] is the literal algorithm, kept so tests can check the two
+//! agree bit for bit. Results do not depend on the number of threads: only the fill and the
+//! derive passes run in parallel, each cell written from its own inputs.
 
 use super::lattice::{DIAGONAL_SIDES, Lattice, Neighbourhood, check_goals, padded_map};
 use super::occupancy::OccupancyGrid;
@@ -195,13 +197,14 @@ impl PotentialField {
     /// `self.lattice` set to `grid`'s).
     ///
     /// It finds the same step counts as the reference in three passes: a parallel fill of a
-    /// two-byte search cell per padded cell (`FREE`, `BLOCKED`, or a step count); a FIFO search
-    /// over those cells with a small ring that sets a neighbour's step count as it queues it
-    /// (branch-free: a neighbour is always written at the tail, which advances only when the
-    /// neighbour was free), touching no other array; and a parallel pass that widens the cells
-    /// to the `u32` step counts (`UNSET`, `WALL`) and derives every potential through a table of
-    /// repeated products, so each value is bit for bit the reference's `current * decay` chain.
-    /// When the levels outgrow a `u16`, the search starts again on the `u32` step counts.
+    /// two-byte search cell per cell (`FREE`, `BLOCKED`, or a step count), laid out in
+    /// 64-column strips (see [`Strips`]); a level-by-level FIFO search over those cells with a
+    /// small ring that sets a neighbour's step count as it queues it (branch-free: a neighbour
+    /// is always written at the tail, which advances only when the neighbour was free),
+    /// touching no other array; and a parallel pass that widens the cells to the row-major
+    /// `u32` step counts (`UNSET`, `WALL`) and derives every potential through a table of
+    /// repeated products, so each value is bit for bit the reference's `current * decay`
+    /// chain. When the levels outgrow a `u16`, the search starts again on `u32` cells.
     fn search(&mut self, grid: &OccupancyGrid, goals: &[(u32, u32)]) {
         let l = self.lattice;
         let strips = Strips::of(&l);
@@ -488,8 +491,9 @@ fn fill_state<T: StepCell>(grid: &OccupancyGrid, s: &Strips, state: &mut Vec<T>)
     use rayon::prelude::*;
     let total = s.count * s.len;
     if state.len() != total {
-        state.clear();
-        state.resize(total, T::BLOCKED);
+        // Zeroed pages from the allocator, first touched by the parallel fill below, which
+        // writes every cell.
+        *state = vec![T::ZERO; total];
     }
     let w = s.stride - 2;
     let cells = grid.cells();
