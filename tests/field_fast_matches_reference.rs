@@ -4,7 +4,9 @@
 //! and caves; and the flow built from a field against [`PotentialField::best_neighbour`].
 
 use proptest::prelude::*;
-use throng::field::{FlowField, Neighbourhood, OccupancyGrid, PotentialField, random_free_cells};
+use throng::field::{
+    Cell, FlowField, Neighbourhood, OccupancyGrid, PotentialField, random_free_cells,
+};
 
 fn neighbourhood() -> impl Strategy<Value = Neighbourhood> {
     prop_oneof![Just(Neighbourhood::Four), Just(Neighbourhood::Eight)]
@@ -109,6 +111,40 @@ fn long_corridors_need_many_levels_and_a_growing_queue() {
             &PotentialField::bfs_reference(&map.grid, &[(0, 0)], 0.99, n).unwrap(),
         );
         assert!(fast.steps(0, 60).unwrap() > 1800);
+    }
+}
+
+/// A serpentine of `width` columns and `rows` free rows, joined at alternate ends.
+fn serpentine(width: u32, rows: u32) -> OccupancyGrid {
+    let h = 2 * rows - 1;
+    let mut g = OccupancyGrid::new(width, h).unwrap();
+    for y in (1..h).step_by(2) {
+        let gap = if (y / 2) % 2 == 0 { width - 1 } else { 0 };
+        for x in (0..width).filter(|&x| x != gap) {
+            g.set(x, y, Cell::Wall).unwrap();
+        }
+    }
+    g
+}
+
+#[test]
+fn more_levels_than_two_bytes_hold_still_match() {
+    // 160 rows of 500 cells: about 80,000 levels, past the 65,533 a two-byte count holds.
+    let long = serpentine(500, 160);
+    let short = serpentine(50, 10);
+    for n in [Neighbourhood::Four, Neighbourhood::Eight] {
+        let reference = PotentialField::bfs_reference(&long, &[(0, 0)], 0.9999, n).unwrap();
+        assert!(reference.steps(0, 318).unwrap() > 70_000);
+        let mut fast = PotentialField::bfs(&long, &[(0, 0)], 0.9999, n).unwrap();
+        assert_same(&fast, &reference);
+        // In place to a short search and back.
+        fast.rebuild(&short, &[(3, 0)]).unwrap();
+        assert_same(
+            &fast,
+            &PotentialField::bfs_reference(&short, &[(3, 0)], 0.9999, n).unwrap(),
+        );
+        fast.rebuild(&long, &[(0, 0)]).unwrap();
+        assert_same(&fast, &reference);
     }
 }
 

@@ -16,9 +16,11 @@
 //! potential a reachable cell could have.
 //!
 //! [`PotentialField::bfs`] and [`PotentialField::rebuild`] compute exactly that field faster (a
-//! level-by-level search that stores step counts only, potentials derived afterwards from a
-//! table of the same repeated products); [`PotentialField::bfs_reference`] is the literal
-//! algorithm, kept so tests can check the two agree bit for bit.
+//! search over two-byte step counts in a strip layout, widened to `u32` when the levels outgrow
+//! them, potentials derived afterwards from a table of the same repeated products);
+//! [`PotentialField::bfs_reference`] is the literal algorithm, kept so tests can check the two
+//! agree bit for bit. Results do not depend on the number of threads: only the fill and the
+//! derive passes run in parallel, each cell written from its own inputs.
 
 use super::lattice::{DIAGONAL_SIDES, Lattice, Neighbourhood, check_goals, padded_map};
 use super::occupancy::OccupancyGrid;
@@ -47,8 +49,8 @@ pub struct PotentialField {
 /// The search's reusable buffers. Not part of a field's value: every two compare equal.
 #[derive(Clone, Debug, Default)]
 struct Scratch {
-    /// Padded cell states: `FREE`, `SEEN` or `BLOCKED` (wall or border).
-    state: Vec<u8>,
+    /// Padded search cells (see [`StepCell`]), while the step counts fit in a `u16`.
+    state: Vec<u16>,
     /// The FIFO, a ring of power-of-two length.
     ring: Vec<u32>,
     /// `decay` multiplied by itself once per step: `table[s]` is the potential at `s` steps.
@@ -61,12 +63,6 @@ impl PartialEq for Scratch {
     }
 }
 
-/// Cell state of the search: free and not yet queued.
-const FREE: u8 = 0;
-/// Cell state of the search: queued (its step count is final).
-const SEEN: u8 = 1;
-/// Cell state of the search: a wall or the border.
-const BLOCKED: u8 = 2;
 /// Padded rows per parallel task of the derived passes.
 const ROWS_PER_TASK: usize = 16;
 
@@ -201,52 +197,71 @@ impl PotentialField {
     /// `self.lattice` set to `grid`'s).
     ///
     /// It finds the same step counts as the reference in three passes: a parallel fill of a
-    /// one-byte cell state; a level-by-level search over that state with a small ring FIFO
-    /// that writes only the step count of each cell it pops (queueing is branch-free: a
-    /// neighbour is always written at the tail, which advances only when the neighbour was
-    /// free); and a parallel pass that marks unreached cells and walls and derives every
-    /// potential from its step count through a table of repeated products, so each value is
-    /// bit for bit the reference's `current * decay` chain.
+    /// two-byte search cell per cell (`FREE`, `BLOCKED`, or a step count), laid out in
+    /// 64-column strips (see [`Strips`]); a level-by-level FIFO search over those cells with a
+    /// small ring that sets a neighbour's step count as it queues it (branch-free: a neighbour
+    /// is always written at the tail, which advances only when the neighbour was free),
+    /// touching no other array; and a parallel pass that widens the cells to the row-major
+    /// `u32` step counts (`UNSET`, `WALL`) and derives every potential through a table of
+    /// repeated products, so each value is bit for bit the reference's `current * decay`
+    /// chain. When the levels outgrow a `u16`, the search starts again on `u32` cells.
     fn search(&mut self, grid: &OccupancyGrid, goals: &[(u32, u32)]) {
         let l = self.lattice;
+        let strips = Strips::of(&l);
         let Scratch { state, ring, table } = &mut self.scratch;
-        fill_state(grid, &l, state);
-        // Fresh buffers come zeroed from the allocator, untouched until written (in parallel
-        // below), and every cell is written before it is read.
-        if self.steps.len() != l.len {
-            self.steps = vec![0; l.len];
-        }
-        if self.potential.len() != l.len {
-            self.potential = vec![0.0; l.len];
-        }
         if ring.len() < 1024 {
             *ring = vec![0; 1024];
         }
-        let mut tail = 0usize;
-        for &(x, y) in goals {
-            let p = l.index(x, y);
-            if state[p] == FREE {
-                state[p] = SEEN;
-                let mask = ring.len() - 1;
-                ring[tail & mask] = p as u32;
-                tail += 1;
-                if tail + 8 >= ring.len() {
-                    grow(ring, 0, tail);
-                }
+        let eight = self.neighbourhood == Neighbourhood::Eight;
+        fill_state(grid, &strips, state);
+        let found = run_search(&strips, eight, state, ring, goals);
+        let mut wide = Vec::new();
+        let (levels, reached) = match found {
+            Some(found) => found,
+            None => {
+                // More levels than a `u16` holds: search again on `u32` cells.
+                fill_state(grid, &strips, &mut wide);
+                run_search(&strips, eight, &mut wide, ring, goals)
+                    .expect("a u32 step count holds every level")
             }
-        }
-        let levels = match self.neighbourhood {
-            Neighbourhood::Four => search4(&l, state, &mut self.steps, ring, tail),
-            Neighbourhood::Eight => search8(&l, state, &mut self.steps, ring, tail),
         };
-        self.reachable = levels.1;
+        self.reachable = reached;
         table.clear();
         let mut v = 1.0_f32;
-        for _ in 0..levels.0 {
+        for _ in 0..levels {
             table.push(v);
             v *= self.decay;
         }
-        derive(&l, state, table, &mut self.steps, &mut self.potential);
+        // Fresh buffers come zeroed from the allocator; every cell is written below.
+        if self.potential.len() != l.len {
+            self.potential = vec![0.0; l.len];
+        }
+        if self.steps.len() != l.len {
+            self.steps = vec![0; l.len];
+        }
+        if found.is_some() {
+            table.resize(1 << 16, Self::UNREACHABLE);
+            let table: &[f32; 1 << 16] = table[..].try_into().expect("a table of every u16");
+            derive(&strips, state, &mut self.steps, &mut self.potential, |c| {
+                // `FREE` and `BLOCKED` widen to `UNSET` and `WALL`.
+                let c32 = u32::from(c);
+                let s = if c >= <u16 as StepCell>::FREE {
+                    c32 | 0xFFFF_0000
+                } else {
+                    c32
+                };
+                (s, table[usize::from(c)])
+            });
+        } else {
+            derive(&strips, &wide, &mut self.steps, &mut self.potential, |c| {
+                let v = if c >= UNSET {
+                    Self::UNREACHABLE
+                } else {
+                    table[c as usize]
+                };
+                (c, v)
+            });
+        }
     }
 
     /// Number of columns.
@@ -370,31 +385,168 @@ impl PotentialField {
     }
 }
 
-/// Fills `state` with the padded cell states of `grid`: `BLOCKED` on walls and the border,
-/// `FREE` elsewhere (parallel over rows).
-fn fill_state(grid: &OccupancyGrid, l: &Lattice, state: &mut Vec<u8>) {
-    use rayon::prelude::*;
-    if state.len() != l.len {
-        *state = vec![BLOCKED; l.len];
+/// A search cell: a step count, or [`StepCell::FREE`] (not reached yet) or
+/// [`StepCell::BLOCKED`] (a wall, the border, or a column past the border).
+trait StepCell: Copy + Eq + Send + Sync {
+    /// Not reached yet; also the first step count the type cannot hold.
+    const FREE: Self;
+    /// A wall or the border.
+    const BLOCKED: Self;
+    /// Step count 0.
+    const ZERO: Self;
+    /// The next step count (at most `FREE`).
+    fn succ(self) -> Self;
+    /// As a `u32`.
+    fn get(self) -> u32;
+}
+
+impl StepCell for u16 {
+    const FREE: Self = u16::MAX - 1;
+    const BLOCKED: Self = u16::MAX;
+    const ZERO: Self = 0;
+    #[inline]
+    fn succ(self) -> Self {
+        self + 1
     }
-    let w = l.width as usize;
-    let h = l.height as usize;
+    #[inline]
+    fn get(self) -> u32 {
+        u32::from(self)
+    }
+}
+
+impl StepCell for u32 {
+    const FREE: Self = UNSET;
+    const BLOCKED: Self = WALL;
+    const ZERO: Self = 0;
+    #[inline]
+    fn succ(self) -> Self {
+        self + 1
+    }
+    #[inline]
+    fn get(self) -> u32 {
+        self
+    }
+}
+
+/// Columns per strip of the search layout (a power of two).
+const STRIP: usize = 64;
+
+/// The search's cell layout: the padded grid cut into vertical strips of [`STRIP`] columns
+/// (the last one filled up with blocked columns), each stored row after row. A 4 KiB page of
+/// two-byte cells then holds a 64 x 32 block instead of two rows, so a BFS frontier, which
+/// crosses many rows, touches far fewer pages per level than in the row-major layout.
+#[derive(Clone, Copy, Debug)]
+struct Strips {
+    /// Padded columns (`width + 2`).
+    stride: usize,
+    /// Padded rows (`height + 2`).
+    rows: usize,
+    /// Number of strips.
+    count: usize,
+    /// Cells per strip (`rows * STRIP`).
+    len: usize,
+}
+
+impl Strips {
+    fn of(l: &Lattice) -> Self {
+        let rows = l.len / l.stride;
+        Strips {
+            stride: l.stride,
+            rows,
+            count: l.stride.div_ceil(STRIP),
+            len: rows * STRIP,
+        }
+    }
+
+    /// Index of padded column `px`, row `py`.
+    #[inline]
+    fn at(&self, px: usize, py: usize) -> usize {
+        (px / STRIP) * self.len + py * STRIP + px % STRIP
+    }
+
+    /// The cell right of `p`.
+    #[inline]
+    fn right(&self, p: usize) -> usize {
+        if p % STRIP == STRIP - 1 {
+            p + self.len - (STRIP - 1)
+        } else {
+            p + 1
+        }
+    }
+
+    /// The cell left of `p`.
+    #[inline]
+    fn left(&self, p: usize) -> usize {
+        if p.is_multiple_of(STRIP) {
+            p - self.len + (STRIP - 1)
+        } else {
+            p - 1
+        }
+    }
+}
+
+/// Fills `state` with the cells of `grid` in the strip layout: `BLOCKED` on walls, the border
+/// and past it, `FREE` elsewhere (parallel over strips).
+fn fill_state<T: StepCell>(grid: &OccupancyGrid, s: &Strips, state: &mut Vec<T>) {
+    use rayon::prelude::*;
+    let total = s.count * s.len;
+    if state.len() != total {
+        // Zeroed pages from the allocator, first touched by the parallel fill below, which
+        // writes every cell.
+        *state = vec![T::ZERO; total];
+    }
+    let w = s.stride - 2;
     let cells = grid.cells();
     state
-        .par_chunks_mut(l.stride)
+        .par_chunks_mut(s.len)
         .enumerate()
-        .with_min_len(64)
-        .for_each(|(row, line)| {
-            if row == 0 || row > h {
-                line.fill(BLOCKED);
-                return;
-            }
-            line[0] = BLOCKED;
-            line[w + 1] = BLOCKED;
-            for (o, c) in line[1..=w].iter_mut().zip(&cells[(row - 1) * w..row * w]) {
-                *o = if c.is_free() { FREE } else { BLOCKED };
+        .for_each(|(strip, lines)| {
+            // Padded columns `x0..x1` of this strip hold grid columns `x0 - 1..x1 - 1`.
+            let x0 = (strip * STRIP).max(1);
+            let x1 = ((strip + 1) * STRIP).min(w + 1);
+            let first = x0 - strip * STRIP;
+            for (py, line) in lines.chunks_mut(STRIP).enumerate() {
+                if py == 0 || py + 1 == s.rows || x0 >= x1 {
+                    line.fill(T::BLOCKED);
+                    continue;
+                }
+                line[..first].fill(T::BLOCKED);
+                let row = &cells[(py - 1) * w + x0 - 1..(py - 1) * w + x1 - 1];
+                for (o, c) in line[first..first + row.len()].iter_mut().zip(row) {
+                    *o = if c.is_free() { T::FREE } else { T::BLOCKED };
+                }
+                line[first + row.len()..].fill(T::BLOCKED);
             }
         });
+}
+
+/// Queues the goals (step count 0) and runs the search. Returns the number of levels and of
+/// cells reached, or `None` when the levels outgrow `T`.
+fn run_search<T: StepCell>(
+    s: &Strips,
+    eight: bool,
+    state: &mut [T],
+    ring: &mut Vec<u32>,
+    goals: &[(u32, u32)],
+) -> Option<(usize, usize)> {
+    let mut tail = 0usize;
+    for &(x, y) in goals {
+        let p = s.at(x as usize + 1, y as usize + 1);
+        if state[p] == T::FREE {
+            state[p] = T::ZERO;
+            let mask = ring.len() - 1;
+            ring[tail & mask] = p as u32;
+            tail += 1;
+            if tail + 8 >= ring.len() {
+                grow(ring, 0, tail);
+            }
+        }
+    }
+    if eight {
+        search::<T, true>(s, state, ring, tail)
+    } else {
+        search::<T, false>(s, state, ring, tail)
+    }
 }
 
 /// Doubles the ring, keeping the entries `head..tail` (counted from the start of the search)
@@ -410,109 +562,83 @@ fn grow(ring: &mut Vec<u32>, head: usize, tail: usize) {
     *ring = bigger;
 }
 
-/// The level-by-level 4-neighbourhood search from the `tail` queued goals. Returns the number
-/// of levels and the number of cells queued.
-fn search4(
-    l: &Lattice,
-    state: &mut [u8],
-    steps: &mut [u32],
+/// The search from the `tail` queued goals, level by level: a FIFO of cells whose step count
+/// is set when queued (branch-free: a neighbour is always written at the tail, which advances
+/// only when the neighbour was free), diagonals (when `EIGHT`) only between two open sides.
+/// Returns the number of levels and of cells queued, or `None` when the levels outgrow `T`.
+fn search<T: StepCell, const EIGHT: bool>(
+    s: &Strips,
+    state: &mut [T],
     ring: &mut Vec<u32>,
     mut tail: usize,
-) -> (usize, usize) {
-    let o = [l.offsets[0], l.offsets[1], l.offsets[2], l.offsets[3]];
+) -> Option<(usize, usize)> {
+    let per = if EIGHT { 8 } else { 4 };
     let mut head = 0usize;
-    let mut level = 0u32;
+    let mut last = T::ZERO;
     while head < tail {
+        // A level of `n` cells queues at most `per * n` more while it is popped.
         let end = tail;
-        while head < end {
-            if tail - head + 8 > ring.len() {
-                grow(ring, head, tail);
-            }
-            let r = &mut ring[..];
-            let mask = r.len() - 1;
-            let p = r[head & mask] as usize;
-            head += 1;
-            steps[p] = level;
-            for off in o {
-                let q = p.wrapping_add_signed(off);
-                let f = u8::from(state[q] == FREE);
-                state[q] |= f;
+        while (per + 1) * (end - head) + 8 > ring.len() {
+            grow(ring, head, tail);
+        }
+        let r = &mut ring[..];
+        let mask = r.len() - 1;
+        last = state[r[head & mask] as usize];
+        let step = last.succ();
+        if step == T::FREE {
+            return None;
+        }
+        for i in head..end {
+            let p = r[i & mask] as usize;
+            let mut visit = |q: usize, allowed: bool| {
+                let c = state[q];
+                let f = c == T::FREE && allowed;
+                state[q] = if f { step } else { c };
                 r[tail & mask] = q as u32;
                 tail += usize::from(f);
+                c != T::BLOCKED
+            };
+            let (right, left) = (s.right(p), s.left(p));
+            let open_r = visit(right, true);
+            let open_l = visit(left, true);
+            let open_d = visit(p + STRIP, true);
+            let open_u = visit(p - STRIP, true);
+            if EIGHT {
+                visit(right + STRIP, open_r && open_d);
+                visit(left + STRIP, open_l && open_d);
+                visit(right - STRIP, open_r && open_u);
+                visit(left - STRIP, open_l && open_u);
             }
         }
-        level += 1;
+        head = end;
     }
-    (level as usize, tail)
+    Some((last.get() as usize + 1, tail))
 }
 
-/// The level-by-level 8-neighbourhood search (no corner cutting); see [`search4`].
-fn search8(
-    l: &Lattice,
-    state: &mut [u8],
+/// The last pass (parallel over rows): every padded cell's step count and potential from its
+/// search cell, through `widen`.
+fn derive<T: StepCell>(
+    s: &Strips,
+    state: &[T],
     steps: &mut [u32],
-    ring: &mut Vec<u32>,
-    mut tail: usize,
-) -> (usize, usize) {
-    let o = l.offsets;
-    let mut head = 0usize;
-    let mut level = 0u32;
-    while head < tail {
-        let end = tail;
-        while head < end {
-            if tail - head + 8 > ring.len() {
-                grow(ring, head, tail);
-            }
-            let r = &mut ring[..];
-            let mask = r.len() - 1;
-            let p = r[head & mask] as usize;
-            head += 1;
-            steps[p] = level;
-            let mut open = [false; 4];
-            for (k, open) in open.iter_mut().enumerate() {
-                let q = p.wrapping_add_signed(o[k]);
-                let s = state[q];
-                *open = s != BLOCKED;
-                let f = u8::from(s == FREE);
-                state[q] = s | f;
-                r[tail & mask] = q as u32;
-                tail += usize::from(f);
-            }
-            for (k, &(a, b)) in DIAGONAL_SIDES.iter().enumerate() {
-                let q = p.wrapping_add_signed(o[k + 4]);
-                let f = u8::from(state[q] == FREE && open[a] && open[b]);
-                state[q] |= f;
-                r[tail & mask] = q as u32;
-                tail += usize::from(f);
-            }
-        }
-        level += 1;
-    }
-    (level as usize, tail)
-}
-
-/// The last pass: `WALL` / `UNSET` step counts and `UNREACHABLE` potentials where the search
-/// did not reach, `table[steps]` where it did (parallel over rows).
-fn derive(l: &Lattice, state: &[u8], table: &[f32], steps: &mut [u32], potential: &mut [f32]) {
+    potential: &mut [f32],
+    widen: impl Fn(T) -> (u32, f32) + Sync,
+) {
     use rayon::prelude::*;
-    let chunk = l.stride * ROWS_PER_TASK;
-    (
-        state.par_chunks(chunk),
-        steps.par_chunks_mut(chunk),
-        potential.par_chunks_mut(chunk),
-    )
+    let chunk = s.stride * ROWS_PER_TASK;
+    (steps.par_chunks_mut(chunk), potential.par_chunks_mut(chunk))
         .into_par_iter()
-        .for_each(|(st, sp, po)| {
-            for ((&c, s), v) in st.iter().zip(sp.iter_mut()).zip(po.iter_mut()) {
-                match c {
-                    SEEN => *v = table[*s as usize],
-                    FREE => {
-                        *s = UNSET;
-                        *v = PotentialField::UNREACHABLE;
-                    }
-                    _ => {
-                        *s = WALL;
-                        *v = PotentialField::UNREACHABLE;
+        .enumerate()
+        .for_each(|(task, (sp, po))| {
+            let rows = sp.chunks_mut(s.stride).zip(po.chunks_mut(s.stride));
+            for (i, (sp, po)) in rows.enumerate() {
+                let py = task * ROWS_PER_TASK + i;
+                let pieces = sp.chunks_mut(STRIP).zip(po.chunks_mut(STRIP));
+                for (strip, (sp, po)) in pieces.enumerate() {
+                    let at = strip * s.len + py * STRIP;
+                    let st = &state[at..at + sp.len()];
+                    for ((&c, o), v) in st.iter().zip(sp.iter_mut()).zip(po.iter_mut()) {
+                        (*o, *v) = widen(c);
                     }
                 }
             }
