@@ -94,6 +94,9 @@ fn arrive_stops_inside_the_radius_without_overshoot_or_jitter() {
                 s.position
             );
         }
+        // At rest means zero, not a speed decaying into subnormal numbers.
+        let s = w.agent(id).unwrap();
+        assert_eq!(s.velocity, Vec2::ZERO, "{model:?}");
     }
 }
 

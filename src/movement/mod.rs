@@ -19,7 +19,8 @@
 mod integrate;
 
 pub use integrate::{
-    IntegrationParams, MotionState, SteeringBuffers, integrate, integrate_scalar, wrap_orientation,
+    IntegrationParams, MotionState, REST_ROTATION, REST_SPEED, SteeringBuffers, integrate,
+    integrate_scalar, wrap_orientation,
 };
 
 use serde::{Deserialize, Serialize};
