@@ -415,6 +415,24 @@ impl OccupancyGrid {
         out
     }
 
+    /// An all-wall grid to carve from, how many cells to free for `obstacle_fraction`, and the
+    /// seeded generator.
+    fn solid(
+        width: u32,
+        height: u32,
+        obstacle_fraction: f32,
+        seed: u64,
+    ) -> Result<(Self, usize, ChaCha8Rng)> {
+        let fraction = check_fraction(obstacle_fraction)?;
+        let mut grid = OccupancyGrid::new(width, height)?;
+        grid.cells.fill(Cell::Wall);
+        let n = grid.cells.len();
+        let target = ((1.0 - f64::from(fraction)) * n as f64)
+            .round()
+            .clamp(1.0, n as f64) as usize;
+        Ok((grid, target, ChaCha8Rng::seed_from_u64(seed)))
+    }
+
     /// A cave: all walls, then a seeded drunkard's walk from the centre carves free cells (one
     /// 4-connected region, so every free cell reaches every other) until
     /// `round((1 - obstacle_fraction) * cells)` cells (at least one) are free.
@@ -426,14 +444,7 @@ impl OccupancyGrid {
     /// [`Error::Invalid`] for a bad size; [`Error::NonFinite`] or [`Error::OutOfRange`] unless
     /// `obstacle_fraction` lies in `[0, 1)`.
     pub fn caves(width: u32, height: u32, obstacle_fraction: f32, seed: u64) -> Result<Self> {
-        let fraction = check_fraction(obstacle_fraction)?;
-        let mut grid = OccupancyGrid::new(width, height)?;
-        grid.cells.fill(Cell::Wall);
-        let n = grid.cells.len();
-        let target = ((1.0 - f64::from(fraction)) * n as f64)
-            .round()
-            .clamp(1.0, n as f64) as usize;
-        let mut rng = ChaCha8Rng::seed_from_u64(seed);
+        let (mut grid, target, mut rng) = Self::solid(width, height, obstacle_fraction, seed)?;
         let (w, h) = (width as usize, height as usize);
         let (mut x, mut y) = (w / 2, h / 2);
         grid.cells[y * w + x] = Cell::Free;
@@ -481,14 +492,7 @@ impl OccupancyGrid {
     /// # Errors
     /// As [`OccupancyGrid::caves`].
     pub fn tunnels(width: u32, height: u32, obstacle_fraction: f32, seed: u64) -> Result<Self> {
-        let fraction = check_fraction(obstacle_fraction)?;
-        let mut grid = OccupancyGrid::new(width, height)?;
-        grid.cells.fill(Cell::Wall);
-        let n = grid.cells.len();
-        let target = ((1.0 - f64::from(fraction)) * n as f64)
-            .round()
-            .clamp(1.0, n as f64) as usize;
-        let mut rng = ChaCha8Rng::seed_from_u64(seed);
+        let (mut grid, target, mut rng) = Self::solid(width, height, obstacle_fraction, seed)?;
         let (w, h) = (width as usize, height as usize);
         let mut carved: Vec<u32> = Vec::with_capacity(target);
         let centre = (h / 2) * w + w / 2;
