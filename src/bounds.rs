@@ -9,7 +9,7 @@
 use glam::Vec2;
 use serde::{Deserialize, Serialize};
 
-use crate::error::{Error, Result, finite, positive};
+use crate::error::{Error, MAX_COORDINATE, Result, finite, positive};
 
 /// The shape of the world agents live in.
 #[derive(Clone, Copy, Debug, Default, PartialEq, Serialize, Deserialize)]
@@ -36,12 +36,11 @@ impl Bounds {
     /// # Errors
     /// [`Error::NotPositive`] or [`Error::NonFinite`] for a bad side.
     pub fn torus(width: f32, height: f32) -> Result<Self> {
-        Ok(Bounds::Torus {
-            size: Vec2::new(
-                positive("world width", width)?,
-                positive("world height", height)?,
-            ),
-        })
+        let b = Bounds::Torus {
+            size: Vec2::new(width, height),
+        };
+        b.validate()?;
+        Ok(b)
     }
 
     /// A walled world of `width x height`.
@@ -49,12 +48,11 @@ impl Bounds {
     /// # Errors
     /// [`Error::NotPositive`] or [`Error::NonFinite`] for a bad side.
     pub fn bounded(width: f32, height: f32) -> Result<Self> {
-        Ok(Bounds::Bounded {
-            size: Vec2::new(
-                positive("world width", width)?,
-                positive("world height", height)?,
-            ),
-        })
+        let b = Bounds::Bounded {
+            size: Vec2::new(width, height),
+        };
+        b.validate()?;
+        Ok(b)
     }
 
     /// Checks the bounds' numbers.
@@ -67,6 +65,8 @@ impl Bounds {
             Bounds::Bounded { size } | Bounds::Torus { size } => {
                 positive("world width", size.x)?;
                 positive("world height", size.y)?;
+                crate::error::in_range("world width", size.x, 0.0, MAX_COORDINATE, "(0, 1e30]")?;
+                crate::error::in_range("world height", size.y, 0.0, MAX_COORDINATE, "(0, 1e30]")?;
                 Ok(())
             }
         }
@@ -104,6 +104,8 @@ impl Bounds {
     pub fn check_point(&self, name: &'static str, p: Vec2) -> Result<Vec2> {
         finite(name, p.x)?;
         finite(name, p.y)?;
+        crate::error::in_range(name, p.x, -MAX_COORDINATE, MAX_COORDINATE, "[-1e30, 1e30]")?;
+        crate::error::in_range(name, p.y, -MAX_COORDINATE, MAX_COORDINATE, "[-1e30, 1e30]")?;
         if self.contains(p) {
             Ok(p)
         } else {

@@ -40,8 +40,8 @@ pub enum Error {
         /// The value given.
         value: f64,
     },
-    /// A time step was zero, negative or not finite.
-    #[error("dt must be a finite number greater than zero, got {dt}")]
+    /// A time step was zero, negative, larger than [`MAX_DT`] or not finite.
+    #[error("dt must be a number greater than zero and at most 1e6 seconds, got {dt}")]
     InvalidTimeStep {
         /// The value given.
         dt: f64,
@@ -116,6 +116,14 @@ pub enum Error {
         source: std::io::Error,
     },
 }
+
+/// The largest time step a world accepts, seconds.
+pub const MAX_DT: f32 = 1e6;
+/// The largest maximum speed a group or agent may have, units per second. With [`MAX_DT`] it
+/// keeps one step's displacement far below `f32::MAX`.
+pub const MAX_SPEED: f32 = 1e12;
+/// The largest coordinate a position may have in an open world, and the largest world side.
+pub const MAX_COORDINATE: f32 = 1e30;
 
 /// The crate's result type.
 pub type Result<T, E = Error> = std::result::Result<T, E>;

@@ -270,3 +270,88 @@ fn references_to_missing_fields_and_groups_are_rejected_at_the_step() {
         Err(Error::UnknownGroup { group: 5, count: 1 })
     ));
 }
+
+#[test]
+fn extreme_but_valid_values_keep_the_buffers_finite() {
+    // A repelling point almost exactly on an agent (an overflowing force), a tiny mass, an
+    // attracting point at the same spot for a kinematic group, and the largest time step.
+    use throng::gravity::GravityPoint;
+    let push = GroupParams {
+        mass: 1e-30,
+        ..GroupParams::dynamic(SteeringProfile::single(Behaviour::AntiGravity))
+    };
+    let pull = GroupParams::kinematic(SteeringProfile::single(Behaviour::AntiGravity));
+    let mut w = World::builder()
+        .group(push)
+        .group(pull)
+        .agent(AgentInit::at(Vec2::new(1.0, 1.0), 0))
+        .agent(AgentInit::at(Vec2::new(1.0, 1.0), 1))
+        .build()
+        .unwrap();
+    w.add_gravity_point(GravityPoint::fixed(
+        Vec2::new(1.0 + 1e-7, 1.0),
+        1e30,
+        8.0,
+        10.0,
+    ))
+    .unwrap();
+    w.add_gravity_point(GravityPoint::fixed(
+        Vec2::new(1.0 - 1e-7, 1.0),
+        -1e30,
+        8.0,
+        10.0,
+    ))
+    .unwrap();
+    for dt in [1e-6, 0.1, 1e6] {
+        w.step(dt).unwrap();
+        let a = w.agents();
+        for s in [
+            a.pos_x(),
+            a.pos_y(),
+            a.vel_x(),
+            a.vel_y(),
+            a.orientations(),
+            a.rotations(),
+        ] {
+            assert!(s.iter().all(|v| v.is_finite()), "dt {dt}: {s:?}");
+        }
+    }
+    assert!(
+        matches!(w.step(2e6), Err(Error::InvalidTimeStep { .. })),
+        "beyond the largest dt"
+    );
+    assert!(matches!(
+        w.add_group(GroupParams {
+            max_speed: 1e20,
+            ..GroupParams::default()
+        }),
+        Err(Error::OutOfRange {
+            name: "max_speed",
+            ..
+        })
+    ));
+    assert!(matches!(
+        w.add_agent(AgentInit::at(Vec2::new(3e38, 0.0), 0)),
+        Err(Error::OutOfRange { .. })
+    ));
+    assert!(matches!(
+        Bounds::torus(1e35, 1.0),
+        Err(Error::OutOfRange { .. })
+    ));
+}
+
+#[test]
+fn truncate_robust_keeps_direction_and_drops_nan() {
+    use throng::steering::truncate_robust;
+    assert_eq!(
+        truncate_robust(Vec2::new(f32::INFINITY, 0.0), 2.0),
+        Vec2::new(2.0, 0.0)
+    );
+    assert_eq!(truncate_robust(Vec2::new(f32::NAN, 1.0), 2.0), Vec2::ZERO);
+    let big = truncate_robust(Vec2::new(3e38, 3e38), 1.0);
+    assert!((big.length() - 1.0).abs() < 1e-6 && big.x > 0.0 && (big.x - big.y).abs() < 1e-6);
+    assert_eq!(
+        truncate_robust(Vec2::new(3.0, 4.0), 10.0),
+        Vec2::new(3.0, 4.0)
+    );
+}

@@ -105,6 +105,28 @@ impl std::ops::AddAssign for Steering {
     }
 }
 
+/// [`truncate`] for requests that may have overflowed: infinite components keep their direction
+/// at length `max`, a square length that overflows is rescaled first, and NaN components (an
+/// undefined request) give zero.
+#[must_use]
+pub fn truncate_robust(v: Vec2, max: f32) -> Vec2 {
+    if v.is_nan() {
+        return Vec2::ZERO;
+    }
+    if !v.is_finite() {
+        let dir = Vec2::new(
+            if v.x.is_infinite() { v.x.signum() } else { 0.0 },
+            if v.y.is_infinite() { v.y.signum() } else { 0.0 },
+        );
+        return dir.normalize_or_zero() * max;
+    }
+    if v.length_squared().is_finite() {
+        return truncate(v, max);
+    }
+    // Finite components whose square overflows: rescale before measuring.
+    (v / v.abs().max_element()).normalize_or_zero() * max
+}
+
 /// Returns `v` shortened to at most `max` (unchanged when already shorter).
 #[inline]
 #[must_use]

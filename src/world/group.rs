@@ -95,6 +95,13 @@ impl GroupParams {
             });
         }
         positive("max_speed", self.max_speed)?;
+        crate::error::in_range(
+            "max_speed",
+            self.max_speed,
+            0.0,
+            crate::error::MAX_SPEED,
+            "(0, 1e12]",
+        )?;
         positive("max_acceleration", self.max_acceleration)?;
         positive("max_rotation", self.max_rotation)?;
         positive("max_angular_acceleration", self.max_angular_acceleration)?;

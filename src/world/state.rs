@@ -306,7 +306,13 @@ impl World {
         finite("rotation", init.rotation)?;
         let g = &self.groups[init.group];
         let max_speed = match init.max_speed {
-            Some(s) => positive("max_speed", s)?,
+            Some(s) => crate::error::in_range(
+                "max_speed",
+                positive("max_speed", s)?,
+                0.0,
+                crate::error::MAX_SPEED,
+                "(0, 1e12]",
+            )?,
             None => g.max_speed,
         };
         let radius = match init.radius {
@@ -384,6 +390,13 @@ impl World {
     /// [`Error::UnknownAgent`], [`Error::NotPositive`], [`Error::NonFinite`].
     pub fn set_max_speed(&mut self, id: AgentId, max_speed: f32) -> Result<()> {
         positive("max_speed", max_speed)?;
+        crate::error::in_range(
+            "max_speed",
+            max_speed,
+            0.0,
+            crate::error::MAX_SPEED,
+            "(0, 1e12]",
+        )?;
         let i = self.index(id)?;
         self.agents.max_speed[i] = max_speed;
         self.agents.overrides[i] |= crate::agents::store_flags::OVERRIDE_SPEED;

@@ -9,7 +9,7 @@ use super::state::World;
 use super::stats::{PhaseTimes, StepStats};
 use crate::agents::Agents;
 use crate::bounds::Bounds;
-use crate::error::{Error, Result};
+use crate::error::{Error, MAX_DT, MAX_SPEED, Result};
 use crate::gravity::{self, GravityField};
 use crate::movement::{self, IntegrationParams, MotionState, MovementModel, SteeringBuffers};
 use crate::obstacles::{self, Circle, Obstacles, Wall};
@@ -240,7 +240,7 @@ impl SteerCtx<'_> {
     /// acceleration `force / mass` clamped to the maximum, and the angular acceleration clamped.
     #[inline]
     fn finish(&self, g: &GroupParams, kinematic: bool, total: Steering) -> Steering {
-        if kinematic {
+        let out = if kinematic {
             total
         } else {
             let acc = steering::truncate(total.linear / g.mass, g.max_acceleration);
@@ -250,6 +250,32 @@ impl SteerCtx<'_> {
                     .angular
                     .clamp(-g.max_angular_acceleration, g.max_angular_acceleration),
             }
+        };
+        if out.linear.is_finite()
+            && out.angular.is_finite()
+            && out.linear.length_squared().is_finite()
+        {
+            return out;
+        }
+        // Overflowing requests (a gravity point almost on top of an agent, a tiny mass): keep
+        // their direction at the limit; undefined ones (infinity minus infinity) do nothing.
+        let (lin_max, ang_max) = if kinematic {
+            (MAX_SPEED, g.max_rotation)
+        } else {
+            (g.max_acceleration, g.max_angular_acceleration)
+        };
+        let raw = if kinematic {
+            total.linear
+        } else {
+            total.linear / g.mass
+        };
+        Steering {
+            linear: steering::truncate_robust(raw, lin_max),
+            angular: if total.angular.is_nan() {
+                0.0
+            } else {
+                total.angular.clamp(-ang_max, ang_max)
+            },
         }
     }
 
@@ -607,7 +633,7 @@ impl World {
     }
 
     fn step_with(&mut self, dt: f32, exec: Execution) -> Result<StepStats> {
-        if !(dt.is_finite() && dt > 0.0) {
+        if !(dt.is_finite() && dt > 0.0 && dt <= MAX_DT) {
             return Err(Error::InvalidTimeStep { dt: f64::from(dt) });
         }
         self.check_references()?;
@@ -766,7 +792,7 @@ impl World {
     /// # Errors
     /// [`Error::InvalidTimeStep`] when `dt` is not a finite number greater than zero.
     pub fn steering_outputs(&mut self, dt: f32) -> Result<Vec<(crate::AgentId, Steering)>> {
-        if !(dt.is_finite() && dt > 0.0) {
+        if !(dt.is_finite() && dt > 0.0 && dt <= MAX_DT) {
             return Err(Error::InvalidTimeStep { dt: f64::from(dt) });
         }
         self.check_references()?;
