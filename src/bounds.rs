@@ -65,8 +65,8 @@ impl Bounds {
             Bounds::Bounded { size } | Bounds::Torus { size } => {
                 positive("world width", size.x)?;
                 positive("world height", size.y)?;
-                crate::error::in_range("world width", size.x, 0.0, MAX_COORDINATE, "(0, 1e30]")?;
-                crate::error::in_range("world height", size.y, 0.0, MAX_COORDINATE, "(0, 1e30]")?;
+                crate::error::in_range("world width", size.x, 0.0, MAX_COORDINATE, "(0, 1e18]")?;
+                crate::error::in_range("world height", size.y, 0.0, MAX_COORDINATE, "(0, 1e18]")?;
                 Ok(())
             }
         }
@@ -104,8 +104,8 @@ impl Bounds {
     pub fn check_point(&self, name: &'static str, p: Vec2) -> Result<Vec2> {
         finite(name, p.x)?;
         finite(name, p.y)?;
-        crate::error::in_range(name, p.x, -MAX_COORDINATE, MAX_COORDINATE, "[-1e30, 1e30]")?;
-        crate::error::in_range(name, p.y, -MAX_COORDINATE, MAX_COORDINATE, "[-1e30, 1e30]")?;
+        crate::error::in_range(name, p.x, -MAX_COORDINATE, MAX_COORDINATE, "[-1e18, 1e18]")?;
+        crate::error::in_range(name, p.y, -MAX_COORDINATE, MAX_COORDINATE, "[-1e18, 1e18]")?;
         if self.contains(p) {
             Ok(p)
         } else {

@@ -122,8 +122,14 @@ pub const MAX_DT: f32 = 1e6;
 /// The largest maximum speed a group or agent may have, units per second. With [`MAX_DT`] it
 /// keeps one step's displacement far below `f32::MAX`.
 pub const MAX_SPEED: f32 = 1e12;
-/// The largest coordinate a position may have in an open world, and the largest world side.
-pub const MAX_COORDINATE: f32 = 1e30;
+/// The largest maximum acceleration, angular acceleration or rotation. With [`MAX_DT`] one
+/// step's change of velocity stays small enough that its square is finite.
+pub const MAX_RATE: f32 = 1e12;
+/// The largest coordinate a position may have, and the largest world side: offsets between any
+/// two points then have finite squares.
+pub const MAX_COORDINATE: f32 = 1e18;
+/// The most agents a scenario may spawn (about 15 GB of state at 146 bytes per agent).
+pub const MAX_AGENTS: usize = 100_000_000;
 
 /// The crate's result type.
 pub type Result<T, E = Error> = std::result::Result<T, E>;

@@ -341,6 +341,39 @@ fn extreme_but_valid_values_keep_the_buffers_finite() {
 }
 
 #[test]
+fn huge_weights_saturate_instead_of_vanishing_or_turning_nan() {
+    // Weighted requests whose squares overflow keep their direction at the limit.
+    let profile = SteeringProfile::single(Behaviour::Seek {
+        target: Target::Point(Vec2::new(10.0, 0.0)),
+        threshold: 0.0,
+    });
+    let profile = SteeringProfile {
+        behaviours: vec![Weighted::new(profile.behaviours[0].behaviour.clone(), 3e38)],
+        ..profile
+    };
+    for g in [
+        GroupParams::dynamic(profile.clone()),
+        GroupParams::kinematic(profile),
+    ] {
+        let mut w = World::builder()
+            .group(g)
+            .agent(AgentInit::default())
+            .build()
+            .unwrap();
+        for _ in 0..5 {
+            w.step(0.1).unwrap();
+        }
+        let s = w.agent(AgentId(0)).unwrap();
+        assert!(s.position.is_finite() && s.velocity.is_finite());
+        assert!(
+            s.velocity.x > 1.0 && s.velocity.y.abs() < 1e-3,
+            "moving towards the target at speed: {:?}",
+            s.velocity
+        );
+    }
+}
+
+#[test]
 fn truncate_robust_keeps_direction_and_drops_nan() {
     use throng::steering::truncate_robust;
     assert_eq!(

@@ -219,6 +219,33 @@ fn bad_input_gets_a_non_zero_exit_and_one_line() {
     .unwrap();
     assert_one_line_failure(&["run", bad_value.to_str().unwrap()], "mass");
 
+    assert_one_line_failure(&["bench", "flock", "--steps", "0", "--json"], "steps");
+    assert_one_line_failure(&["demo", "flock", "--agents", "1000000000000"], "agents");
+    assert_one_line_failure(
+        &[
+            "demo",
+            "wander",
+            "--steps",
+            "2",
+            "--size",
+            "0",
+            "--render",
+            tmp("s.png").to_str().unwrap(),
+        ],
+        "size",
+    );
+
+    let fixed = tmp("fixed.toml");
+    std::fs::write(&fixed, "[world]\nkind = \"torus\"\nsize = [10, 10]\n[[groups]]\nspawn = { kind = \"points\", points = [[1, 1], [2, 2]] }\n").unwrap();
+    assert_one_line_failure(
+        &["run", fixed.to_str().unwrap(), "--agents", "100"],
+        "fixed count",
+    );
+
+    let outside = tmp("outside.toml");
+    std::fs::write(&outside, "[world]\nkind = \"bounded\"\nsize = [50, 50]\n[[groups]]\ncount = 5\nspawn = { kind = \"rect\", min = [600, 600], max = [700, 700] }\n").unwrap();
+    assert_one_line_failure(&["run", outside.to_str().unwrap()], "outside the world");
+
     let bad_syntax = tmp("bad_syntax.toml");
     std::fs::write(&bad_syntax, "[world\nkind = 1\n").unwrap();
     assert_one_line_failure(&["run", bad_syntax.to_str().unwrap()], "bad_syntax.toml:1:");

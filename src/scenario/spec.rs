@@ -259,6 +259,14 @@ impl Scenario {
     /// The variant naming the first bad value.
     pub fn validate(&self) -> Result<()> {
         positive("dt", self.dt)?;
+        crate::error::in_range("dt", self.dt, 0.0, crate::error::MAX_DT, "(0, 1e6]")?;
+        if self.agent_count() > crate::error::MAX_AGENTS {
+            return Err(Error::OutOfRange {
+                name: "count",
+                value: self.agent_count() as f64,
+                range: "at most 100000000 agents in all",
+            });
+        }
         self.obstacles.validate()?;
         self.gravity.validate()?;
         if self.groups.is_empty() {
@@ -335,7 +343,10 @@ impl Scenario {
     /// The total agent count at the scenario's own size.
     #[must_use]
     pub fn agent_count(&self) -> usize {
-        self.groups.iter().map(GroupSpec::count_of).sum()
+        self.groups
+            .iter()
+            .map(GroupSpec::count_of)
+            .fold(0usize, usize::saturating_add)
     }
 
     /// The same scenario scaled to `total` agents: scalable groups share what the fixed ones leave,
@@ -351,12 +362,19 @@ impl Scenario {
                 value: 0.0,
             });
         }
+        if total > crate::error::MAX_AGENTS {
+            return Err(Error::OutOfRange {
+                name: "agents",
+                value: total as f64,
+                range: "[1, 100000000]",
+            });
+        }
         let fixed: usize = self
             .groups
             .iter()
             .filter(|g| g.fixed || matches!(g.spawn, Spawn::Points { .. }))
             .map(GroupSpec::count_of)
-            .sum();
+            .fold(0usize, usize::saturating_add);
         let scalable: Vec<usize> = self
             .groups
             .iter()
@@ -365,9 +383,17 @@ impl Scenario {
             .map(|(i, _)| i)
             .collect();
         if scalable.is_empty() {
-            return Ok(self);
+            if total == fixed {
+                return Ok(self);
+            }
+            return Err(Error::Invalid {
+                name: "agents".into(),
+                reason: format!(
+                    "every group of this scenario has a fixed count ({fixed} agents in all); scale it by editing the file"
+                ),
+            });
         }
-        if total < fixed + scalable.len() {
+        if total < fixed.saturating_add(scalable.len()) {
             return Err(Error::Invalid {
                 name: "agents".into(),
                 reason: format!(
@@ -377,14 +403,16 @@ impl Scenario {
             });
         }
         let left = total - fixed;
-        let weight: usize = scalable.iter().map(|&i| self.groups[i].count.max(1)).sum();
+        let weight = scalable
+            .iter()
+            .map(|&i| self.groups[i].count.max(1) as f64)
+            .sum::<f64>();
         let mut given = 0;
         for (k, &i) in scalable.iter().enumerate() {
             let n = if k + 1 == scalable.len() {
                 left - given
             } else {
-                ((left as f64 * self.groups[i].count.max(1) as f64 / weight as f64).round()
-                    as usize)
+                ((left as f64 * self.groups[i].count.max(1) as f64 / weight).round() as usize)
                     .clamp(1, left - given - (scalable.len() - k - 1))
             };
             self.groups[i].count = n;
@@ -446,6 +474,19 @@ impl Scenario {
                     Spawn::Points { points } => points[k],
                     _ => g.spawn_point(&mut rng, bounds, &world)?,
                 };
+                // A walled world has no room outside it, and explicit points must be in the world;
+                // random regions on a torus wrap around.
+                let strict = matches!(bounds, Bounds::Bounded { .. })
+                    || matches!(g.spawn, Spawn::Points { .. });
+                if strict && !bounds.contains(position) {
+                    return Err(Error::Invalid {
+                        name: format!("groups[{gi}].spawn"),
+                        reason: format!(
+                            "({}, {}) lies outside the world {bounds:?}",
+                            position.x, position.y
+                        ),
+                    });
+                }
                 let mut position = bounds.wrap(position);
                 // Random spawns that land inside an obstacle are drawn again.
                 let mut tries = 0;

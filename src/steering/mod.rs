@@ -120,8 +120,13 @@ pub fn truncate_robust(v: Vec2, max: f32) -> Vec2 {
         );
         return dir.normalize_or_zero() * max;
     }
-    if v.length_squared().is_finite() {
-        return truncate(v, max);
+    let len_sq = v.length_squared();
+    if len_sq.is_finite() {
+        return if len_sq > max * max {
+            v * (max / len_sq.sqrt())
+        } else {
+            v
+        };
     }
     // Finite components whose square overflows: rescale before measuring.
     (v / v.abs().max_element()).normalize_or_zero() * max
@@ -133,7 +138,11 @@ pub fn truncate_robust(v: Vec2, max: f32) -> Vec2 {
 pub fn truncate(v: Vec2, max: f32) -> Vec2 {
     let len_sq = v.length_squared();
     if len_sq > max * max {
-        v * (max / len_sq.sqrt())
+        if len_sq.is_finite() {
+            v * (max / len_sq.sqrt())
+        } else {
+            truncate_robust(v, max)
+        }
     } else {
         v
     }

@@ -105,6 +105,13 @@ impl GroupParams {
         positive("max_acceleration", self.max_acceleration)?;
         positive("max_rotation", self.max_rotation)?;
         positive("max_angular_acceleration", self.max_angular_acceleration)?;
+        for (name, v) in [
+            ("max_acceleration", self.max_acceleration),
+            ("max_rotation", self.max_rotation),
+            ("max_angular_acceleration", self.max_angular_acceleration),
+        ] {
+            crate::error::in_range(name, v, 0.0, crate::error::MAX_RATE, "(0, 1e12]")?;
+        }
         non_negative("drag", self.drag)?;
         non_negative("radius", self.radius)?;
         if self.max_neighbours == Some(0) {

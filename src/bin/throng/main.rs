@@ -209,7 +209,14 @@ fn prepare(mut s: Scenario, c: &CommonArgs) -> Result<(Scenario, World, rayon::T
             name: "threads".into(),
             reason: e.to_string(),
         })?;
-    let world = s.build()?;
+    let world = s.build().map_err(|e| match e {
+        Error::Scenario { .. } | Error::Io { .. } => e,
+        other => Error::Scenario {
+            source_name: s.name.clone(),
+            location: None,
+            message: other.to_string(),
+        },
+    })?;
     Ok((s, world, pool, threads))
 }
 
@@ -278,7 +285,13 @@ fn run_scenario(s: Scenario, args: &RunArgs) -> Result<()> {
 
 fn bench(s: Scenario, c: &CommonArgs, warmup: u64) -> Result<()> {
     let (s, mut world, pool, threads) = prepare(s, c)?;
-    let steps = c.steps.unwrap_or(100).max(1);
+    let steps = c.steps.unwrap_or(100);
+    if steps == 0 {
+        return Err(Error::NotPositive {
+            name: "steps",
+            value: 0.0,
+        });
+    }
     pool.install(|| -> Result<()> {
         for _ in 0..warmup {
             world.step(s.dt)?;

@@ -72,7 +72,13 @@ impl Outputs {
         use throng::render::{GifRecorder, WorldPainter, world_extent};
         let (min, max) = world_extent(world);
         let extent = max - min;
-        let long = options.size.max(1) as f32;
+        if options.size == 0 {
+            return Err(Error::NotPositive {
+                name: "size",
+                value: 0.0,
+            });
+        }
+        let long = options.size as f32;
         let (w, h) = if extent.x >= extent.y {
             (long, (long * extent.y / extent.x).round().max(1.0))
         } else {
