@@ -251,10 +251,9 @@ impl SteerCtx<'_> {
                     .clamp(-g.max_angular_acceleration, g.max_angular_acceleration),
             }
         };
-        if out.linear.is_finite()
-            && out.angular.is_finite()
-            && out.linear.length_squared().is_finite()
-        {
+        // A finite square implies finite components, and NaN fails it; kinematic requests need
+        // it for the integrator's speed clamp, dynamic ones are already truncated.
+        if out.linear.length_squared().is_finite() && out.angular.is_finite() {
             return out;
         }
         // Overflowing requests (a gravity point almost on top of an agent, a tiny mass): keep
