@@ -126,18 +126,16 @@ fn following(c: &mut Criterion) {
     let mut g = c.benchmark_group("follow");
     g.sample_size(20);
     g.throughput(Throughput::Elements(100_000));
-    {
-        let name = "follow";
+    for threads in [1usize, 2] {
+        // A fresh world for each thread count, so both measure the same stretch of the walk.
         let mut world = following_world();
-        for threads in [1usize, 2] {
-            let pool = rayon::ThreadPoolBuilder::new()
-                .num_threads(threads)
-                .build()
-                .unwrap();
-            g.bench_function(BenchmarkId::new(format!("{name}/100000"), threads), |b| {
-                b.iter(|| pool.install(|| world.step(1.0 / 30.0).unwrap()))
-            });
-        }
+        let pool = rayon::ThreadPoolBuilder::new()
+            .num_threads(threads)
+            .build()
+            .unwrap();
+        g.bench_function(BenchmarkId::new("follow/100000", threads), |b| {
+            b.iter(|| pool.install(|| world.step(1.0 / 30.0).unwrap()))
+        });
     }
     g.finish();
 }

@@ -197,3 +197,48 @@ steering = { behaviours = [{ kind = "follow_field" }] }
         .replace("[field]", "[nofield]");
     assert!(Scenario::from_toml(&bad, "bad.toml").is_err());
 }
+
+#[test]
+fn the_follow_only_fast_path_equals_the_general_loop() {
+    // A profile of one `follow_field` takes the fast path; adding an angular-only behaviour
+    // forces the general loop. Positions and velocities must agree bit for bit.
+    let run = |extra: bool| {
+        let mut s = throng::scenario::builtin("fields").unwrap();
+        s.groups[0]
+            .params
+            .steering
+            .behaviours
+            .retain(|w| w.behaviour.name() == "follow_field");
+        if extra {
+            s.groups[0]
+                .params
+                .steering
+                .behaviours
+                .push(throng::steering::Weighted::new(
+                    throng::steering::Behaviour::LookWhereYouAreGoing {
+                        params: Default::default(),
+                    },
+                    1.0,
+                ));
+        }
+        let mut w = s.build().unwrap();
+        for _ in 0..60 {
+            w.step(s.dt).unwrap();
+        }
+        let a = w.agents();
+        let mut v: Vec<_> = (0..a.len())
+            .map(|i| {
+                (
+                    a.id(i),
+                    a.pos_x()[i].to_bits(),
+                    a.pos_y()[i].to_bits(),
+                    a.vel_x()[i].to_bits(),
+                    a.vel_y()[i].to_bits(),
+                )
+            })
+            .collect();
+        v.sort();
+        v
+    };
+    assert_eq!(run(false), run(true));
+}

@@ -49,6 +49,8 @@ pub(crate) struct FlockSpec {
     /// When the profile is nothing but separation, alignment and cohesion in a weighted sum:
     /// its entries in list order as `(slot, weight)`, so steering can skip the general loop.
     pub pure: Option<([(u8, f32); PURE_MAX], u8)>,
+    /// When the profile is one `follow_field` in a weighted sum: `(field, channel, weight)`.
+    pub follow_only: Option<(usize, usize, f32)>,
 }
 
 /// Longest flocking-only profile served by the fast path.
@@ -101,6 +103,12 @@ impl FlockSpec {
         }
         if is_pure {
             s.pure = Some((pure, pure_len as u8));
+        }
+        if let [w] = &g.steering.behaviours[..]
+            && let Behaviour::FollowField { field, channel } = w.behaviour
+            && g.steering.combine == crate::steering::Combine::WeightedSum
+        {
+            s.follow_only = Some((field, channel, w.weight));
         }
         s
     }

@@ -168,6 +168,20 @@ impl SteerCtx<'_> {
         let kinematic = g.model == MovementModel::Kinematic;
         let velocity = a.velocity(i);
         let orientation = a.orientation[i];
+        if let Some((field, channel, weight)) = self.flock[a.group[i] as usize].follow_only {
+            // One flow field only: the general loop's sum without its dispatch (0 + f w, as there).
+            let f = self.fields.follow(
+                field,
+                channel,
+                a.ids[i],
+                a.position(i),
+                velocity,
+                a.max_speed[i],
+                kinematic,
+            );
+            let total = Steering::linear(Vec2::ZERO + f * weight);
+            return (self.finish(g, kinematic, total), a.wander[i], 0.0);
+        }
         if let Some((entries, len)) = self.flock[a.group[i] as usize].pure {
             // Flocking only: the same sum as the general loop below, without its dispatch.
             let sums = self.sums(i, velocity, orientation);
