@@ -116,7 +116,7 @@ pub fn integrate(
                 max_speed: ms,
                 group: grp,
             };
-            integrate_chunk(chunk_state, chunk_steer, params, dt, true);
+            integrate_chunk(chunk_state, chunk_steer, params, dt);
         });
 }
 
@@ -130,9 +130,12 @@ pub fn integrate_scalar(
     params: &[IntegrationParams],
     dt: f32,
 ) {
+    let mut state = state;
     let n = state.pos_x.len();
     check_lengths(&state, &steer, n);
-    integrate_chunk(state, steer, params, dt, false);
+    for i in 0..n {
+        integrate_one(&mut state, &steer, params, dt, i);
+    }
 }
 
 fn check_lengths(state: &MotionState<'_>, steer: &SteeringBuffers<'_>, n: usize) {
@@ -153,18 +156,11 @@ fn check_lengths(state: &MotionState<'_>, steer: &SteeringBuffers<'_>, n: usize)
 }
 
 fn integrate_chunk(
-    mut s: MotionState<'_>,
+    s: MotionState<'_>,
     st: SteeringBuffers<'_>,
     params: &[IntegrationParams],
     dt: f32,
-    simd: bool,
 ) {
-    if !simd {
-        for i in 0..s.pos_x.len() {
-            integrate_one(&mut s, &st, params, dt, i);
-        }
-        return;
-    }
     let n = s.pos_x.len();
     let dt8 = f32x8::splat(dt);
     let zero = f32x8::ZERO;
