@@ -70,6 +70,36 @@ pub enum Error {
         /// How many groups the world has.
         count: usize,
     },
+    /// A behaviour names a field, or a channel of a field, that the world does not have.
+    #[error(
+        "group {group}: follow_field names field {field} channel {channel}, which does not exist (the world has {fields} fields)"
+    )]
+    UnknownField {
+        /// The group whose profile names it.
+        group: usize,
+        /// The field named.
+        field: usize,
+        /// The channel named.
+        channel: usize,
+        /// How many fields the world has.
+        fields: usize,
+    },
+    /// A path id that names no path.
+    #[error("no path {path} (the world has {count})")]
+    UnknownPath {
+        /// The path id given.
+        path: u32,
+        /// How many paths the world has.
+        count: usize,
+    },
+    /// A formation id that names no formation.
+    #[error("no formation {formation} (the world has {count})")]
+    UnknownFormation {
+        /// The formation id given.
+        formation: u32,
+        /// How many formations the world has.
+        count: usize,
+    },
     /// A parameter was invalid for a reason other than its numeric range.
     #[error("invalid {name}: {reason}")]
     Invalid {

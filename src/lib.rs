@@ -50,11 +50,13 @@ pub mod gravity;
 pub mod group;
 pub mod movement;
 pub mod obstacles;
+pub mod profile;
 #[cfg(feature = "render")]
 pub mod render;
 pub mod rng;
 pub mod scenario;
 pub mod spatial;
+mod steer;
 pub mod steering;
 pub mod world;
 

@@ -6,6 +6,19 @@
 //! threads and in any storage order. The mixer is SplitMix64's finaliser applied to a combined
 //! key, which passes the usual avalanche tests and costs a few multiplications.
 
+/// The stream tags of the crate's own draws, one per independent use, so that no two uses of
+/// the same (seed, agent, frame) ever see the same numbers.
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+#[repr(u32)]
+pub enum Stream {
+    /// Per-frame behaviour randomness: wander, Vicsek noise.
+    Steer = 0,
+    /// The initial wander angle of a new agent (frame 0).
+    Spawn = 1,
+    /// A follower's fixed spread around its slot behind the leader (frame 0).
+    Spread = 0x6772_0001,
+}
+
 /// The random numbers of one agent in one frame.
 #[derive(Clone, Copy, Debug)]
 pub struct AgentRng {

@@ -248,7 +248,15 @@ fn references_to_missing_fields_and_groups_are_rejected_at_the_step() {
         .unwrap();
     let err = w.step(0.1).unwrap_err();
     assert!(
-        matches!(err, Error::Invalid { .. }) && err.to_string().contains("field 0 channel 2"),
+        matches!(
+            err,
+            Error::UnknownField {
+                group: 0,
+                field: 0,
+                channel: 2,
+                fields: 0
+            }
+        ) && err.to_string().contains("field 0 channel 2"),
         "{err}"
     );
     assert_eq!(w.frame(), 0, "nothing stepped");

@@ -125,12 +125,21 @@ fn separation_spreads_a_dense_start() {
     for _ in 0..600 {
         w.step(DT).unwrap();
     }
+    // The crowd spreads to about the separation radius. A few pairs can stay closer where the
+    // pushes of their other neighbours balance (which pairs depends on the last bits of every
+    // sum: the scalar reference leaves its closest pair at 0.59 r on another seed), so the
+    // bound on the closest pair is looser than the bound on the typical one.
     let end = min_pairwise_distance(&w);
     assert!(
-        end > 0.6 * radius,
+        end > 0.5 * radius,
         "minimum pairwise distance {start} -> {end}, wanted > {}",
-        0.6 * radius
+        0.5 * radius
     );
+    let mut nearest = nearest_distances(&w);
+    nearest.sort_by(f32::total_cmp);
+    let (p1, median) = (nearest[nearest.len() / 100], nearest[nearest.len() / 2]);
+    assert!(p1 > 0.6 * radius, "1st percentile nearest distance {p1}");
+    assert!(median > 0.9 * radius, "median nearest distance {median}");
 }
 
 fn snapshot(w: &World) -> Vec<(AgentId, [u32; 4])> {
@@ -170,6 +179,19 @@ fn run_threads(threads: usize, kind: IndexKind) -> Vec<(AgentId, [u32; 4])> {
         }
         snapshot(&w)
     })
+}
+
+/// Each agent's distance to its nearest neighbour.
+fn nearest_distances(w: &World) -> Vec<f32> {
+    let a = w.agents();
+    (0..a.len())
+        .map(|i| {
+            (0..a.len())
+                .filter(|&j| j != i)
+                .map(|j| a.position(i).distance(a.position(j)))
+                .fold(f32::INFINITY, f32::min)
+        })
+        .collect()
 }
 
 #[test]
@@ -252,21 +274,29 @@ fn mean_neighbours_matches_the_scenario_density() {
     );
 }
 
+/// The flock with an angular-only extra behaviour, which takes the general plan instead of the
+/// flocking plan.
+fn with_extra(mut w: World) -> World {
+    let mut g = w.groups()[0].clone();
+    g.steering.behaviours.push(Weighted::new(
+        Behaviour::LookWhereYouAreGoing {
+            params: Default::default(),
+        },
+        1.0,
+    ));
+    w.set_group_params(0, g).unwrap();
+    w
+}
+
 #[test]
-fn the_flocking_fast_path_equals_the_general_loop() {
-    // The same flock with an angular-only extra behaviour takes the general path; positions and
+fn the_flocking_plan_equals_the_general_loop() {
+    // Per agent (the k-d tree serves both through the scalar traversal): positions and
     // velocities must not change by a bit (orientation follows the velocity either way).
     let make = |extra: bool| {
         let mut w = flock_world(1200, 1.0, 2.0, 0.5, 9);
+        w.set_index(IndexKind::KdTree);
         if extra {
-            let mut g = w.groups()[0].clone();
-            g.steering.behaviours.push(Weighted::new(
-                Behaviour::LookWhereYouAreGoing {
-                    params: Default::default(),
-                },
-                1.0,
-            ));
-            w.set_group_params(0, g).unwrap();
+            w = with_extra(w);
         }
         for _ in 0..40 {
             w.step(DT).unwrap();
@@ -274,4 +304,36 @@ fn the_flocking_fast_path_equals_the_general_loop() {
         snapshot(&w)
     };
     assert_eq!(make(false), make(true));
+}
+
+#[test]
+fn the_cell_batch_equals_the_per_agent_general_loop_to_rounding() {
+    // On the grid, the flocking plan runs in cell batches, the general plan per agent through
+    // the per-agent kernel: the two sum neighbours in different lane orders, so they agree to
+    // rounding (relative to the force budget), not bit for bit.
+    let outputs = |extra: bool| {
+        let mut w = flock_world(3000, 1.0, 2.0, 0.5, 4);
+        for _ in 0..10 {
+            w.step(DT).unwrap();
+        }
+        if extra {
+            w = with_extra(w);
+        }
+        let mut out = w.steering_outputs(DT).unwrap();
+        out.sort_by_key(|(id, _)| *id);
+        out
+    };
+    let batch = outputs(false);
+    let general = outputs(true);
+    let max_acc = 8.0_f32;
+    for ((id, b), (_, g)) in batch.iter().zip(&general) {
+        let diff = (b.linear - g.linear).length();
+        let scale = b.linear.length().max(g.linear.length()).max(max_acc);
+        assert!(
+            diff <= 1e-5 * scale,
+            "{id}: batch {:?} vs general {:?}",
+            b.linear,
+            g.linear
+        );
+    }
 }

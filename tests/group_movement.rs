@@ -448,6 +448,10 @@ fn bad_group_parameters_are_errors() {
         params: PathFollowParams::default(),
     }));
     let err = World::builder().group(follow).build().unwrap_err();
+    assert!(
+        matches!(err, Error::UnknownPath { path: 3, count: 0 }),
+        "{err}"
+    );
     assert!(err.to_string().contains("no path 3"), "{err}");
     // Formations: no slots, bad spacing, anchor as member, duplicates, too many for a custom shape.
     let mut w = World::builder()

@@ -24,6 +24,7 @@ mod integration;
 mod lattice;
 mod occupancy;
 mod potential;
+mod set;
 mod walker;
 
 pub use channels::GoalChannels;
@@ -33,3 +34,5 @@ pub use lattice::{DIRECTIONS, Neighbourhood};
 pub use occupancy::{Cell, MapFile, OccupancyGrid, random_free_cells};
 pub use potential::PotentialField;
 pub use walker::{GridWalkers, WalkPolicy, WalkStats};
+
+pub(crate) use set::{FieldSet, WalkerGroup, WorldField, cell_of, in_wall, wall_bits};

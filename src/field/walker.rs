@@ -243,29 +243,28 @@ impl GridWalkers {
         channels: &GoalChannels,
         policy: WalkPolicy,
     ) -> Result<WalkStats> {
-        let mut fields = Vec::with_capacity(channels.len());
-        for ch in 0..channels.len() {
-            fields.push(channels.field(ch));
-        }
         for &i in &self.active {
             let ch = self.channels[i as usize] as usize;
-            match fields.get(ch) {
+            if ch >= channels.len() {
+                return Err(Error::Invalid {
+                    name: "channel".into(),
+                    reason: format!("walker {i} follows channel {ch}, which does not exist"),
+                });
+            }
+            match channels.field(ch) {
                 None => {
-                    return Err(Error::Invalid {
-                        name: "channel".into(),
-                        reason: format!("walker {i} follows channel {ch}, which does not exist"),
-                    });
-                }
-                Some(None) => {
                     return Err(Error::Invalid {
                         name: "channel".into(),
                         reason: format!("channel {ch} has no up-to-date field"),
                     });
                 }
-                Some(Some(f)) => self.check_field(f)?,
+                Some(f) => self.check_field(f)?,
             }
         }
-        Ok(self.step_with(|ch| fields[ch as usize].expect("checked above"), policy))
+        Ok(self.step_with(
+            |ch| channels.field(ch as usize).expect("checked above"),
+            policy,
+        ))
     }
 
     fn check_field(&self, field: &PotentialField) -> Result<()> {

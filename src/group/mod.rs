@@ -19,6 +19,7 @@ mod assignment;
 mod formation;
 mod jump;
 mod leader;
+mod movement;
 mod path;
 
 pub(crate) use assignment::distance_matrix;
@@ -28,4 +29,6 @@ pub use formation::{
 };
 pub use jump::{JumpParams, JumpPhase, JumpPlan, jump_phase, jump_plan, run_up_length};
 pub use leader::{FollowParams, follow_leader};
+pub use movement::Formation;
+pub(crate) use movement::{GroupMovement, NO_FORMATION, update_formations};
 pub use path::{Path, PathDirection, PathFollowParams, PathId, PathSpec, Projection, follow_path};

@@ -286,6 +286,19 @@ pub enum Behaviour {
         #[serde(default)]
         channel: usize,
     },
+    /// The Vicsek model (kinematic agents at constant speed): the new heading is the direction
+    /// of the sum of the unit velocities of every agent within `radius`, itself included, turned
+    /// by a uniform random angle in `[-noise / 2, noise / 2]` from the agent's counter-based
+    /// stream; the request is that heading at full speed. Agents at rest count with their
+    /// orientation.
+    Vicsek {
+        /// Interaction radius (> 0). Default: 1.
+        #[serde(default = "one")]
+        radius: f32,
+        /// Width of the uniform noise, radians, in `[0, 2 pi]`. Default: 0.
+        #[serde(default)]
+        noise: f32,
+    },
 }
 
 /// Which neighbours a flocking behaviour sees.
@@ -393,6 +406,7 @@ impl Behaviour {
             Behaviour::KeepFormation { .. } => "keep_formation",
             Behaviour::Jump { .. } => "jump",
             Behaviour::FollowField { .. } => "follow_field",
+            Behaviour::Vicsek { .. } => "vicsek",
         }
     }
 
@@ -422,7 +436,8 @@ impl Behaviour {
             | Behaviour::FollowPath { .. }
             | Behaviour::KeepFormation { .. }
             | Behaviour::Jump { .. }
-            | Behaviour::FollowField { .. } => None,
+            | Behaviour::FollowField { .. }
+            | Behaviour::Vicsek { .. } => None,
         }
     }
 
@@ -520,6 +535,16 @@ impl Behaviour {
                 }
             }
             Behaviour::FollowField { .. } => {}
+            Behaviour::Vicsek { radius, noise } => {
+                positive("vicsek.radius", *radius)?;
+                crate::error::in_range(
+                    "vicsek.noise",
+                    *noise,
+                    0.0,
+                    std::f32::consts::TAU,
+                    "[0, 2 pi]",
+                )?;
+            }
         }
         Ok(())
     }

@@ -23,6 +23,9 @@ pub struct NeighbourSums {
     pub repulsion: Vec2,
     /// Neighbours within the largest query radius (all groups).
     pub count: f32,
+    /// Sum of the unit velocities (the unit orientation for agents at rest) of the Vicsek
+    /// neighbours, every group, the agent itself excluded.
+    pub heading: Vec2,
 }
 
 /// The desired velocity of full speed along `direction` (zero for a zero direction).

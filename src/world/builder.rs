@@ -1,4 +1,4 @@
-use super::group::GroupParams;
+use super::GroupParams;
 use super::state::World;
 use crate::agents::{AgentId, AgentInit};
 use crate::bounds::Bounds;

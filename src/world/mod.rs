@@ -16,14 +16,15 @@
 mod builder;
 mod fields;
 mod formation;
-mod group;
-mod neighbours;
 mod state;
 mod stats;
 mod step;
 
+pub use crate::group::Formation;
+pub use crate::profile::Profile;
 pub use builder::WorldBuilder;
-pub use formation::Formation;
-pub use group::GroupParams;
+
+/// The former name of [`Profile`]: a group's movement model, limits and behaviours.
+pub type GroupParams = Profile;
 pub use state::{AgentState, World};
 pub use stats::{PhaseTimes, StepStats};

@@ -1,6 +1,6 @@
 use glam::Vec2;
 
-use super::group::GroupParams;
+use super::GroupParams;
 use super::step::Scratch;
 use crate::agents::{AgentId, AgentInit, Agents};
 use crate::bounds::Bounds;
@@ -8,14 +8,11 @@ use crate::error::{Error, Result, finite, finite_vec, non_negative, positive};
 use crate::gravity::{GravityField, GravityPoint, Motion};
 use crate::movement::wrap_orientation;
 use crate::obstacles::{Circle, Obstacles, Wall};
-use crate::rng::AgentRng;
+use crate::rng::{AgentRng, Stream};
 use crate::spatial::{IndexKind, SpatialIndex};
 
 /// Default reordering period, frames.
 pub const DEFAULT_REORDER_EVERY: u32 = 4;
-
-/// Stream tag for the initial wander angle of a new agent.
-const STREAM_SPAWN: u32 = 1;
 
 /// A snapshot of one agent's state.
 #[derive(Clone, Copy, Debug, PartialEq)]
@@ -50,9 +47,13 @@ pub struct World {
     pub(crate) obstacles: Obstacles,
     pub(crate) gravity: GravityField,
     /// Paths and formations (group movement).
-    pub(crate) group_movement: super::formation::GroupMovement,
+    pub(crate) group_movement: crate::group::GroupMovement,
     /// Goal fields, walls and grid walkers.
-    pub(crate) fields: super::fields::FieldSet,
+    pub(crate) fields: crate::field::FieldSet,
+    /// One compiled plan per group, current unless `plans_stale`.
+    pub(crate) plans: Vec<crate::steer::Plan>,
+    /// Set when a group, field or path changed: plans are compiled again before the next step.
+    pub(crate) plans_stale: bool,
 }
 
 impl World {
@@ -77,6 +78,8 @@ impl World {
             gravity: GravityField::default(),
             group_movement: Default::default(),
             fields: Default::default(),
+            plans: Vec::new(),
+            plans_stale: true,
         }
     }
 
@@ -256,6 +259,7 @@ impl World {
         params.validate()?;
         self.check_group_refs(&params)?;
         self.groups.push(params);
+        self.plans_stale = true;
         Ok(self.groups.len() - 1)
     }
 
@@ -280,6 +284,7 @@ impl World {
             }
         }
         self.groups[group] = params;
+        self.plans_stale = true;
         Ok(())
     }
 
@@ -325,8 +330,8 @@ impl World {
         };
         // The initial wander angle is random but keyed by the id the agent will get.
         let next_id = self.agents.ids_issued() as u32;
-        let wander =
-            AgentRng::new(self.seed, next_id, 0, STREAM_SPAWN).signed() * std::f32::consts::PI;
+        let wander = AgentRng::new(self.seed, next_id, 0, Stream::Spawn as u32).signed()
+            * std::f32::consts::PI;
         Ok(self.agents.push(&init, max_speed, radius, wander))
     }
 

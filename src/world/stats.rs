@@ -3,7 +3,8 @@ use std::time::Duration;
 /// Wall-clock time of each phase of a step.
 #[derive(Clone, Copy, Debug, Default, PartialEq)]
 pub struct PhaseTimes {
-    /// Rebuilding the neighbour index (and reordering agents by cell when due).
+    /// Gravity points moved and reindexed, the neighbour index rebuilt (and agents reordered by
+    /// cell when due), the nearest-agent indices built.
     pub index: Duration,
     /// The parallel steering pass.
     pub steer: Duration,
@@ -11,16 +12,40 @@ pub struct PhaseTimes {
     pub integrate: Duration,
     /// Wrap-around, containment and obstacle non-penetration.
     pub bounds: Duration,
+    /// The fields' work: goal shuffles and channel rebuilds before steering; wall
+    /// non-penetration, grid walkers and arrivals after the move.
+    pub fields: Duration,
+    /// Formation slot assignment (the Hungarian method, when membership changed).
+    pub formations: Duration,
 }
 
 impl PhaseTimes {
-    /// Phase names, in pipeline order, as used in frame timings and `bench --json`.
-    pub const NAMES: [&'static str; 4] = ["index", "steer", "integrate", "bounds"];
+    /// Number of phases.
+    pub const COUNT: usize = 6;
+
+    /// Phase names, as used in frame timings and `bench --json`: the four of the pipeline, then
+    /// the subsystems' hooks.
+    pub const NAMES: [&'static str; Self::COUNT] = [
+        "index",
+        "steer",
+        "integrate",
+        "bounds",
+        "fields",
+        "formations",
+    ];
 
     /// Each phase in milliseconds, in the order of [`PhaseTimes::NAMES`].
     #[must_use]
-    pub fn as_ms(&self) -> [f64; 4] {
-        [self.index, self.steer, self.integrate, self.bounds].map(|d| d.as_secs_f64() * 1e3)
+    pub fn as_ms(&self) -> [f64; Self::COUNT] {
+        [
+            self.index,
+            self.steer,
+            self.integrate,
+            self.bounds,
+            self.fields,
+            self.formations,
+        ]
+        .map(|d| d.as_secs_f64() * 1e3)
     }
 }
 

@@ -9,7 +9,7 @@ use throng::world::PhaseTimes;
 #[derive(Debug, Default)]
 pub struct Timings {
     total_ms: Vec<f64>,
-    phase_ms: Vec<[f64; 4]>,
+    phase_ms: Vec<[f64; PhaseTimes::COUNT]>,
     neighbours: Vec<f64>,
     agent_steps: u64,
 }

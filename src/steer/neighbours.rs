@@ -1,4 +1,4 @@
-//! The fused neighbour traversal: every flocking and repulsion sum of an agent in one pass.
+//! The fused neighbour traversal: every flocking, repulsion and Vicsek sum of an agent in one pass.
 //!
 //! Two paths compute the same [`NeighbourSums`]:
 //!
@@ -15,109 +15,14 @@ use glam::Vec2;
 use multiversion::multiversion;
 use rayon::prelude::*;
 
+use super::plan::{ALI, COH, NeighbourSpec, SEP};
+use crate::agents::Agents;
 use crate::bounds::Bounds;
 use crate::spatial::{GridIndex, Neighbour, NeighbourIndex, SpatialIndex};
-use crate::steering::{Behaviour, NeighbourSums};
-use crate::world::GroupParams;
+use crate::steering::NeighbourSums;
 
 /// SIMD width of the grid kernel.
 pub(crate) const LANES: usize = 8;
-/// Behaviour slots of the fused pass: separation, alignment, cohesion.
-const SEP: usize = 0;
-const ALI: usize = 1;
-const COH: usize = 2;
-
-/// What one group asks of the fused traversal.
-#[derive(Clone, Copy, Debug, Default, PartialEq)]
-pub(crate) struct FlockSpec {
-    /// Whether the group needs neighbours at all.
-    pub active: bool,
-    /// The largest radius of the group's neighbour behaviours.
-    pub query_r: f32,
-    /// Which of separation, alignment, cohesion the group uses.
-    pub on: [bool; 3],
-    /// Squared radii.
-    pub r_sq: [f32; 3],
-    /// View cosines (-1: all round).
-    pub cos: [f32; 3],
-    /// Own group only.
-    pub same: [bool; 3],
-    /// Repulsion `(strength, exponent, radius^2)`.
-    pub repel: Option<(f32, f32, f32)>,
-    /// Neighbour cap.
-    pub cap: Option<u32>,
-    /// When the profile is nothing but separation, alignment and cohesion in a weighted sum:
-    /// its entries in list order as `(slot, weight)`, so steering can skip the general loop.
-    pub pure: Option<([(u8, f32); PURE_MAX], u8)>,
-    /// When the profile is one `follow_field` in a weighted sum: `(field, channel, weight)`.
-    pub follow_only: Option<(usize, usize, f32)>,
-}
-
-/// Longest flocking-only profile served by the fast path.
-pub(crate) const PURE_MAX: usize = 4;
-
-impl FlockSpec {
-    /// The spec of a group's profile (a behaviour listed twice: the last one counts).
-    pub(crate) fn of(g: &GroupParams) -> Self {
-        let mut s = FlockSpec {
-            cos: [-1.0; 3],
-            cap: g.max_neighbours,
-            ..FlockSpec::default()
-        };
-        let mut pure = [(0u8, 0.0f32); PURE_MAX];
-        let mut pure_len = 0usize;
-        let mut is_pure = g.steering.combine == crate::steering::Combine::WeightedSum
-            && !g.steering.behaviours.is_empty()
-            && g.steering.behaviours.len() <= PURE_MAX;
-        for w in &g.steering.behaviours {
-            let (slot, hood) = match &w.behaviour {
-                Behaviour::Separation { hood } => (SEP, hood),
-                Behaviour::Alignment { hood } => (ALI, hood),
-                Behaviour::Cohesion { hood } => (COH, hood),
-                Behaviour::Repulsion {
-                    strength,
-                    exponent,
-                    radius,
-                } => {
-                    s.repel = Some((*strength, *exponent, radius * radius));
-                    s.active = true;
-                    s.query_r = s.query_r.max(*radius);
-                    is_pure = false;
-                    continue;
-                }
-                _ => {
-                    is_pure = false;
-                    continue;
-                }
-            };
-            if is_pure {
-                pure[pure_len] = (slot as u8, w.weight);
-                pure_len += 1;
-            }
-            s.active = true;
-            s.on[slot] = true;
-            s.r_sq[slot] = hood.radius * hood.radius;
-            s.cos[slot] = hood.view_cos;
-            s.same[slot] = hood.same_group;
-            s.query_r = s.query_r.max(hood.radius);
-        }
-        if is_pure {
-            s.pure = Some((pure, pure_len as u8));
-        }
-        if let [w] = &g.steering.behaviours[..]
-            && let Behaviour::FollowField { field, channel } = w.behaviour
-            && g.steering.combine == crate::steering::Combine::WeightedSum
-        {
-            s.follow_only = Some((field, channel, w.weight));
-        }
-        s
-    }
-
-    /// Whether the grid kernel can serve this group (it does not do repulsion or caps).
-    pub(crate) fn kernel_ok(&self) -> bool {
-        self.repel.is_none() && self.cap.is_none()
-    }
-}
 
 /// Cell-ordered copies of what the kernel reads, padded with `LANES` zeros so that a block of
 /// eight lanes never reads past the end.
@@ -130,48 +35,46 @@ pub(crate) struct SortedCopies {
     pub g: Vec<f32>,
 }
 
+/// `dst[k] = f(order[k])` for every `k`, in parallel chunks, with `LANES` zeros of padding.
+fn gather_into(dst: &mut Vec<f32>, order: &[u32], f: impl Fn(usize) -> f32 + Sync) {
+    const CHUNK: usize = 8192;
+    let n = order.len();
+    dst.resize(n + LANES, 0.0);
+    dst[n..].fill(0.0);
+    dst[..n]
+        .par_chunks_mut(CHUNK)
+        .zip(order.par_chunks(CHUNK))
+        .for_each(|(d, o)| {
+            for (d, &j) in d.iter_mut().zip(o) {
+                *d = f(j as usize);
+            }
+        });
+}
+
+/// `dst = src` with `LANES` zeros of padding.
+fn copy_into(dst: &mut Vec<f32>, src: &[f32]) {
+    dst.clear();
+    dst.extend_from_slice(src);
+    dst.extend_from_slice(&[0.0; LANES]);
+}
+
 impl SortedCopies {
     /// Fills the copies in the grid's order from the agents' buffers.
     pub(crate) fn fill(&mut self, grid: &GridIndex, vel_x: &[f32], vel_y: &[f32], group: &[u32]) {
         let order = grid.order();
-        let n = order.len();
-        let pad = |v: &mut Vec<f32>| {
-            v.resize(n + LANES, 0.0);
-            v[n..].fill(0.0);
-        };
-        let gather = |dst: &mut Vec<f32>, f: &(dyn Fn(usize) -> f32 + Sync)| {
-            dst.clear();
-            dst.par_extend(order.par_iter().with_min_len(4096).map(|&j| f(j as usize)));
-        };
         let (sx, sy) = (grid.sorted_x(), grid.sorted_y());
+        let SortedCopies { x, y, vx, vy, g } = self;
         rayon::join(
             || {
-                rayon::join(
-                    || {
-                        self.x.clear();
-                        self.x.extend_from_slice(sx);
-                        self.y.clear();
-                        self.y.extend_from_slice(sy);
-                    },
-                    || gather(&mut self.g, &|j| group[j] as f32),
-                )
+                copy_into(x, sx);
+                copy_into(y, sy);
+                gather_into(g, order, |j| group[j] as f32);
             },
             || {
-                rayon::join(
-                    || gather(&mut self.vx, &|j| vel_x[j]),
-                    || gather(&mut self.vy, &|j| vel_y[j]),
-                )
+                gather_into(vx, order, |j| vel_x[j]);
+                gather_into(vy, order, |j| vel_y[j]);
             },
         );
-        for v in [
-            &mut self.x,
-            &mut self.y,
-            &mut self.vx,
-            &mut self.vy,
-            &mut self.g,
-        ] {
-            pad(v);
-        }
     }
 }
 
@@ -186,17 +89,15 @@ pub(crate) struct Querier {
 }
 
 /// Scalar reference: the sums from the index's neighbour list.
-#[allow(clippy::too_many_arguments)]
 pub(crate) fn sums_scalar(
     index: &SpatialIndex,
     i: usize,
     me: &Querier,
-    spec: &FlockSpec,
-    vel_x: &[f32],
-    vel_y: &[f32],
-    group: &[u32],
+    spec: &NeighbourSpec,
+    agents: &Agents,
     buf: &mut Vec<Neighbour>,
 ) -> NeighbourSums {
+    let (vel_x, vel_y, group) = (&agents.vel_x, &agents.vel_y, &agents.group);
     match spec.cap {
         Some(k) => index.k_nearest_at(me.position, k as usize, spec.query_r, Some(i), buf),
         None => index.neighbours_of(i, spec.query_r, buf),
@@ -232,8 +133,22 @@ pub(crate) fn sums_scalar(
         {
             s.repulsion -= d / dist * (strength / dist.powf(exponent));
         }
+        if let Some(r_sq) = spec.vicsek_r_sq
+            && d2 <= r_sq
+        {
+            s.heading += unit_heading(agents, j);
+        }
     }
     s
+}
+
+/// Agent `j`'s unit velocity, or its unit orientation when it is at rest.
+#[inline]
+pub(crate) fn unit_heading(agents: &Agents, j: usize) -> Vec2 {
+    agents
+        .velocity(j)
+        .try_normalize()
+        .unwrap_or_else(|| Vec2::from_angle(agents.orientation[j]))
 }
 
 /// Everything the lane kernel needs about the query, flattened to plain numbers.
@@ -262,7 +177,7 @@ pub(crate) fn sums_grid(
     sorted: &SortedCopies,
     bounds: Bounds,
     me: &Querier,
-    spec: &FlockSpec,
+    spec: &NeighbourSpec,
     one_group: bool,
 ) -> NeighbourSums {
     // On a torus, offsets need the minimum image only when the gathered cells reach across a
@@ -343,11 +258,20 @@ pub(crate) fn sums_grid(
     if nr > 0 {
         flush(&runs[..nr], &mut total);
     }
-    let mut s = total;
-    // The agent found itself (offset zero): take it out again.
+    without_self(total, me.velocity, spec)
+}
+
+/// Sums over a neighbourhood that held the querying agent itself (offset zero, its own
+/// velocity) with its contributions taken out again.
+#[inline]
+pub(crate) fn without_self(
+    mut s: NeighbourSums,
+    velocity: Vec2,
+    spec: &NeighbourSpec,
+) -> NeighbourSums {
     s.count -= 1.0;
     if spec.on[ALI] {
-        s.alignment -= me.velocity;
+        s.alignment -= velocity;
         s.alignment_count -= 1.0;
     }
     if spec.on[COH] {
@@ -480,5 +404,6 @@ fn kernel_body<const VIEW: bool, const WRAP: bool, const ALL_GROUPS: bool>(
         cohesion_count: hsum(&cn),
         repulsion: Vec2::ZERO,
         count: hsum(&n),
+        heading: Vec2::ZERO,
     }
 }

@@ -1,3 +1,9 @@
+//! Profiles: what the agents of one group share (movement model, limits, behaviours).
+//!
+//! A [`Profile`] is plain data, validated by [`Profile::validate`] at the boundary (builders,
+//! `World::add_group`, scenario loading); the world compiles each profile into a plan for the
+//! steering pass. Agents may override the maximum speed and radius one by one.
+
 use std::f32::consts::PI;
 
 use serde::{Deserialize, Serialize};
@@ -10,7 +16,7 @@ use crate::steering::SteeringProfile;
 /// maximum speed and radius can be overridden per agent.
 #[derive(Clone, Debug, PartialEq, Serialize, Deserialize)]
 #[serde(default, deny_unknown_fields)]
-pub struct GroupParams {
+pub struct Profile {
     /// A name for output and scenario files. Default: `"group"`.
     pub name: String,
     /// Kinematic or dynamic. Default: dynamic.
@@ -39,9 +45,9 @@ pub struct GroupParams {
     pub max_neighbours: Option<u32>,
 }
 
-impl Default for GroupParams {
+impl Default for Profile {
     fn default() -> Self {
-        GroupParams {
+        Profile {
             name: "group".to_string(),
             model: MovementModel::Dynamic,
             orientation: OrientationMode::FaceVelocity,
@@ -58,11 +64,11 @@ impl Default for GroupParams {
     }
 }
 
-impl GroupParams {
+impl Profile {
     /// A dynamic group with default limits and the given profile.
     #[must_use]
     pub fn dynamic(steering: SteeringProfile) -> Self {
-        GroupParams {
+        Profile {
             steering,
             ..Self::default()
         }
@@ -71,7 +77,7 @@ impl GroupParams {
     /// A kinematic group with default limits and the given profile.
     #[must_use]
     pub fn kinematic(steering: SteeringProfile) -> Self {
-        GroupParams {
+        Profile {
             model: MovementModel::Kinematic,
             steering,
             ..Self::default()
@@ -113,6 +119,18 @@ impl GroupParams {
             crate::error::in_range(name, v, 0.0, crate::error::MAX_RATE, "(0, 1e12]")?;
         }
         non_negative("drag", self.drag)?;
+        if self.model != MovementModel::Kinematic
+            && self
+                .steering
+                .behaviours
+                .iter()
+                .any(|w| matches!(w.behaviour, crate::steering::Behaviour::Vicsek { .. }))
+        {
+            return Err(Error::Invalid {
+                name: "vicsek".into(),
+                reason: "the Vicsek model moves kinematic agents at constant speed: set model = \"kinematic\"".into(),
+            });
+        }
         non_negative("radius", self.radius)?;
         if self.max_neighbours == Some(0) {
             return Err(Error::NotPositive {

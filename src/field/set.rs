@@ -1,0 +1,672 @@
+//! The fields subsystem: goal channels that agents follow, walls they cannot enter, grid
+//! walkers, and their per-step state.
+//!
+//! A world owns any number of fields (`World::add_field`), each a [`GoalChannels`]: one
+//! occupancy grid with one potential and flow field per goal channel. [`FieldSet`] owns them and
+//! exposes two hooks that the world calls, none of them inside the parallel steering pass:
+//!
+//! 1. **prepare** (the `fields` phase, before steering): goals due for re-randomisation get new
+//!    cells, dirty channels (moved goals, changed walls) are rebuilt, and the frame-start
+//!    positions are kept;
+//! 2. during **steering**, `follow_field` samples its channel's flow at the agent's position
+//!    (read only, [`FieldSet::follow`]);
+//! 3. **after_move** (the `fields` phase, after integration and the world's bounds): every agent
+//!    whose move would end inside a wall cell of any field slides along the free axis or stays
+//!    where it was, and loses the velocity component into the wall (on a torus the move is the
+//!    short hop across the seam, and wall lookups wrap); grid walkers take their discrete step;
+//!    agents on a goal of the channel they follow are marked arrived.
+//!
+//! Invariants: after a step no agent that started it on free ground stands inside a wall (moves
+//! are checked in sub-steps of at most half a cell, and a diagonal cell change needs one of the
+//! two orthogonal cells free, so walls meeting at a corner are not crossed); channels are never
+//! dirty while agents steer; arrival flags are reset when the channel an agent follows is
+//! rebuilt; everything is independent of the number of threads; frames without a goal change
+//! allocate nothing.
+
+use glam::Vec2;
+use rayon::prelude::*;
+
+use crate::agents::{AgentId, Agents};
+use crate::bounds::Bounds;
+use crate::error::{Error, Result};
+use crate::field::{GoalChannels, GridWalkers, OccupancyGrid, WalkPolicy};
+
+/// Agents per parallel task of the wall check.
+const WALL_CHUNK: usize = 4096;
+
+/// Grid walkers made of the agents of one group.
+#[derive(Debug)]
+pub(crate) struct WalkerGroup {
+    pub(crate) walkers: GridWalkers,
+    /// The agent each walker moves.
+    pub(crate) ids: Vec<AgentId>,
+    pub(crate) policy: WalkPolicy,
+}
+
+/// One field of the world.
+#[derive(Debug)]
+pub(crate) struct WorldField {
+    pub(crate) channels: GoalChannels,
+    /// Re-randomise every channel's goals every this many frames (0: never) ...
+    pub(crate) shuffle_every: u64,
+    /// ... to this many goals each.
+    pub(crate) shuffle_count: usize,
+    pub(crate) walkers: Vec<WalkerGroup>,
+    /// One bit per cell of the grid (row-major), set on walls: the wall check's compact copy
+    /// of the grid, kept in step with it by `World::set_field_blocked`.
+    pub(crate) wall_bits: Vec<u64>,
+}
+
+/// The wall bits of `grid` (see `WorldField::wall_bits`).
+pub(crate) fn wall_bits(grid: &OccupancyGrid) -> Vec<u64> {
+    let mut bits = vec![0u64; grid.len().div_ceil(64)];
+    for (i, c) in grid.cells().iter().enumerate() {
+        if !c.is_free() {
+            bits[i / 64] |= 1 << (i % 64);
+        }
+    }
+    bits
+}
+
+/// The world's fields and their per-step state (see the module docs).
+#[derive(Debug, Default)]
+pub(crate) struct FieldSet {
+    pub(crate) fields: Vec<WorldField>,
+    /// Per agent id: reached a goal of its channel since the channel was last rebuilt.
+    arrived: Vec<bool>,
+    /// Per group: the `(field, channel)` its first `follow_field` behaviour names.
+    follow: Vec<Option<(usize, usize)>>,
+    /// Channel rebuilds so far.
+    pub(crate) rebuilds: u64,
+    /// Scratch of the reordering sort.
+    sort_keys: Vec<u64>,
+    /// Scratch: the `(field, channel)`s rebuilt this frame.
+    rebuilt: Vec<(usize, usize)>,
+    /// Scratch: per agent, whether it stands on a goal of the channel it follows.
+    on_goal: Vec<bool>,
+}
+
+/// Reorders agents by the row-major cell of `grid` they stand in (agents outside last), so that
+/// field lookups walk memory in order. Stable for agents sharing a cell.
+fn reorder_by_cell(agents: &mut Agents, grid: &OccupancyGrid, keys: &mut Vec<u64>) {
+    let w = grid.width() as u64;
+    keys.clear();
+    keys.par_extend(
+        (agents.pos_x.par_iter(), agents.pos_y.par_iter())
+            .into_par_iter()
+            .enumerate()
+            .map(|(i, (&x, &y))| {
+                let cell = cell_of(grid, Vec2::new(x, y))
+                    .map_or(u64::from(u32::MAX), |(cx, cy)| cy as u64 * w + cx as u64);
+                (cell << 32) | i as u64
+            }),
+    );
+    keys.par_sort_unstable();
+    let perm: Vec<u32> = keys.iter().map(|&k| k as u32).collect();
+    agents.reorder(&perm);
+}
+
+/// A 64-bit mix (splitmix64's finaliser) for derived seeds.
+fn mix(mut z: u64) -> u64 {
+    z = z.wrapping_add(0x9e37_79b9_7f4a_7c15);
+    z = (z ^ (z >> 30)).wrapping_mul(0xbf58_476d_1ce4_e5b9);
+    z = (z ^ (z >> 27)).wrapping_mul(0x94d0_49bb_1331_11eb);
+    z ^ (z >> 31)
+}
+
+/// Whether world point `p` lies in a wall cell of `grid` (points outside the grid do not).
+#[inline]
+pub(crate) fn in_wall(grid: &OccupancyGrid, p: Vec2) -> bool {
+    cell_of(grid, p).is_some_and(|(x, y)| !grid.cells()[y * grid.width() as usize + x].is_free())
+}
+
+#[inline]
+pub(crate) fn cell_of(grid: &OccupancyGrid, p: Vec2) -> Option<(usize, usize)> {
+    let u = (p - grid.origin()) / grid.cell_size();
+    if !(u.x >= 0.0 && u.y >= 0.0) {
+        return None;
+    }
+    let (x, y) = (u.x as usize, u.y as usize);
+    (x < grid.width() as usize && y < grid.height() as usize).then_some((x, y))
+}
+
+/// A grid's walls as the per-agent wall check reads them, with the cell lookup of
+/// [`cell_of`] made cheap: when the cell size is a power of two, multiplying by its reciprocal
+/// is exact, so it gives the same cells as the division.
+#[derive(Clone, Copy)]
+struct Walls<'a> {
+    /// The grid's wall bits.
+    bits: &'a [u64],
+    origin: Vec2,
+    cell_size: f32,
+    /// `1 / cell_size` when that is exact.
+    inverse: Option<f32>,
+    half: f32,
+    width: usize,
+    height: usize,
+    /// The world's bounds: on a torus, lookups wrap positions into the world first.
+    bounds: Bounds,
+}
+
+impl<'a> Walls<'a> {
+    fn of(grid: &'a OccupancyGrid, bits: &'a [u64], bounds: Bounds) -> Self {
+        debug_assert_eq!(bits, &wall_bits(grid)[..]);
+        let cell_size = grid.cell_size();
+        let inverse = 1.0 / cell_size;
+        let exact = cell_size.is_normal()
+            && inverse.is_normal()
+            && cell_size.to_bits() & 0x007f_ffff == 0
+            && inverse * cell_size == 1.0;
+        Walls {
+            bits,
+            origin: grid.origin(),
+            cell_size,
+            inverse: exact.then_some(inverse),
+            half: 0.5 * cell_size,
+            width: grid.width() as usize,
+            height: grid.height() as usize,
+            bounds,
+        }
+    }
+
+    /// The end of the move from `prev` to `p` as the short hop it was: on a torus the nearest
+    /// image of `p`, which may lie outside the world; elsewhere `p` itself.
+    #[inline]
+    fn hop(&self, prev: Vec2, p: Vec2) -> Vec2 {
+        if self.bounds.is_torus() {
+            prev + self.bounds.offset(prev, p)
+        } else {
+            p
+        }
+    }
+
+    /// Whether world point `p` (any image on a torus) lies in a wall cell.
+    #[inline]
+    fn in_wall(&self, p: Vec2) -> bool {
+        self.is_wall(self.cell(p))
+    }
+
+    /// Whether moving from `a` to `b` (at most one cell apart on each axis) is allowed: `b` is
+    /// not in a wall, and a diagonal cell change has one of its two orthogonal cells free.
+    #[inline]
+    fn can_move(&self, a: Vec2, b: Vec2) -> bool {
+        let cb = self.cell(b);
+        if self.is_wall(cb) {
+            return false;
+        }
+        self.corner_free(self.cell(a), cb)
+    }
+
+    /// Whether a step from cell `a` to cell `b` is allowed at corners: a diagonal change needs
+    /// one of the two orthogonal cells free (anything else passes).
+    #[inline]
+    fn corner_free(&self, a: Option<usize>, b: Option<usize>) -> bool {
+        match (a, b) {
+            (Some(a), Some(b))
+                if a % self.width != b % self.width && a / self.width != b / self.width =>
+            {
+                let (ax, ay) = (a % self.width, a / self.width);
+                let (bx, by) = (b % self.width, b / self.width);
+                !self.wall(ay * self.width + bx) || !self.wall(by * self.width + ax)
+            }
+            _ => true,
+        }
+    }
+
+    /// [`cell_of`] as a row-major cell index.
+    #[inline]
+    fn cell(&self, p: Vec2) -> Option<usize> {
+        let p = if self.bounds.is_torus() {
+            self.bounds.wrap(p)
+        } else {
+            p
+        };
+        let d = p - self.origin;
+        let u = match self.inverse {
+            Some(inv) => d * inv,
+            None => d / self.cell_size,
+        };
+        if !(u.x >= 0.0 && u.y >= 0.0) {
+            return None;
+        }
+        let (x, y) = (u.x as usize, u.y as usize);
+        (x < self.width && y < self.height).then_some(y * self.width + x)
+    }
+
+    #[inline]
+    fn is_wall(&self, cell: Option<usize>) -> bool {
+        cell.is_some_and(|c| self.wall(c))
+    }
+
+    /// Whether row-major cell `c` is a wall.
+    #[inline]
+    fn wall(&self, c: usize) -> bool {
+        self.bits[c / 64] >> (c % 64) & 1 != 0
+    }
+
+    /// Whether [`resolve`] leaves a move from `prev` to `p` as it is (velocity included): no
+    /// move; or `p` not in a wall and in `prev`'s cell; or a start inside a wall; or a move of
+    /// one sub-step (at most half a cell per axis) that [`can_move`] allows and that lands
+    /// exactly on `p`. Everything else goes through [`resolve`].
+    #[inline]
+    fn unchanged(&self, prev: Vec2, p: Vec2) -> bool {
+        if p == prev {
+            return true;
+        }
+        let (a, b) = (self.cell(prev), self.cell(p));
+        let wall_b = self.is_wall(b);
+        if !wall_b && a == b {
+            return true;
+        }
+        if self.is_wall(a) {
+            return true;
+        }
+        if wall_b {
+            return false;
+        }
+        let d = p - prev;
+        let n = ((d.x.abs().max(d.y.abs()) / self.half).ceil() as u32).clamp(1, 1 << 16);
+        if n != 1 || prev + d != p {
+            return false;
+        }
+        // One sub-step to `p`, which is not in a wall: allowed unless it changes cell
+        // diagonally past two walls.
+        self.corner_free(a, b)
+    }
+}
+
+/// The non-penetration rule for one agent: the position and velocity after moving from `prev`
+/// towards `p` without entering a wall.
+fn resolve(walls: &Walls, prev: Vec2, p: Vec2, mut v: Vec2) -> (Vec2, Vec2) {
+    if p == prev || !walls.in_wall(p) && walls.cell(prev) == walls.cell(p) {
+        return (p, v);
+    }
+    if walls.in_wall(prev) {
+        // Placed inside a wall from outside the step: let it leave.
+        return (p, v);
+    }
+    let mut d = p - prev;
+    let half = walls.half;
+    let n = ((d.x.abs().max(d.y.abs()) / half).ceil() as u32).clamp(1, 1 << 16);
+    let mut step = d / n as f32;
+    let mut cur = prev;
+    for k in 0..n {
+        let last = k + 1 == n;
+        let to = if last { prev + d } else { cur + step };
+        if walls.can_move(cur, to) {
+            cur = to;
+            continue;
+        }
+        let slide_x = Vec2::new(to.x, cur.y);
+        let slide_y = Vec2::new(cur.x, to.y);
+        if step.x != 0.0 && walls.can_move(cur, slide_x) {
+            cur = slide_x;
+            v.y = 0.0;
+            step.y = 0.0;
+            d.y = cur.y - prev.y;
+        } else if step.y != 0.0 && walls.can_move(cur, slide_y) {
+            cur = slide_y;
+            v.x = 0.0;
+            step.x = 0.0;
+            d.x = cur.x - prev.x;
+        } else {
+            v = Vec2::ZERO;
+            break;
+        }
+    }
+    (cur, v)
+}
+
+/// Sets or clears the arrival flag of agent `id`.
+fn set_arrived(arrived: &mut Vec<bool>, id: AgentId, on: bool) {
+    let k = id.0 as usize;
+    if k >= arrived.len() {
+        if !on {
+            return;
+        }
+        arrived.resize(k + 1, false);
+    }
+    arrived[k] = on;
+}
+
+impl FieldSet {
+    /// Whether the world has any field (the hooks have work to do).
+    pub(crate) fn is_active(&self) -> bool {
+        !self.fields.is_empty()
+    }
+
+    /// Whether agent `id` has arrived (see [`FieldSet::after_move`]).
+    pub(crate) fn arrived_of(&self, id: AgentId) -> bool {
+        self.arrived.get(id.0 as usize).copied().unwrap_or(false)
+    }
+
+    /// Sets, per group, the `(field, channel)` its agents follow (from the compiled plans).
+    pub(crate) fn set_follow(&mut self, follow: impl Iterator<Item = Option<(usize, usize)>>) {
+        self.follow.clear();
+        self.follow.extend(follow);
+    }
+
+    /// The prepare hook, before steering: due goal shuffles, rebuilds of dirty channels
+    /// (resetting the arrival flags of their followers), and reordering agents by field cell when
+    /// due (every `reorder_every` frames, only when no group queries neighbours, `flocking`: the
+    /// neighbour index reorders them otherwise).
+    pub(crate) fn prepare(
+        &mut self,
+        agents: &mut Agents,
+        flocking: bool,
+        seed: u64,
+        frame: u64,
+        reorder_every: u32,
+    ) {
+        if self.fields.is_empty() {
+            return;
+        }
+        if !flocking
+            && !agents.is_empty()
+            && reorder_every > 0
+            && frame.is_multiple_of(u64::from(reorder_every))
+        {
+            reorder_by_cell(agents, self.fields[0].channels.grid(), &mut self.sort_keys);
+        }
+        let agents = &*agents;
+        self.rebuilt.clear();
+        for (fi, f) in self.fields.iter_mut().enumerate() {
+            if f.shuffle_every > 0 && frame > 0 && frame.is_multiple_of(f.shuffle_every) {
+                for c in 0..f.channels.len() {
+                    let s = mix(seed ^ mix(frame ^ mix(((fi as u64) << 32) | c as u64)));
+                    let r = f.channels.randomize_goals(c, f.shuffle_count, s);
+                    debug_assert!(r.is_ok(), "shuffle counts are checked when set: {r:?}");
+                }
+            }
+            let before = self.rebuilt.len();
+            self.rebuilt.extend(
+                (0..f.channels.len())
+                    .filter(|&c| f.channels.is_dirty(c))
+                    .map(|c| (fi, c)),
+            );
+            if self.rebuilt.len() > before {
+                let r = f.channels.rebuild_dirty();
+                debug_assert!(
+                    r.is_ok(),
+                    "goals and decay are checked on the way in: {r:?}"
+                );
+                self.rebuilds += r.unwrap_or(0) as u64;
+            }
+        }
+        if !self.rebuilt.is_empty() {
+            for i in 0..agents.len() {
+                let g = agents.group[i] as usize;
+                if let Some(Some(fc)) = self.follow.get(g)
+                    && self.rebuilt.contains(fc)
+                {
+                    set_arrived(&mut self.arrived, agents.ids[i], false);
+                }
+            }
+        }
+    }
+
+    /// The linear steering of `follow_field` for one agent: a desired velocity (kinematic) or
+    /// the force towards it (dynamic); braking on a goal cell or once arrived.
+    #[allow(clippy::too_many_arguments)]
+    pub(crate) fn follow(
+        &self,
+        field: usize,
+        channel: usize,
+        id: AgentId,
+        position: Vec2,
+        velocity: Vec2,
+        max_speed: f32,
+        kinematic: bool,
+    ) -> Vec2 {
+        let Some(flow) = self
+            .fields
+            .get(field)
+            .and_then(|f| f.channels.flow(channel))
+        else {
+            return Vec2::ZERO;
+        };
+        let dir = if self.arrived_of(id) {
+            Vec2::ZERO
+        } else {
+            flow.sample(position)
+        };
+        if kinematic {
+            dir * max_speed
+        } else if dir == Vec2::ZERO {
+            // Brake to rest over a tenth of a second (as arrive does inside its target radius).
+            -velocity * 10.0
+        } else {
+            dir * max_speed - velocity
+        }
+    }
+
+    /// The constrain hook, after integration and the world's bounds: wall non-penetration (on a
+    /// torus, a move is checked as the short hop it was, across the seam, then wrapped), the
+    /// walkers' step, arrivals.
+    /// `prev` holds the frame-start positions.
+    pub(crate) fn after_move(
+        &mut self,
+        agents: &mut Agents,
+        (prev_x, prev_y): (&[f32], &[f32]),
+        bounds: Bounds,
+        dt: f32,
+        exec_parallel: bool,
+    ) {
+        if self.fields.is_empty() {
+            return;
+        }
+        let n = agents.len();
+        debug_assert_eq!(prev_x.len(), n);
+        for f in &self.fields {
+            let walls = Walls::of(f.channels.grid(), &f.wall_bits, bounds);
+            let kernel = |px: &mut [f32],
+                          py: &mut [f32],
+                          vx: &mut [f32],
+                          vy: &mut [f32],
+                          ox: &[f32],
+                          oy: &[f32]| {
+                for k in 0..px.len() {
+                    let prev = Vec2::new(ox[k], oy[k]);
+                    let p = Vec2::new(px[k], py[k]);
+                    // On a torus the wrapped position may lie across the world from the start:
+                    // resolve the move as the short hop it was.
+                    let hop = walls.hop(prev, p);
+                    if walls.unchanged(prev, hop) {
+                        continue;
+                    }
+                    let (q, v) = resolve(&walls, prev, hop, Vec2::new(vx[k], vy[k]));
+                    let q = if q == hop { p } else { bounds.wrap(q) };
+                    (px[k], py[k], vx[k], vy[k]) = (q.x, q.y, v.x, v.y);
+                }
+            };
+            if exec_parallel {
+                (
+                    agents.pos_x.par_chunks_mut(WALL_CHUNK),
+                    agents.pos_y.par_chunks_mut(WALL_CHUNK),
+                    agents.vel_x.par_chunks_mut(WALL_CHUNK),
+                    agents.vel_y.par_chunks_mut(WALL_CHUNK),
+                    prev_x.par_chunks(WALL_CHUNK),
+                    prev_y.par_chunks(WALL_CHUNK),
+                )
+                    .into_par_iter()
+                    .for_each(|(px, py, vx, vy, ox, oy)| kernel(px, py, vx, vy, ox, oy));
+            } else {
+                kernel(
+                    &mut agents.pos_x,
+                    &mut agents.pos_y,
+                    &mut agents.vel_x,
+                    &mut agents.vel_y,
+                    prev_x,
+                    prev_y,
+                );
+            }
+        }
+        // Walkers: one discrete step, then their agents stand on their cells' centres.
+        for f in &mut self.fields {
+            for wg in &mut f.walkers {
+                let r = wg.walkers.step_channels(&f.channels, wg.policy);
+                debug_assert!(r.is_ok(), "channels are rebuilt in the prepare hook: {r:?}");
+                let grid = f.channels.grid();
+                for (w, &id) in wg.ids.iter().enumerate() {
+                    let Some(i) = agents.index_of(id) else {
+                        continue;
+                    };
+                    let (x, y) = wg.walkers.position(w);
+                    let c = grid.cell_center(x, y);
+                    let old = Vec2::new(prev_x[i], prev_y[i]);
+                    let v = (c - old) / dt;
+                    (agents.pos_x[i], agents.pos_y[i]) = (c.x, c.y);
+                    (agents.vel_x[i], agents.vel_y[i]) = (v.x, v.y);
+                    if wg.walkers.is_arrived(w) {
+                        set_arrived(&mut self.arrived, id, true);
+                    }
+                }
+            }
+        }
+        // Followers standing on a goal of their channel arrive (found in parallel, then flagged
+        // in index order).
+        if self.follow.iter().all(Option::is_none) {
+            return;
+        }
+        let fields = &self.fields;
+        let follow = &self.follow;
+        let agents = &*agents;
+        let on_goal = |i: usize| {
+            let Some(&Some((field, channel))) = follow.get(agents.group[i] as usize) else {
+                return false;
+            };
+            let Some(channels) = fields.get(field).map(|f| &f.channels) else {
+                return false;
+            };
+            let (Some(flow), Ok(goals)) = (channels.flow(channel), channels.goals(channel)) else {
+                return false;
+            };
+            let p = Vec2::new(agents.pos_x[i], agents.pos_y[i]);
+            // A short goal list is searched instead of the flow's cells (no memory traffic).
+            if goals.len() <= 16 {
+                flow.world_to_cell(p).is_some_and(|c| goals.contains(&c))
+            } else {
+                flow.is_goal_at(p)
+            }
+        };
+        self.on_goal.resize(n, false);
+        if exec_parallel {
+            self.on_goal
+                .par_chunks_mut(WALL_CHUNK)
+                .enumerate()
+                .for_each(|(c, flags)| {
+                    for (k, f) in flags.iter_mut().enumerate() {
+                        *f = on_goal(c * WALL_CHUNK + k);
+                    }
+                });
+        } else {
+            for (i, f) in self.on_goal.iter_mut().enumerate() {
+                *f = on_goal(i);
+            }
+        }
+        for i in 0..n {
+            if self.on_goal[i] {
+                set_arrived(&mut self.arrived, agents.ids[i], true);
+            }
+        }
+    }
+}
+
+impl FieldSet {
+    pub(crate) fn get_mut(&mut self, field: usize) -> Result<&mut WorldField> {
+        let count = self.fields.len();
+        self.fields.get_mut(field).ok_or_else(|| Error::Invalid {
+            name: "field".into(),
+            reason: format!("no field {field} (there are {count})"),
+        })
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    fn grid(text: &str) -> OccupancyGrid {
+        OccupancyGrid::parse_ascii(text, "<map>").unwrap().grid
+    }
+
+    #[test]
+    fn moves_into_walls_slide_or_stop() {
+        let g = grid("..\n#.\n");
+        // Straight down into the wall: stays, vertical velocity removed.
+        let (p, v) = resolve(
+            &Walls::of(&g, &wall_bits(&g), Bounds::Open),
+            Vec2::new(0.5, 0.9),
+            Vec2::new(0.5, 1.2),
+            Vec2::new(0.0, 3.0),
+        );
+        assert_eq!((p, v), (Vec2::new(0.5, 0.9), Vec2::ZERO));
+        // Diagonal into the wall: slides along x.
+        let (p, v) = resolve(
+            &Walls::of(&g, &wall_bits(&g), Bounds::Open),
+            Vec2::new(0.5, 0.9),
+            Vec2::new(0.7, 1.2),
+            Vec2::new(2.0, 3.0),
+        );
+        assert_eq!((p, v), (Vec2::new(0.7, 0.9), Vec2::new(2.0, 0.0)));
+    }
+
+    /// The fast path changes nothing: where it keeps a move, [`resolve`] keeps it too.
+    #[test]
+    fn the_unchanged_shortcut_agrees_with_resolve() {
+        use rand::{RngExt, SeedableRng};
+        for (cell_size, origin) in [
+            (1.0, Vec2::ZERO),
+            (0.5, Vec2::new(-3.0, 2.0)),
+            (0.7, Vec2::ONE),
+        ] {
+            let g = OccupancyGrid::caves(24, 24, 0.5, 3)
+                .unwrap()
+                .with_geometry(cell_size, origin)
+                .unwrap();
+            let bits = wall_bits(&g);
+            let walls = Walls::of(&g, &bits, Bounds::Open);
+            let mut rng = rand_chacha::ChaCha8Rng::seed_from_u64(9);
+            let mut kept = 0;
+            for _ in 0..20_000 {
+                let prev = origin
+                    + Vec2::new(rng.random_range(-1.0..25.0), rng.random_range(-1.0..25.0))
+                        * cell_size;
+                let step = if rng.random_bool(0.8) { 0.6 } else { 3.0 };
+                let p = prev
+                    + Vec2::new(rng.random_range(-step..step), rng.random_range(-step..step))
+                        * cell_size;
+                let v = Vec2::new(1.0, -2.0);
+                if walls.unchanged(prev, p) {
+                    kept += 1;
+                    assert_eq!(
+                        resolve(&Walls::of(&g, &wall_bits(&g), Bounds::Open), prev, p, v),
+                        (p, v),
+                        "{prev} -> {p}"
+                    );
+                }
+            }
+            assert!(kept > 5_000, "{kept}");
+        }
+    }
+
+    #[test]
+    fn corners_are_not_cut_and_long_moves_do_not_tunnel() {
+        let g = grid(".#\n#.\n");
+        let (p, _) = resolve(
+            &Walls::of(&g, &wall_bits(&g), Bounds::Open),
+            Vec2::new(0.9, 0.9),
+            Vec2::new(1.1, 1.1),
+            Vec2::ONE,
+        );
+        assert_eq!(p, Vec2::new(0.9, 0.9));
+        let g = grid(".#.\n");
+        let (p, _) = resolve(
+            &Walls::of(&g, &wall_bits(&g), Bounds::Open),
+            Vec2::new(0.5, 0.5),
+            Vec2::new(2.5, 0.5),
+            Vec2::X,
+        );
+        assert!(p.x < 1.0, "{p}");
+    }
+}

@@ -1,0 +1,908 @@
+//! Cell-batched flocking: the agents of one grid cell evaluated against one gathered
+//! neighbourhood.
+//!
+//! With cells at least as wide as every flocking radius, the candidates of all agents in a cell
+//! are the points of its 3 x 3 block of cells. The batch gathers that block once per cell into
+//! a contiguous, padded buffer, with the torus image already applied (a neighbour cell across a
+//! seam is shifted by the world's side), so the lane kernel needs neither run boundaries nor
+//! minimum-image arithmetic. Every agent of the cell then sums over the buffer in SIMD lanes
+//! (runtime dispatch: AVX2 + FMA where the processor has it, the baseline otherwise), and its
+//! flocking terms and the model adapter run right after, writing the outputs in the grid's order.
+//!
+//! View cones are tested without a square root: for a cosine `c < 0` a neighbour at offset `d`
+//! is seen when `h . d >= 0` or `(h . d)^2 <= c^2 |d|^2`, for `c >= 0` when both `h . d >= 0`
+//! and `(h . d)^2 >= c^2 |d|^2`: the same test as `h . d >= c |d|` up to rounding at the cone's
+//! edge.
+//!
+//! Invariants: an agent's sums depend only on its cell's buffer, whose order is fixed by the
+//! grid (cell by cell, and by index within a cell), so the result is the same for any number of
+//! threads and for the sequential pass; the sums equal the scalar reference traversal to
+//! rounding (`tests/flocking.rs` checks it against brute force).
+
+use std::cell::RefCell;
+
+use glam::Vec2;
+use multiversion::multiversion;
+use rayon::prelude::*;
+
+use super::adapter::Adapter;
+use super::neighbours::{LANES, SortedCopies, without_self};
+use super::plan::{ALI, COH, NeighbourSpec, PlanKind, SEP};
+use super::view::SteerView;
+use crate::bounds::Bounds;
+use crate::spatial::{GridIndex, SpatialIndex};
+use crate::steering::{NeighbourSums, Steering};
+
+/// Agents (in grid order) per parallel task.
+const CELL_CHUNK: usize = 2048;
+/// Lanes of the neighbour kernel: two vectors per operation, for instruction-level parallelism
+/// over the short candidate lists of a cell.
+const KLANES: usize = 8;
+/// A padding coordinate: far from every point, with a finite square.
+const FAR: f32 = 1e18;
+
+/// The batch's outputs in the grid's order, and the map from storage index to that order.
+#[derive(Debug, Default)]
+pub(crate) struct CellOut {
+    lin_x: Vec<f32>,
+    lin_y: Vec<f32>,
+    count: Vec<f32>,
+    /// `rank[i]`: the position of storage index `i` in the grid's order.
+    rank: Vec<u32>,
+    /// Per group: the kernel's query template, when the group is batched.
+    specs: Vec<Option<Query>>,
+}
+
+/// One task's chunks of the pass outputs: linear x and y, angular, wander angle, neighbours.
+pub(crate) type OutChunks<'c> = (
+    &'c mut [f32],
+    &'c mut [f32],
+    &'c mut [f32],
+    &'c mut [f32],
+    &'c mut [f32],
+);
+
+/// The padded neighbourhood of one cell.
+#[derive(Debug, Default)]
+struct CellBuf {
+    /// Values in use (a multiple of `LANES` once gathered); the vectors may be longer.
+    len: usize,
+    x: Vec<f32>,
+    y: Vec<f32>,
+    vx: Vec<f32>,
+    vy: Vec<f32>,
+    g: Vec<f32>,
+}
+
+thread_local! {
+    static BUF: RefCell<CellBuf> = RefCell::new(CellBuf::default());
+}
+
+/// Whether agent `i` is evaluated by the batch (its plan is flocking-only and the kernel serves
+/// its neighbourhood).
+#[inline]
+pub(crate) fn is_batched(view: &SteerView, i: usize) -> bool {
+    is_batched_group(view, view.agents.group[i] as usize)
+}
+
+/// Whether the agents of group `g` are evaluated by the batch.
+#[inline]
+pub(crate) fn is_batched_group(view: &SteerView, g: usize) -> bool {
+    let plan = &view.plans[g];
+    matches!(plan.kind, PlanKind::Flock { .. }) && plan.spec.kernel_ok()
+}
+
+/// One block of the cell buffer: positions, velocities and groups of `KLANES` candidates.
+type Block<'b> = (&'b [f32], &'b [f32], &'b [f32], &'b [f32], &'b [f32]);
+
+impl CellBuf {
+    /// The gathered candidates in blocks of `KLANES`.
+    #[inline(always)]
+    fn blocks(&self) -> impl Iterator<Item = Block<'_>> {
+        let n = self.len;
+        self.x[..n]
+            .chunks_exact(KLANES)
+            .zip(self.y[..n].chunks_exact(KLANES))
+            .zip(self.vx[..n].chunks_exact(KLANES))
+            .zip(self.vy[..n].chunks_exact(KLANES))
+            .zip(self.g[..n].chunks_exact(KLANES))
+            .map(|((((x, y), vx), vy), g)| (x, y, vx, vy, g))
+    }
+}
+
+/// Lane accumulators of the neighbour kernels, gathered once the loop is done (inside the loop
+/// they are separate locals, which stay in registers).
+#[derive(Clone, Copy)]
+struct Acc {
+    sx: [f32; KLANES],
+    sy: [f32; KLANES],
+    ax: [f32; KLANES],
+    ay: [f32; KLANES],
+    an: [f32; KLANES],
+    cx: [f32; KLANES],
+    cy: [f32; KLANES],
+    cn: [f32; KLANES],
+    n: [f32; KLANES],
+}
+
+impl Acc {
+    /// The lanes summed (as trees); `shared`: cohesion counts the alignment neighbours.
+    #[inline(always)]
+    fn sums(&self, shared: bool) -> NeighbourSums {
+        let alignment_count = tree_sum(&self.an);
+        NeighbourSums {
+            separation: Vec2::new(tree_sum(&self.sx), tree_sum(&self.sy)),
+            alignment: Vec2::new(tree_sum(&self.ax), tree_sum(&self.ay)),
+            alignment_count,
+            cohesion: Vec2::new(tree_sum(&self.cx), tree_sum(&self.cy)),
+            cohesion_count: if shared {
+                alignment_count
+            } else {
+                tree_sum(&self.cn)
+            },
+            repulsion: Vec2::ZERO,
+            count: tree_sum(&self.n),
+            heading: Vec2::ZERO,
+        }
+    }
+}
+
+impl CellOut {
+    /// Copies the batched outputs of storage indices `base..base + lx.len()` (every agent
+    /// batched) into the per-agent output chunks.
+    pub(crate) fn take_all(&self, base: usize, view: &SteerView, (lx, ly, an, wa, nb): OutChunks) {
+        let n = lx.len();
+        let rank = &self.rank[base..base + n];
+        for k in 0..n {
+            let r = rank[k] as usize;
+            lx[k] = self.lin_x[r];
+            ly[k] = self.lin_y[r];
+            nb[k] = self.count[r];
+        }
+        an.fill(0.0);
+        wa.copy_from_slice(&view.agents.wander[base..base + n]);
+    }
+
+    /// Copies agent `i`'s batched outputs into slot `k` of the per-agent output chunks.
+    #[inline]
+    pub(crate) fn take(
+        &self,
+        i: usize,
+        view: &SteerView,
+        (lx, ly, an, wa, nb): OutChunks,
+        k: usize,
+    ) {
+        let r = self.rank[i] as usize;
+        lx[k] = self.lin_x[r];
+        ly[k] = self.lin_y[r];
+        an[k] = 0.0;
+        wa[k] = view.agents.wander[i];
+        nb[k] = self.count[r];
+    }
+}
+
+/// The grid and its copies when the batch can run: the grid kernel is ready and, on a torus,
+/// the grid has at least three cells per axis (so a 3 x 3 block never holds a cell twice).
+fn ready<'a>(view: &SteerView<'a>) -> Option<(&'a GridIndex, &'a SortedCopies)> {
+    let (SpatialIndex::Grid(grid), Some(sorted)) = (view.index, view.sorted) else {
+        return None;
+    };
+    if view.bounds.is_torus() && (grid.cells_x() < 3 || grid.cells_y() < 3) {
+        return None;
+    }
+    Some((grid, sorted))
+}
+
+/// Evaluates every batched agent into `out` (in the grid's order). Returns whether the batch
+/// ran; when it did not, every agent goes through the per-agent path.
+pub(crate) fn run(view: &SteerView, out: &mut CellOut, parallel: bool) -> bool {
+    let Some((grid, sorted)) = ready(view) else {
+        return false;
+    };
+    let a = view.agents;
+    let one_group = view.plans.len() == 1;
+    out.specs.clear();
+    out.specs.extend(view.plans.iter().map(|p| {
+        (matches!(p.kind, PlanKind::Flock { .. }) && p.spec.kernel_ok())
+            .then(|| Query::of(&p.spec, one_group))
+    }));
+    if out.specs.iter().all(Option::is_none) {
+        return false;
+    }
+    let n = a.len();
+    for v in [&mut out.lin_x, &mut out.lin_y, &mut out.count] {
+        v.resize(n, 0.0);
+    }
+    out.rank.resize(n, 0);
+    for (k, &i) in grid.order().iter().enumerate() {
+        out.rank[i as usize] = k as u32;
+    }
+    let specs = &out.specs;
+    let work = |base: usize, lx: &mut [f32], ly: &mut [f32], nb: &mut [f32]| {
+        BUF.with_borrow_mut(|buf| {
+            chunk(view, grid, sorted, specs, base, lx, ly, nb, buf);
+        });
+    };
+    if parallel {
+        (
+            out.lin_x.par_chunks_mut(CELL_CHUNK),
+            out.lin_y.par_chunks_mut(CELL_CHUNK),
+            out.count.par_chunks_mut(CELL_CHUNK),
+        )
+            .into_par_iter()
+            .enumerate()
+            .for_each(|(c, (lx, ly, nb))| work(c * CELL_CHUNK, lx, ly, nb));
+    } else {
+        work(0, &mut out.lin_x, &mut out.lin_y, &mut out.count);
+    }
+    true
+}
+
+/// Agents whose sums one kernel call computes (one cell, one group).
+const CELL_BATCH: usize = 32;
+
+/// One agent's numbers for the lane kernel.
+#[derive(Clone, Copy, Debug, Default)]
+struct Agent {
+    x: f32,
+    y: f32,
+    hx: f32,
+    hy: f32,
+    g: f32,
+}
+
+/// The outputs of one parallel task, indexed from its first grid position.
+struct Outputs<'o> {
+    base: usize,
+    lx: &'o mut [f32],
+    ly: &'o mut [f32],
+    nb: &'o mut [f32],
+}
+
+impl Outputs<'_> {
+    /// Runs the flocking terms and the adapter over the filled lanes and writes their results.
+    fn flush(&mut self, view: &SteerView, lanes: &mut Lanes) {
+        if lanes.len == 0 {
+            return;
+        }
+        let plan = &view.plans[lanes.group];
+        let PlanKind::Flock { terms, len } = plan.kind else {
+            unreachable!("only flocking plans are batched");
+        };
+        let (ox, oy) = evaluate_lanes(lanes, &terms[..len as usize], &plan.adapter);
+        for l in 0..lanes.len {
+            let k = lanes.slot[l] - self.base;
+            self.lx[k] = ox[l];
+            self.ly[k] = oy[l];
+            self.nb[k] = lanes.count[l];
+        }
+        lanes.len = 0;
+    }
+}
+
+/// The agents of one cell and group waiting for their kernel call.
+struct Batch {
+    agents: [Agent; CELL_BATCH],
+    /// `(grid position, storage index)` per agent.
+    slots: [(usize, usize); CELL_BATCH],
+    sums: [NeighbourSums; CELL_BATCH],
+    len: usize,
+    group: usize,
+}
+
+impl Batch {
+    /// Computes the batch's sums over `buf` and moves them into the lanes.
+    fn run(
+        &mut self,
+        view: &SteerView,
+        sorted: &SortedCopies,
+        q: &Query,
+        buf: &CellBuf,
+        lanes: &mut Lanes,
+        out: &mut Outputs,
+    ) {
+        let m = self.len;
+        if m == 0 {
+            return;
+        }
+        let agents = &mut self.agents[..m];
+        if !headings(agents) {
+            // Some agent is at rest: it looks along its orientation.
+            for (k, ag) in agents.iter_mut().enumerate() {
+                let (p, i) = self.slots[k];
+                let v = Vec2::new(sorted.vx[p], sorted.vy[p]);
+                let h = v
+                    .try_normalize()
+                    .unwrap_or_else(|| Vec2::from_angle(view.agents.orientation[i]));
+                (ag.hx, ag.hy) = (h.x, h.y);
+            }
+        }
+        kernel_cell(buf, q, agents, &mut self.sums[..m]);
+        let spec = &view.plans[self.group].spec;
+        for k in 0..m {
+            let (p, i) = self.slots[k];
+            let velocity = Vec2::new(sorted.vx[p], sorted.vy[p]);
+            let s = without_self(self.sums[k], velocity, spec);
+            if lanes.len == LANES || (lanes.len > 0 && lanes.group != self.group) {
+                out.flush(view, lanes);
+            }
+            lanes.push(self.group, p, &s, velocity, view.agents.max_speed[i]);
+        }
+        self.len = 0;
+    }
+}
+
+/// The batch over grid positions `base..base + lx.len()`: per cell, the neighbourhood is
+/// gathered once and the sums of its agents computed over it in one kernel call; the sums of up
+/// to [`LANES`] agents of one group then go through the flocking terms and the model adapter
+/// together.
+#[allow(clippy::too_many_arguments)]
+#[multiversion(targets("x86_64+avx2+fma", "x86_64+avx"))]
+fn chunk(
+    view: &SteerView,
+    grid: &GridIndex,
+    sorted: &SortedCopies,
+    specs: &[Option<Query>],
+    base: usize,
+    lx: &mut [f32],
+    ly: &mut [f32],
+    nb: &mut [f32],
+    buf: &mut CellBuf,
+) {
+    let order = grid.order();
+    let starts = grid.cell_start();
+    let end = base + lx.len();
+    let mut out = Outputs { base, lx, ly, nb };
+    let mut lanes = Lanes::default();
+    let mut batch = Batch {
+        agents: [Agent::default(); CELL_BATCH],
+        slots: [(0, 0); CELL_BATCH],
+        sums: [NeighbourSums::default(); CELL_BATCH],
+        len: 0,
+        group: 0,
+    };
+    // The first cell holding position `base`.
+    let mut cell = starts.partition_point(|&s| s as usize <= base) - 1;
+    let mut k = base;
+    while k < end {
+        while starts[cell + 1] as usize <= k {
+            cell += 1;
+        }
+        let cell_end = (starts[cell + 1] as usize).min(end);
+        let mut gathered = false;
+        #[allow(clippy::needless_range_loop)]
+        for p in k..cell_end {
+            let g = sorted.g[p] as usize;
+            if specs[g].is_none() {
+                continue;
+            }
+            if !gathered {
+                gather(grid, sorted, view.bounds, cell, buf);
+                gathered = true;
+            }
+            if batch.len == CELL_BATCH || (batch.len > 0 && batch.group != g) {
+                let q = specs[batch.group].as_ref().expect("batched");
+                batch.run(view, sorted, q, buf, &mut lanes, &mut out);
+            }
+            let i = order[p] as usize;
+            // The heading is filled in by `Batch::run`, in lanes.
+            batch.agents[batch.len] = Agent {
+                x: sorted.x[p],
+                y: sorted.y[p],
+                hx: sorted.vx[p],
+                hy: sorted.vy[p],
+                g: sorted.g[p],
+            };
+            batch.slots[batch.len] = (p, i);
+            batch.group = g;
+            batch.len += 1;
+        }
+        // The buffer belongs to this cell: its batch runs before the next cell gathers.
+        if batch.len > 0 {
+            let q = specs[batch.group].as_ref().expect("batched");
+            batch.run(view, sorted, q, buf, &mut lanes, &mut out);
+        }
+        k = cell_end;
+    }
+    out.flush(view, &mut lanes);
+}
+
+/// The sums, state and output slots of up to [`LANES`] agents of one group.
+#[derive(Debug, Default)]
+struct Lanes {
+    len: usize,
+    group: usize,
+    slot: [usize; LANES],
+    sep: [[f32; LANES]; 2],
+    ali: [[f32; LANES]; 2],
+    ali_n: [f32; LANES],
+    coh: [[f32; LANES]; 2],
+    coh_n: [f32; LANES],
+    vel: [[f32; LANES]; 2],
+    max_speed: [f32; LANES],
+    count: [f32; LANES],
+}
+
+impl Lanes {
+    /// Adds an agent (its grid position `slot`) of `group`.
+    fn push(&mut self, group: usize, slot: usize, s: &NeighbourSums, v: Vec2, max_speed: f32) {
+        let l = self.len;
+        self.group = group;
+        self.slot[l] = slot;
+        (self.sep[0][l], self.sep[1][l]) = (s.separation.x, s.separation.y);
+        (self.ali[0][l], self.ali[1][l]) = (s.alignment.x, s.alignment.y);
+        self.ali_n[l] = s.alignment_count;
+        (self.coh[0][l], self.coh[1][l]) = (s.cohesion.x, s.cohesion.y);
+        self.coh_n[l] = s.cohesion_count;
+        (self.vel[0][l], self.vel[1][l]) = (v.x, v.y);
+        self.max_speed[l] = max_speed;
+        self.count[l] = s.count;
+        self.len += 1;
+    }
+}
+
+/// The flocking terms and the model adapter for every lane: the same operations in the same
+/// order as [`flock_total`] and [`Adapter::finish`] per agent (exact square roots and
+/// divisions), so each lane's result equals the scalar evaluation bit for bit. Lanes whose
+/// request overflowed take the scalar adapter's guard.
+#[multiversion(targets("x86_64+avx2+fma", "x86_64+avx"))]
+fn evaluate_lanes(
+    l: &Lanes,
+    terms: &[(u8, f32)],
+    adapter: &Adapter,
+) -> ([f32; LANES], [f32; LANES]) {
+    let (tx, ty) = if adapter.kinematic {
+        total_lanes::<true>(l, terms)
+    } else {
+        total_lanes::<false>(l, terms)
+    };
+    let (mut ox, mut oy) = (tx, ty);
+    if !adapter.kinematic {
+        let (mass, max) = (adapter.mass, adapter.max_acceleration);
+        for k in 0..LANES {
+            // `truncate(total / mass, max)`.
+            let (vx, vy) = (tx[k] / mass, ty[k] / mass);
+            let len_sq = vx * vx + vy * vy;
+            let over = len_sq > max * max;
+            let s = max / len_sq.sqrt();
+            ox[k] = if over { vx * s } else { vx };
+            oy[k] = if over { vy * s } else { vy };
+        }
+    }
+    let mut finite = true;
+    for k in 0..LANES {
+        finite &= (ox[k] * ox[k] + oy[k] * oy[k]).is_finite();
+    }
+    if !finite {
+        for k in 0..l.len {
+            let s = adapter.finish(Steering::linear(Vec2::new(tx[k], ty[k])));
+            (ox[k], oy[k]) = (s.linear.x, s.linear.y);
+        }
+    }
+    (ox, oy)
+}
+
+/// The weighted sum of the flocking terms per lane, in the profile's order.
+#[inline(always)]
+fn total_lanes<const KINEMATIC: bool>(
+    l: &Lanes,
+    terms: &[(u8, f32)],
+) -> ([f32; LANES], [f32; LANES]) {
+    let (mut tx, mut ty) = ([0.0_f32; LANES], [0.0_f32; LANES]);
+    for &(slot, w) in terms {
+        // Kinematic terms steer along the raw sums; dynamic alignment and cohesion along the
+        // means, and nothing without neighbours.
+        let (f, g) = match (slot as usize, KINEMATIC) {
+            (SEP, _) | (_, true) => {
+                let (x, y) = match slot as usize {
+                    SEP => (&l.sep[0], &l.sep[1]),
+                    ALI => (&l.ali[0], &l.ali[1]),
+                    _ => (&l.coh[0], &l.coh[1]),
+                };
+                term_lanes::<KINEMATIC, false>(x, y, &[1.0; LANES], l)
+            }
+            (ALI, false) => term_lanes::<false, true>(&l.ali[0], &l.ali[1], &l.ali_n, l),
+            _ => term_lanes::<false, true>(&l.coh[0], &l.coh[1], &l.coh_n, l),
+        };
+        for k in 0..LANES {
+            tx[k] += f[k] * w;
+            ty[k] += g[k] * w;
+        }
+    }
+    (tx, ty)
+}
+
+/// One flocking term per lane from its sums `(x, y)` (divided by `n` when `MEAN`): the desired
+/// velocity of full speed along them (kinematic), or the force towards it (dynamic), exactly as
+/// [`crate::steering::desired`], `separation`, `alignment` and `cohesion` compute them.
+#[inline(always)]
+fn term_lanes<const KINEMATIC: bool, const MEAN: bool>(
+    x: &[f32; LANES],
+    y: &[f32; LANES],
+    n: &[f32; LANES],
+    l: &Lanes,
+) -> ([f32; LANES], [f32; LANES]) {
+    let (mut fx, mut fy) = ([0.0_f32; LANES], [0.0_f32; LANES]);
+    for k in 0..LANES {
+        let (dx, dy) = if MEAN {
+            (x[k] / n[k], y[k] / n[k])
+        } else {
+            (x[k], y[k])
+        };
+        // `normalize_or_zero(d) * max_speed`, as glam computes it.
+        let rcp = 1.0 / (dx * dx + dy * dy).sqrt();
+        let unit = rcp.is_finite() & (rcp > 0.0);
+        let ms = l.max_speed[k];
+        let ux = if unit { dx * rcp } else { 0.0 };
+        let uy = if unit { dy * rcp } else { 0.0 };
+        let (desired_x, desired_y) = (ux * ms, uy * ms);
+        let (ax, ay) = if KINEMATIC {
+            (desired_x, desired_y)
+        } else {
+            let zero = (dx == 0.0) & (dy == 0.0);
+            (
+                if zero { 0.0 } else { desired_x - l.vel[0][k] },
+                if zero { 0.0 } else { desired_y - l.vel[1][k] },
+            )
+        };
+        let present = !MEAN || n[k] != 0.0;
+        fx[k] = if present { ax } else { 0.0 };
+        fy[k] = if present { ay } else { 0.0 };
+    }
+    (fx, fy)
+}
+
+/// Gathers the 3 x 3 block of cells around `cell` into `buf`, shifted across torus seams, and
+/// pads it to whole blocks of lanes with far-away points.
+#[inline(always)]
+fn gather(grid: &GridIndex, s: &SortedCopies, bounds: Bounds, cell: usize, buf: &mut CellBuf) {
+    buf.len = 0;
+    let (nx, ny) = (grid.cells_x() as i64, grid.cells_y() as i64);
+    let (cx, cy) = (cell as i64 % nx, cell as i64 / nx);
+    let side = match bounds {
+        Bounds::Torus { size } => Some(size),
+        _ => None,
+    };
+    let starts = grid.cell_start();
+    for dy in -1..=1 {
+        let Some((row, shift_y)) = axis(cy + dy, ny, side.map(|s| s.y)) else {
+            continue;
+        };
+        // The row's columns cx - 1 ..= cx + 1 as contiguous runs of cells: one run, or on a
+        // torus at a seam the far column (shifted) apart from the others.
+        let mut runs = [(0i64, 0i64, 0.0f32); 2];
+        let nr = match side.map(|s| s.x) {
+            Some(w) if cx == 0 => {
+                runs[0] = (nx - 1, nx - 1, -w);
+                runs[1] = (0, 1, 0.0);
+                2
+            }
+            Some(w) if cx == nx - 1 => {
+                runs[0] = (cx - 1, cx, 0.0);
+                runs[1] = (0, 0, w);
+                2
+            }
+            _ => {
+                runs[0] = ((cx - 1).max(0), (cx + 1).min(nx - 1), 0.0);
+                1
+            }
+        };
+        let runs = runs.map(|(c0, c1, shift)| {
+            (
+                starts[(row * nx + c0) as usize] as usize,
+                starts[(row * nx + c1) as usize + 1] as usize,
+                shift,
+            )
+        });
+        for &(a, b, shift_x) in &runs[..nr] {
+            let len = buf.len;
+            let need = len + (b - a) + KLANES;
+            if buf.x.len() < need {
+                for v in [&mut buf.x, &mut buf.y, &mut buf.vx, &mut buf.vy, &mut buf.g] {
+                    v.resize(need, 0.0);
+                }
+            }
+            append::<true>(&mut buf.x, len, &s.x, a, b, shift_x);
+            append::<true>(&mut buf.y, len, &s.y, a, b, shift_y);
+            append::<false>(&mut buf.vx, len, &s.vx, a, b, 0.0);
+            append::<false>(&mut buf.vy, len, &s.vy, a, b, 0.0);
+            append::<false>(&mut buf.g, len, &s.g, a, b, 0.0);
+            buf.len += b - a;
+        }
+    }
+    // Pad to whole blocks with far-away points that no mask admits.
+    let (len, padded) = (buf.len, buf.len.div_ceil(KLANES) * KLANES);
+    buf.x[len..padded].fill(FAR);
+    buf.y[len..padded].fill(FAR);
+    buf.vx[len..padded].fill(0.0);
+    buf.vy[len..padded].fill(0.0);
+    buf.g[len..padded].fill(-1.0);
+    buf.len = padded;
+}
+
+/// Writes `src[a..b]` (plus `shift` when `SHIFT`) at `dst[len..]` in whole blocks of lanes: up to
+/// `LANES - 1` values past `b` are read (the sorted copies are padded for it) and written past
+/// the run (the next run or the padding overwrites them).
+#[inline(always)]
+fn append<const SHIFT: bool>(
+    dst: &mut [f32],
+    len: usize,
+    src: &[f32],
+    a: usize,
+    b: usize,
+    shift: f32,
+) {
+    let mut j = 0;
+    while j < b - a {
+        let from: &[f32; LANES] = src[a + j..a + j + LANES].try_into().expect("padded copies");
+        let to: &mut [f32; LANES] = (&mut dst[len + j..len + j + LANES])
+            .try_into()
+            .expect("sized buffer");
+        *to = if SHIFT && shift != 0.0 {
+            from.map(|v| v + shift)
+        } else {
+            *from
+        };
+        j += LANES;
+    }
+}
+
+/// Cell coordinate `c` of an axis of `n` cells: its index and the shift that brings its points
+/// next to the centre cell (`None` outside a world that does not wrap).
+#[inline]
+fn axis(c: i64, n: i64, side: Option<f32>) -> Option<(i64, f32)> {
+    match side {
+        Some(side) if c < 0 => Some((c + n, -side)),
+        Some(side) if c >= n => Some((c - n, side)),
+        _ if (0..n).contains(&c) => Some((c, 0.0)),
+        _ => None,
+    }
+}
+
+/// The lane kernel's view of the query: plain numbers.
+#[derive(Clone, Copy, Debug)]
+struct Query {
+    x: f32,
+    y: f32,
+    hx: f32,
+    hy: f32,
+    g: f32,
+    q_sq: f32,
+    /// Squared radius per slot (-1 when the slot is off).
+    r_sq: [f32; 3],
+    /// Squared view cosine per slot.
+    c2: [f32; 3],
+    /// Per slot: 0 all round, 1 a cone wider than a half plane (cos < 0), 2 narrower.
+    cone: [u8; 3],
+    /// Per slot: any group counts.
+    any_group: [bool; 3],
+    /// The kernel body that serves this shape.
+    mode: u8,
+}
+
+impl Query {
+    /// The query template of a neighbour spec (the agent's own numbers are filled in later).
+    fn of(spec: &NeighbourSpec, one_group: bool) -> Query {
+        let cone = spec.cos.map(|c| {
+            if c <= -1.0 {
+                0
+            } else if c < 0.0 {
+                1
+            } else {
+                2
+            }
+        });
+        let r_sq = [0, 1, 2].map(|b| if spec.on[b] { spec.r_sq[b] } else { -1.0 });
+        let c2 = spec.cos.map(|c| c * c);
+        let any_group = spec.same.map(|s| !s || one_group);
+        let groups = !any_group.iter().all(|&a| a);
+        // The common shape (a flock): separation all round, alignment and cohesion sharing one
+        // neighbourhood. Everything else takes the general body.
+        let shared = cone[SEP] == 0
+            && r_sq[ALI] == r_sq[COH]
+            && cone[ALI] == cone[COH]
+            && c2[ALI] == c2[COH]
+            && any_group[ALI] == any_group[COH];
+        let q_sq = spec.query_r * spec.query_r;
+        let mode = if shared {
+            cone[ALI] | (u8::from(groups) << 2) | (u8::from(q_sq == r_sq[ALI]) << 4)
+        } else {
+            8 | u8::from(groups)
+        };
+        Query {
+            x: 0.0,
+            y: 0.0,
+            hx: 0.0,
+            hy: 0.0,
+            g: 0.0,
+            q_sq,
+            r_sq,
+            c2,
+            cone,
+            any_group,
+            mode,
+        }
+    }
+}
+
+/// Turns each agent's velocity (in `hx, hy`) into its unit heading as glam's `try_normalize`
+/// computes it; returns false when some velocity has no direction (the caller then falls back).
+#[multiversion(targets("x86_64+avx2+fma", "x86_64+avx"))]
+fn headings(agents: &mut [Agent]) -> bool {
+    let mut ok = true;
+    for a in agents.iter_mut() {
+        let rcp = 1.0 / (a.hx * a.hx + a.hy * a.hy).sqrt();
+        ok &= rcp.is_finite() & (rcp > 0.0);
+        a.hx *= rcp;
+        a.hy *= rcp;
+    }
+    ok
+}
+
+/// The sums of every agent of `agents` over one cell buffer.
+#[multiversion(targets("x86_64+avx2+fma", "x86_64+avx"))]
+fn kernel_cell(buf: &CellBuf, q: &Query, agents: &[Agent], out: &mut [NeighbourSums]) {
+    for (a, o) in agents.iter().zip(out.iter_mut()) {
+        let q = Query {
+            x: a.x,
+            y: a.y,
+            hx: a.hx,
+            hy: a.hy,
+            g: a.g,
+            ..*q
+        };
+        *o = match q.mode {
+            0 => shared::<0, false, false>(buf, &q),
+            1 => shared::<1, false, false>(buf, &q),
+            2 => shared::<2, false, false>(buf, &q),
+            4 => shared::<0, true, false>(buf, &q),
+            5 => shared::<1, true, false>(buf, &q),
+            6 => shared::<2, true, false>(buf, &q),
+            16 => shared::<0, false, true>(buf, &q),
+            17 => shared::<1, false, true>(buf, &q),
+            18 => shared::<2, false, true>(buf, &q),
+            20 => shared::<0, true, true>(buf, &q),
+            21 => shared::<1, true, true>(buf, &q),
+            22 => shared::<2, true, true>(buf, &q),
+            8 => general::<false>(buf, &q),
+            _ => general::<true>(buf, &q),
+        };
+    }
+}
+
+/// 1.0 when `b`, else 0.0: masks as floats, "and" as a product.
+#[inline(always)]
+fn one_if(b: bool) -> f32 {
+    if b { 1.0 } else { 0.0 }
+}
+
+/// Whether the view cone of kind `CONE` (0 all round, 1 wider than a half plane, 2 narrower)
+/// admits an offset with `dot = h . d`, squared length `d2`, squared cosine `c2`.
+#[inline(always)]
+fn in_cone<const CONE: u8>(c2: f32, dot: f32, d2: f32) -> bool {
+    match CONE {
+        0 => true,
+        1 => (dot >= 0.0) | (dot * dot <= c2 * d2),
+        _ => (dot >= 0.0) & (dot * dot >= c2 * d2),
+    }
+}
+
+/// The sum of the lanes of `a`, as a tree (halves, then quarters, then the pair).
+#[inline(always)]
+fn tree_sum(a: &[f32; KLANES]) -> f32 {
+    let h: [f32; 4] = std::array::from_fn(|i| a[i] + a[i + 4]);
+    let q: [f32; 2] = std::array::from_fn(|i| h[i] + h[i + 2]);
+    q[0] + q[1]
+}
+
+/// The flock's shape: separation all round; alignment and cohesion share radius, cone and
+/// group rule, so they share one mask and one count (and, when `Q_AC`, the query radius is
+/// theirs, so the neighbour count shares their radius test). Masks are selects (`if m { x }
+/// else { 0.0 }`), one vector instruction each.
+#[inline(always)]
+fn shared<const CONE: u8, const GROUPS: bool, const Q_AC: bool>(
+    buf: &CellBuf,
+    q: &Query,
+) -> NeighbourSums {
+    let z = [0.0_f32; KLANES];
+    let (mut sx, mut sy, mut ax, mut ay, mut an, mut cx, mut cy, mut n) = (z, z, z, z, z, z, z, z);
+    let (r_sep, r_ac, c2) = (q.r_sq[SEP], q.r_sq[ALI], q.c2[ALI]);
+    let (sep_any, ac_any) = (q.any_group[SEP], q.any_group[ALI]);
+    for (xs, ys, vxs, vys, gs) in buf.blocks() {
+        for l in 0..KLANES {
+            let dx = xs[l] - q.x;
+            let dy = ys[l] - q.y;
+            let d2 = dx * dx + dy * dy;
+            let (g_sep, g_ac) = if GROUPS {
+                let same = one_if(gs[l] == q.g);
+                (
+                    if sep_any { 1.0 } else { same },
+                    if ac_any { 1.0 } else { same },
+                )
+            } else {
+                (1.0, 1.0)
+            };
+            let ms = one_if(d2 <= r_sep) * one_if(d2 > 0.0) * g_sep;
+            let inv = 1.0 / d2.max(f32::MIN_POSITIVE);
+            sx[l] -= ms * (dx * inv);
+            sy[l] -= ms * (dy * inv);
+            let dot = q.hx * dx + q.hy * dy;
+            let in_r = one_if(d2 <= r_ac);
+            let view = match CONE {
+                0 => 1.0,
+                1 => one_if(dot >= 0.0).max(one_if(dot * dot <= c2 * d2)),
+                _ => one_if(dot >= 0.0) * one_if(dot * dot >= c2 * d2),
+            };
+            let ma = in_r * view * g_ac;
+            ax[l] += ma * vxs[l];
+            ay[l] += ma * vys[l];
+            an[l] += ma;
+            cx[l] += ma * dx;
+            cy[l] += ma * dy;
+            n[l] += if Q_AC { in_r } else { one_if(d2 <= q.q_sq) };
+        }
+    }
+    Acc {
+        sx,
+        sy,
+        ax,
+        ay,
+        an,
+        cx,
+        cy,
+        cn: z,
+        n,
+    }
+    .sums(true)
+}
+
+/// Any shape: a mask per slot, view cones by their kind per slot.
+#[inline(always)]
+fn general<const GROUPS: bool>(buf: &CellBuf, q: &Query) -> NeighbourSums {
+    let z = [0.0_f32; KLANES];
+    let (mut sx, mut sy, mut ax, mut ay, mut an, mut cx, mut cy, mut cn, mut n) =
+        (z, z, z, z, z, z, z, z, z);
+    for (xs, ys, vxs, vys, gs) in buf.blocks() {
+        for l in 0..KLANES {
+            let dx = xs[l] - q.x;
+            let dy = ys[l] - q.y;
+            let d2 = dx * dx + dy * dy;
+            let same = if GROUPS { one_if(gs[l] == q.g) } else { 1.0 };
+            let dot = q.hx * dx + q.hy * dy;
+            let sees = |b: usize| {
+                let group = if !GROUPS || q.any_group[b] { 1.0 } else { same };
+                let view = match q.cone[b] {
+                    0 => 1.0,
+                    1 => one_if(in_cone::<1>(q.c2[b], dot, d2)),
+                    _ => one_if(in_cone::<2>(q.c2[b], dot, d2)),
+                };
+                one_if(d2 <= q.r_sq[b]) * group * view
+            };
+            let ms = sees(SEP) * one_if(d2 > 0.0);
+            let ma = sees(ALI);
+            let mc = sees(COH);
+            let inv = 1.0 / d2.max(f32::MIN_POSITIVE);
+            sx[l] -= ms * (dx * inv);
+            sy[l] -= ms * (dy * inv);
+            ax[l] += ma * vxs[l];
+            ay[l] += ma * vys[l];
+            an[l] += ma;
+            cx[l] += mc * dx;
+            cy[l] += mc * dy;
+            cn[l] += mc;
+            n[l] += one_if(d2 <= q.q_sq);
+        }
+    }
+    Acc {
+        sx,
+        sy,
+        ax,
+        ay,
+        an,
+        cx,
+        cy,
+        cn,
+        n,
+    }
+    .sums(false)
+}

@@ -1,0 +1,33 @@
+//! The steering layer: the one owner of an agent's steering, between the world and the sensing
+//! modules.
+//!
+//! The world orchestrates a step; the leaf modules ([`crate::steering`], [`crate::spatial`],
+//! [`crate::field`], [`crate::obstacles`], [`crate::gravity`], [`crate::group`]) hold pure
+//! functions and data. This layer joins them, and imports nothing from [`crate::world`]:
+//!
+//! - [`plan`]: a group's [`Plan`], compiled once from its profile when the profile or something
+//!   it references changes: validated references, the neighbour sums it needs, the model adapter
+//!   and the evaluation path;
+//! - [`view`]: the read-only [`SteerView`] of frame-t state (targets, neighbour sums, nearest
+//!   agents, obstacles, gravity, paths and slots, flow samples);
+//! - [`eval`]: one evaluation function per behaviour, the per-agent reference;
+//! - [`adapter`]: the model adapter (force and desired velocity, clamps, the overflow guard);
+//! - [`neighbours`]: the fused neighbour traversal (scalar reference and per-agent grid kernel);
+//! - [`cells`]: flocking evaluated in cell batches by a SIMD kernel;
+//! - [`pass`]: the steering pass that runs each agent by its plan into SoA outputs.
+//!
+//! Invariants: the pass reads frame-t state only and writes only each agent's own outputs, so
+//! the result does not depend on the thread count; plans are current whenever a step runs.
+
+pub(crate) mod adapter;
+pub(crate) mod cells;
+pub(crate) mod eval;
+pub(crate) mod neighbours;
+pub(crate) mod pass;
+pub(crate) mod plan;
+pub(crate) mod view;
+
+pub(crate) use neighbours::SortedCopies;
+pub(crate) use pass::{PassScratch, STEER_CHUNK, SteerOut};
+pub(crate) use plan::{Plan, References};
+pub(crate) use view::{NearestIndex, SteerView, prepare_nearest};

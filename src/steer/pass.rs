@@ -1,0 +1,214 @@
+//! The steering pass: every agent's request for this frame, written into SoA outputs.
+//!
+//! [`run`] evaluates each agent by its group's [`Plan`]: flocking-only plans in cell batches
+//! through the grid kernel when the uniform grid is ready ([`super::cells`]), everything else
+//! per agent ([`steer_agent`]: the flocking and flow-field plans without dispatch, the general
+//! plan by [`evaluate`] over the profile's behaviours and their combination).
+//!
+//! Invariants: the pass reads only frame-t state and writes only the outputs of the agent it
+//! evaluates, so results are independent of the thread count; the sequential pass runs the same
+//! code on one thread and gives the same bits.
+
+use rayon::prelude::*;
+
+use super::adapter::Adapter;
+use super::cells;
+use super::eval::{self, Draws, Me, evaluate};
+use super::plan::PlanKind;
+use super::view::SteerView;
+use crate::rng::{AgentRng, Stream};
+use crate::steering::{Combine, Steering};
+
+/// Agents per parallel steering task.
+pub(crate) const STEER_CHUNK: usize = 1024;
+
+/// The steering pass's per-agent outputs, in storage order.
+#[derive(Debug, Default)]
+pub(crate) struct SteerOut {
+    pub lin_x: Vec<f32>,
+    pub lin_y: Vec<f32>,
+    pub ang: Vec<f32>,
+    pub wander: Vec<f32>,
+    /// Neighbours found per agent this step.
+    pub neighbours: Vec<f32>,
+}
+
+impl SteerOut {
+    /// Sizes every output for `n` agents.
+    pub(crate) fn resize(&mut self, n: usize) {
+        for v in [
+            &mut self.lin_x,
+            &mut self.lin_y,
+            &mut self.ang,
+            &mut self.wander,
+            &mut self.neighbours,
+        ] {
+            v.resize(n, 0.0);
+        }
+    }
+}
+
+/// Per-frame scratch of the pass.
+#[derive(Debug, Default)]
+pub(crate) struct PassScratch {
+    /// The cell-batched outputs, in the grid's order.
+    pub cells: cells::CellOut,
+}
+
+/// Runs the steering pass over all agents (in parallel, or on this thread when `parallel` is
+/// false).
+pub(crate) fn run(view: &SteerView, out: &mut SteerOut, scratch: &mut PassScratch, parallel: bool) {
+    let batched = cells::run(view, &mut scratch.cells, parallel);
+    let all = batched && (0..view.plans.len()).all(|g| cells::is_batched_group(view, g));
+    let kernel = |base: usize,
+                  lx: &mut [f32],
+                  ly: &mut [f32],
+                  an: &mut [f32],
+                  wa: &mut [f32],
+                  nb: &mut [f32]| {
+        if all {
+            scratch.cells.take_all(base, view, (lx, ly, an, wa, nb));
+            return;
+        }
+        for k in 0..lx.len() {
+            let i = base + k;
+            if batched && cells::is_batched(view, i) {
+                scratch.cells.take(i, view, (lx, ly, an, wa, nb), k);
+                continue;
+            }
+            let (st, w, count) = steer_agent(view, i);
+            lx[k] = st.linear.x;
+            ly[k] = st.linear.y;
+            an[k] = st.angular;
+            wa[k] = w;
+            nb[k] = count;
+        }
+    };
+    if parallel {
+        (
+            out.lin_x.par_chunks_mut(STEER_CHUNK),
+            out.lin_y.par_chunks_mut(STEER_CHUNK),
+            out.ang.par_chunks_mut(STEER_CHUNK),
+            out.wander.par_chunks_mut(STEER_CHUNK),
+            out.neighbours.par_chunks_mut(STEER_CHUNK),
+        )
+            .into_par_iter()
+            .enumerate()
+            .for_each(|(c, (lx, ly, an, wa, nb))| kernel(c * STEER_CHUNK, lx, ly, an, wa, nb));
+    } else {
+        kernel(
+            0,
+            &mut out.lin_x,
+            &mut out.lin_y,
+            &mut out.ang,
+            &mut out.wander,
+            &mut out.neighbours,
+        );
+    }
+}
+
+/// The steering of agent `i`, per agent: `(request, new wander angle, neighbours found)`, the
+/// request being a clamped acceleration (dynamic) or a desired velocity (kinematic).
+pub(crate) fn steer_agent(v: &SteerView, i: usize) -> (Steering, f32, f32) {
+    let a = v.agents;
+    let g = a.group[i] as usize;
+    let plan = &v.plans[g];
+    let adapter = plan.adapter;
+    let velocity = a.velocity(i);
+    match plan.kind {
+        PlanKind::FollowField {
+            field,
+            channel,
+            weight,
+        } => {
+            let f = v.fields.follow(
+                field,
+                channel,
+                a.ids[i],
+                a.position(i),
+                velocity,
+                a.max_speed[i],
+                adapter.kinematic,
+            );
+            // The general loop's sum without its dispatch (0 + f w, as there).
+            let total = Steering::linear(glam::Vec2::ZERO + f * weight);
+            (adapter.finish(total), a.wander[i], 0.0)
+        }
+        PlanKind::Flock { terms, len } => {
+            let sums = v.sums(i, velocity, a.orientation[i]);
+            let total = flock_total(
+                &terms[..len as usize],
+                &sums,
+                velocity,
+                a.max_speed[i],
+                &adapter,
+            );
+            (
+                adapter.finish(Steering::linear(total)),
+                a.wander[i],
+                sums.count,
+            )
+        }
+        PlanKind::General => general(v, i, &adapter),
+    }
+}
+
+/// The weighted sum of flocking terms, in the profile's order (as the general loop sums them).
+#[inline(always)]
+pub(crate) fn flock_total(
+    terms: &[(u8, f32)],
+    sums: &crate::steering::NeighbourSums,
+    velocity: glam::Vec2,
+    max_speed: f32,
+    adapter: &Adapter,
+) -> glam::Vec2 {
+    let mut total = glam::Vec2::ZERO;
+    for &(slot, weight) in terms {
+        total +=
+            eval::flock_force(sums, slot as usize, velocity, max_speed, adapter.kinematic) * weight;
+    }
+    total
+}
+
+/// The general plan: every behaviour of the profile evaluated and combined.
+fn general(v: &SteerView, i: usize, adapter: &Adapter) -> (Steering, f32, f32) {
+    let a = v.agents;
+    let profile = &v.profiles[a.group[i] as usize];
+    let velocity = a.velocity(i);
+    let orientation = a.orientation[i];
+    let me = Me {
+        i,
+        position: a.position(i),
+        velocity,
+        orientation,
+        rotation: a.rotation[i],
+        max_speed: a.max_speed[i],
+        profile,
+        adapter: *adapter,
+        sums: v.sums(i, velocity, orientation),
+    };
+    let mut draws = Draws {
+        wander: a.wander[i],
+        rng: AgentRng::new(v.seed, a.ids[i].0, v.frame, Stream::Steer as u32),
+    };
+    let total = match profile.steering.combine {
+        Combine::WeightedSum => {
+            let mut total = Steering::ZERO;
+            for w in &profile.steering.behaviours {
+                total += evaluate(v, &me, &w.behaviour, &mut draws).scaled(w.weight);
+            }
+            total
+        }
+        Combine::Priority => {
+            let mut running = adapter.budget(me.max_speed);
+            for w in &profile.steering.behaviours {
+                let s = evaluate(v, &me, &w.behaviour, &mut draws).scaled(w.weight);
+                if !running.push(s) {
+                    break;
+                }
+            }
+            running.total()
+        }
+    };
+    (adapter.finish(total), draws.wander, me.sums.count)
+}

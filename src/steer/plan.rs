@@ -1,0 +1,229 @@
+//! Group plans: what one profile asks of a step, compiled once.
+//!
+//! A [`Plan`] is compiled from a [`Profile`] when the world's plans are stale: after a group is
+//! added or changed, or after a field, path or formation it may refer to was added. Compiling
+//! validates every reference the profile makes (typed errors: [`Error::UnknownField`],
+//! [`Error::UnknownGroup`], [`Error::UnknownPath`]), gathers the neighbour sums the profile
+//! needs into one [`NeighbourSpec`], builds the model [`Adapter`] and chooses the evaluation
+//! path ([`PlanKind`]). The steering pass then never looks at a profile's behaviour list to decide
+//! what to do: fast paths are plans, not branches inside the per-agent function.
+//!
+//! Invariant: every plan of a stepping world was compiled from the current profiles and
+//! references, so the per-agent code may index fields, paths and groups without checks failing.
+
+use super::adapter::Adapter;
+use crate::error::{Error, Result};
+use crate::profile::Profile;
+use crate::steering::{Behaviour, Combine, Target};
+
+/// Behaviour slots of the fused neighbour pass: separation, alignment, cohesion.
+pub(crate) const SEP: usize = 0;
+pub(crate) const ALI: usize = 1;
+pub(crate) const COH: usize = 2;
+
+/// Longest flocking-only profile served by [`PlanKind::Flock`].
+pub(crate) const FLOCK_MAX: usize = 4;
+
+/// What one group asks of the fused neighbour traversal.
+#[derive(Clone, Copy, Debug, Default, PartialEq)]
+pub(crate) struct NeighbourSpec {
+    /// Whether the group needs neighbours at all.
+    pub active: bool,
+    /// The largest radius of the group's neighbour behaviours.
+    pub query_r: f32,
+    /// Which of separation, alignment, cohesion the group uses.
+    pub on: [bool; 3],
+    /// Squared radii.
+    pub r_sq: [f32; 3],
+    /// View cosines (-1: all round).
+    pub cos: [f32; 3],
+    /// Own group only.
+    pub same: [bool; 3],
+    /// Repulsion `(strength, exponent, radius^2)`.
+    pub repel: Option<(f32, f32, f32)>,
+    /// The Vicsek neighbourhood, squared radius (every group, the agent itself included).
+    pub vicsek_r_sq: Option<f32>,
+    /// Neighbour cap.
+    pub cap: Option<u32>,
+}
+
+impl NeighbourSpec {
+    /// Whether the SIMD grid kernels can serve this group (they do not do repulsion, Vicsek
+    /// sums or caps).
+    pub(crate) fn kernel_ok(&self) -> bool {
+        self.repel.is_none() && self.cap.is_none() && self.vicsek_r_sq.is_none()
+    }
+}
+
+/// How the steering pass evaluates the agents of one group.
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub(crate) enum PlanKind {
+    /// Nothing but separation, alignment and cohesion in a weighted sum: the entries in list
+    /// order as `(slot, weight)`. Evaluated in cell batches by the grid kernel when it is ready.
+    Flock {
+        /// `(slot, weight)` per behaviour, in the profile's order.
+        terms: [(u8, f32); FLOCK_MAX],
+        /// Entries in use.
+        len: u8,
+    },
+    /// One `follow_field` in a weighted sum.
+    FollowField {
+        /// The field.
+        field: usize,
+        /// Its channel.
+        channel: usize,
+        /// The behaviour's weight.
+        weight: f32,
+    },
+    /// The general loop over the profile's behaviours and its combination.
+    General,
+}
+
+/// What a profile may refer to, as the world has it when plans are compiled.
+#[derive(Clone, Debug, Default)]
+pub(crate) struct References {
+    /// Channels per field.
+    pub channels: Vec<usize>,
+    /// Number of paths.
+    pub paths: usize,
+    /// Number of groups.
+    pub groups: usize,
+}
+
+/// One group's compiled plan.
+#[derive(Clone, Debug, PartialEq)]
+pub(crate) struct Plan {
+    pub adapter: Adapter,
+    pub spec: NeighbourSpec,
+    pub kind: PlanKind,
+    /// The `(field, channel)` of the profile's first `follow_field` behaviour.
+    pub follow: Option<(usize, usize)>,
+    /// The largest `within` radius of a nearest-agent target per group it looks for.
+    pub nearest: Vec<(usize, f32)>,
+}
+
+impl Plan {
+    /// Compiles the plan of group `group`'s profile.
+    ///
+    /// # Errors
+    /// [`Error::UnknownField`] for a `follow_field` naming a missing field or channel,
+    /// [`Error::UnknownGroup`] for a nearest-agent target of a missing group,
+    /// [`Error::UnknownPath`] for a `follow_path` naming a missing path.
+    pub(crate) fn compile(profile: &Profile, group: usize, refs: &References) -> Result<Plan> {
+        let mut nearest: Vec<(usize, f32)> = Vec::new();
+        let mut follow = None;
+        for w in &profile.steering.behaviours {
+            match w.behaviour {
+                Behaviour::FollowField { field, channel } => {
+                    if refs.channels.get(field).is_none_or(|&n| channel >= n) {
+                        return Err(Error::UnknownField {
+                            group,
+                            field,
+                            channel,
+                            fields: refs.channels.len(),
+                        });
+                    }
+                    follow.get_or_insert((field, channel));
+                }
+                Behaviour::FollowPath { path, .. } if path.0 as usize >= refs.paths => {
+                    return Err(Error::UnknownPath {
+                        path: path.0,
+                        count: refs.paths,
+                    });
+                }
+                _ => {}
+            }
+            if let Some(Target::Nearest { group: g, within }) = w.behaviour.target() {
+                if g >= refs.groups {
+                    return Err(Error::UnknownGroup {
+                        group: g,
+                        count: refs.groups,
+                    });
+                }
+                match nearest.iter_mut().find(|(k, _)| *k == g) {
+                    Some((_, r)) => *r = r.max(within),
+                    None => nearest.push((g, within)),
+                }
+            }
+        }
+        let (spec, flock) = neighbour_spec(profile);
+        let kind = if let Some((terms, len)) = flock {
+            PlanKind::Flock { terms, len }
+        } else if let [w] = &profile.steering.behaviours[..]
+            && let Behaviour::FollowField { field, channel } = w.behaviour
+            && profile.steering.combine == Combine::WeightedSum
+        {
+            PlanKind::FollowField {
+                field,
+                channel,
+                weight: w.weight,
+            }
+        } else {
+            PlanKind::General
+        };
+        Ok(Plan {
+            adapter: Adapter::of(profile),
+            spec,
+            kind,
+            follow,
+            nearest,
+        })
+    }
+}
+
+/// The neighbour spec of a profile (a behaviour listed twice: the last one counts), and its
+/// flocking-only terms when the profile is nothing but separation, alignment and cohesion in a
+/// weighted sum.
+#[allow(clippy::type_complexity)]
+fn neighbour_spec(g: &Profile) -> (NeighbourSpec, Option<([(u8, f32); FLOCK_MAX], u8)>) {
+    let mut s = NeighbourSpec {
+        cos: [-1.0; 3],
+        cap: g.max_neighbours,
+        ..NeighbourSpec::default()
+    };
+    let mut terms = [(0u8, 0.0f32); FLOCK_MAX];
+    let mut len = 0usize;
+    let mut pure = g.steering.combine == Combine::WeightedSum
+        && !g.steering.behaviours.is_empty()
+        && g.steering.behaviours.len() <= FLOCK_MAX;
+    for w in &g.steering.behaviours {
+        let (slot, hood) = match &w.behaviour {
+            Behaviour::Separation { hood } => (SEP, hood),
+            Behaviour::Alignment { hood } => (ALI, hood),
+            Behaviour::Cohesion { hood } => (COH, hood),
+            Behaviour::Repulsion {
+                strength,
+                exponent,
+                radius,
+            } => {
+                s.repel = Some((*strength, *exponent, radius * radius));
+                s.active = true;
+                s.query_r = s.query_r.max(*radius);
+                pure = false;
+                continue;
+            }
+            Behaviour::Vicsek { radius, .. } => {
+                s.vicsek_r_sq = Some(radius * radius);
+                s.active = true;
+                s.query_r = s.query_r.max(*radius);
+                pure = false;
+                continue;
+            }
+            _ => {
+                pure = false;
+                continue;
+            }
+        };
+        if pure {
+            terms[len] = (slot as u8, w.weight);
+            len += 1;
+        }
+        s.active = true;
+        s.on[slot] = true;
+        s.r_sq[slot] = hood.radius * hood.radius;
+        s.cos[slot] = hood.view_cos;
+        s.same[slot] = hood.same_group;
+        s.query_r = s.query_r.max(hood.radius);
+    }
+    (s, pure.then_some((terms, len as u8)))
+}
