@@ -18,7 +18,10 @@ use crate::world::{build, changes, pool};
 /// are those of `World.from_scenario`.
 #[pyfunction]
 #[pyo3(signature = (scenario, *, agents=None, steps=100, warmup=10, threads=None, seed=None, dt=None, index=None, **overrides))]
-#[allow(clippy::too_many_arguments)]
+#[expect(
+    clippy::too_many_arguments,
+    reason = "the Python signature: the keywords of `throng bench`"
+)]
 pub(crate) fn bench<'py>(
     py: Python<'py>,
     scenario: &str,

@@ -94,14 +94,23 @@ pub(crate) fn load(source: &Source, changes: &Changes) -> Result<Scenario> {
             name: "overrides".into(),
             reason: e.to_string(),
         })?;
-        // Lines and columns would point into the rewritten text, not the file.
+        // Lines and columns would point into the rewritten text: the error names the
+        // overrides instead.
         Scenario::from_toml(&text, &source_name).map_err(|e| match e {
             Error::Scenario {
                 source_name,
                 message,
                 ..
             } => Error::Scenario {
-                source_name,
+                source_name: format!(
+                    "{source_name} with overrides {}",
+                    changes
+                        .overrides
+                        .iter()
+                        .map(|(k, _)| k.as_str())
+                        .collect::<Vec<_>>()
+                        .join(", ")
+                ),
                 location: None,
                 message,
             },

@@ -134,8 +134,9 @@ fn agent_id(id: i64) -> PyResult<AgentId> {
 }
 
 /// Applies `set(id, value)` to each pair; on an error, restores the values `get` read before
-/// and raises with the row.
+/// and raises with the argument's name and row.
 fn set_each<V: Copy>(
+    name: &str,
     world: &mut World,
     ids: &[AgentId],
     values: &[V],
@@ -151,11 +152,17 @@ fn set_each<V: Copy>(
                     set(world, id, *b).expect("a value read from the world is valid");
                 }
             }
-            return Err(raise_in(Some(&format!("row {k} (agent {})", id.0)), &e));
+            return Err(raise_in(Some(&format!("{name}[{k}] (agent {})", id.0)), &e));
         }
         old.push(before);
     }
     Ok(())
+}
+
+/// Agent `i`'s velocity and speed in float64.
+fn speed(a: &throng::Agents, i: usize) -> (f64, f64, f64) {
+    let (vx, vy) = (f64::from(a.vel_x()[i]), f64::from(a.vel_y()[i]));
+    (vx, vy, vx.hypot(vy))
 }
 
 impl PyWorld {
@@ -227,6 +234,34 @@ impl PyWorld {
 
     fn rows(&self, order: &str) -> PyResult<Option<Vec<usize>>> {
         Ok(Order::parse(order)?.rows(self.world.agents()))
+    }
+
+    /// The `(N, 2)` array of two agent columns (see [`arrays::pairs`]).
+    fn pairs_of<'py>(
+        &self,
+        py: Python<'py>,
+        out: Option<&Bound<'py, PyAny>>,
+        order: &str,
+        columns: fn(&throng::Agents) -> (&[f32], &[f32]),
+    ) -> PyResult<Bound<'py, PyAny>> {
+        let rows = self.rows(order)?;
+        let a = self.world.agents();
+        let (x, y) = columns(a);
+        arrays::pairs(py, a.len(), rows.as_deref(), |i| [x[i], y[i]], out)
+    }
+
+    /// The `(N,)` array of `get(world, i)` over storage indices (see [`arrays::column`]).
+    fn column_of<'py, T: numpy::Element + Copy>(
+        &self,
+        py: Python<'py>,
+        out: Option<&Bound<'py, PyAny>>,
+        order: &str,
+        dtype: &str,
+        get: fn(&World, usize) -> T,
+    ) -> PyResult<Bound<'py, PyAny>> {
+        let rows = self.rows(order)?;
+        let w = &self.world;
+        arrays::column(py, w.len(), rows.as_deref(), dtype, |i| get(w, i), out)
     }
 }
 
@@ -425,10 +460,7 @@ impl PyWorld {
         out: Option<&Bound<'py, PyAny>>,
         order: &str,
     ) -> PyResult<Bound<'py, PyAny>> {
-        let rows = self.rows(order)?;
-        let a = self.world.agents();
-        let (x, y) = (a.pos_x(), a.pos_y());
-        arrays::pairs(py, a.len(), rows.as_deref(), |i| [x[i], y[i]], out)
+        self.pairs_of(py, out, order, |a| (a.pos_x(), a.pos_y()))
     }
 
     /// Velocities as an (N, 2) float32 array; `out` and `order` as for `positions`.
@@ -439,10 +471,7 @@ impl PyWorld {
         out: Option<&Bound<'py, PyAny>>,
         order: &str,
     ) -> PyResult<Bound<'py, PyAny>> {
-        let rows = self.rows(order)?;
-        let a = self.world.agents();
-        let (x, y) = (a.vel_x(), a.vel_y());
-        arrays::pairs(py, a.len(), rows.as_deref(), |i| [x[i], y[i]], out)
+        self.pairs_of(py, out, order, |a| (a.vel_x(), a.vel_y()))
     }
 
     /// Orientations (headings), radians in [0, 2 pi), as an (N,) float32 array.
@@ -453,10 +482,9 @@ impl PyWorld {
         out: Option<&Bound<'py, PyAny>>,
         order: &str,
     ) -> PyResult<Bound<'py, PyAny>> {
-        let rows = self.rows(order)?;
-        let a = self.world.agents();
-        let o = a.orientations();
-        arrays::column(py, a.len(), rows.as_deref(), "float32", |i| o[i], out)
+        self.column_of(py, out, order, "float32", |w, i| {
+            w.agents().orientations()[i]
+        })
     }
 
     /// Agent ids as an (N,) uint32 array: row k of every array belongs to agent ids()[k].
@@ -467,10 +495,7 @@ impl PyWorld {
         out: Option<&Bound<'py, PyAny>>,
         order: &str,
     ) -> PyResult<Bound<'py, PyAny>> {
-        let rows = self.rows(order)?;
-        let a = self.world.agents();
-        let ids = a.ids();
-        arrays::column(py, a.len(), rows.as_deref(), "uint32", |i| ids[i].0, out)
+        self.column_of(py, out, order, "uint32", |w, i| w.agents().ids()[i].0)
     }
 
     /// Group indices as an (N,) uint32 array (names in `group_names`).
@@ -481,10 +506,7 @@ impl PyWorld {
         out: Option<&Bound<'py, PyAny>>,
         order: &str,
     ) -> PyResult<Bound<'py, PyAny>> {
-        let rows = self.rows(order)?;
-        let a = self.world.agents();
-        let g = a.groups();
-        arrays::column(py, a.len(), rows.as_deref(), "uint32", |i| g[i], out)
+        self.column_of(py, out, order, "uint32", |w, i| w.agents().groups()[i])
     }
 
     /// Whether each agent has reached a goal of the field channel it follows, as an (N,) bool
@@ -496,18 +518,9 @@ impl PyWorld {
         out: Option<&Bound<'py, PyAny>>,
         order: &str,
     ) -> PyResult<Bound<'py, PyAny>> {
-        let rows = self.rows(order)?;
-        let a = self.world.agents();
-        let ids = a.ids();
-        let w = &self.world;
-        arrays::column(
-            py,
-            a.len(),
-            rows.as_deref(),
-            "bool",
-            |i| w.has_arrived(ids[i]),
-            out,
-        )
+        self.column_of(py, out, order, "bool", |w, i| {
+            w.has_arrived(w.agents().ids()[i])
+        })
     }
 
     /// Number of agents that have arrived (see `arrived`).
@@ -519,10 +532,7 @@ impl PyWorld {
     fn mean_speed(&self) -> f64 {
         let a = self.world.agents();
         let n = a.len().max(1) as f64;
-        (0..a.len())
-            .map(|i| f64::from(a.velocity(i).length()))
-            .sum::<f64>()
-            / n
+        (0..a.len()).map(|i| speed(a, i).2).sum::<f64>() / n
     }
 
     /// Polarisation (the Vicsek order parameter): |mean of the agents' unit velocities|, in
@@ -531,11 +541,10 @@ impl PyWorld {
         let a = self.world.agents();
         let (mut sx, mut sy) = (0.0f64, 0.0f64);
         for i in 0..a.len() {
-            let v = a.velocity(i);
-            let len = f64::from(v.length());
+            let (vx, vy, len) = speed(a, i);
             if len > 0.0 {
-                sx += f64::from(v.x) / len;
-                sy += f64::from(v.y) / len;
+                sx += vx / len;
+                sy += vy / len;
             }
         }
         let n = a.len().max(1) as f64;
@@ -546,6 +555,10 @@ impl PyWorld {
     /// `velocities` likewise (default: at rest); `group`, `orientations`, `max_speed` and
     /// `radius` are one value or m values (`max_speed` and `radius` override the group's).
     /// Every value is checked as the Rust API checks it; on an error no agent is added.
+    #[expect(
+        clippy::too_many_arguments,
+        reason = "the Python signature: one keyword per per-agent column"
+    )]
     #[pyo3(signature = (positions, velocities=None, *, group=None, orientations=None, max_speed=None, radius=None))]
     fn add_agents<'py>(
         &mut self,
@@ -623,7 +636,7 @@ impl PyWorld {
         for &id in &ids {
             let id = agent_id(id)?;
             if self.world.agent(id).is_none() {
-                return Err(raise(&Error::UnknownAgent { id }));
+                return Err(raise_in(Some("ids"), &Error::UnknownAgent { id }));
             }
             if !seen.insert(id) {
                 return Err(invalid("ids", format!("agent {} is listed twice", id.0)));
@@ -647,6 +660,7 @@ impl PyWorld {
     ) -> PyResult<()> {
         let (ids, v) = self.rows_of(ids, positions, "positions")?;
         set_each(
+            "positions",
             &mut self.world,
             &ids,
             &v,
@@ -664,6 +678,7 @@ impl PyWorld {
     ) -> PyResult<()> {
         let (ids, v) = self.rows_of(ids, velocities, "velocities")?;
         set_each(
+            "velocities",
             &mut self.world,
             &ids,
             &v,
@@ -677,8 +692,9 @@ impl PyWorld {
     fn set_targets(&mut self, ids: &Bound<'_, PyAny>, targets: &Bound<'_, PyAny>) -> PyResult<()> {
         let (ids, v) = self.rows_of(ids, targets, "targets")?;
         // Checked first (ids are alive already), so that an error changes nothing.
-        for p in &v {
-            throng::error::finite_vec("target", (*p).into()).or_raise()?;
+        for (k, p) in v.iter().enumerate() {
+            throng::error::finite_vec("target", (*p).into())
+                .map_err(|e| raise_in(Some(&format!("targets[{k}]")), &e))?;
         }
         for (&id, &p) in ids.iter().zip(&v) {
             self.world.set_target(id, p.into()).or_raise()?;
@@ -698,7 +714,13 @@ impl PyWorld {
             arrays::read_floats("max_speed", max_speed)?,
             ids.len(),
         )?;
+        // Checked first: a rolled-back agent would keep an override flag it did not have.
+        for (k, &s) in v.iter().enumerate() {
+            throng::error::positive("max_speed", s)
+                .map_err(|e| raise_in(Some(&format!("max_speed[{k}]")), &e))?;
+        }
         set_each(
+            "max_speed",
             &mut self.world,
             &ids,
             &v,
@@ -815,7 +837,7 @@ impl PyWorld {
         goals: &Bound<'_, PyAny>,
     ) -> PyResult<()> {
         let flat = arrays::read_ints("goals", goals)?;
-        if flat.len() % 2 != 0 {
+        if !flat.len().is_multiple_of(2) {
             return Err(invalid(
                 "goals",
                 "expected (x, y) cells: an (m, 2) integer array",
@@ -899,7 +921,7 @@ impl PyWorld {
         t.record(&self.world);
         let start = self.world.frame();
         self.run(py, dt, steps, |w, s| {
-            if (s.frame - start) % every == 0 {
+            if (s.frame - start).is_multiple_of(every) {
                 t.record(w);
             }
         })?;
@@ -982,7 +1004,7 @@ impl PyWorld {
                 let id = agent_id(id)?;
                 match self.world.agent(id) {
                     Some(_) => Ok(id),
-                    None => Err(raise(&Error::UnknownAgent { id })),
+                    None => Err(raise_in(Some("ids"), &Error::UnknownAgent { id })),
                 }
             })
             .collect()

@@ -1,0 +1,39 @@
+"""`step(n=...)` releases the GIL: a Python thread keeps running while a long step runs."""
+
+import threading
+import time
+
+import throng
+
+
+def test_a_python_thread_runs_while_step_runs():
+    world = throng.World.from_scenario("flock", agents=20000, seed=1, threads=1)
+    world.step()
+    t0 = time.perf_counter()
+    world.step(n=5)
+    per_step = (time.perf_counter() - t0) / 5
+    n = max(20, int(1.5 / per_step))  # about 1.5 s of stepping
+
+    ticks = []
+    stop = threading.Event()
+
+    def ticker():
+        while not stop.is_set():
+            ticks.append(time.perf_counter())
+            time.sleep(0.002)
+
+    thread = threading.Thread(target=ticker)
+    thread.start()
+    time.sleep(0.05)
+    start = time.perf_counter()
+    world.step(n=n)
+    end = time.perf_counter()
+    stop.set()
+    thread.join()
+
+    during = [t for t in ticks if start <= t <= end]
+    gaps = [b - a for a, b in zip(during, during[1:])]
+    # Holding the GIL would stall the ticker for whole slices of 200 ms.
+    assert len(during) >= 0.25 * (end - start) / 0.002, (len(during), end - start)
+    assert max(gaps) < 0.1, max(gaps)
+    assert world.frame == 6 + n
