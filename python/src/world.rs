@@ -147,12 +147,19 @@ fn set_each<V: Copy>(
     for (k, (&id, &v)) in ids.iter().zip(values).enumerate() {
         let before = get(world, id);
         if let Err(e) = set(world, id, v) {
-            for (&id, before) in ids[..k].iter().zip(&old).rev() {
-                if let Some(b) = before {
-                    set(world, id, *b).expect("a value read from the world is valid");
-                }
+            // A value read from the world passes its own checks, so this restores all; should
+            // one not, the error says which agents keep their new values.
+            let kept: Vec<u32> = ids[..k]
+                .iter()
+                .zip(&old)
+                .rev()
+                .filter_map(|(&id, before)| set(world, id, (*before)?).err().map(|_| id.0))
+                .collect();
+            let mut context = format!("{name}[{k}] (agent {})", id.0);
+            if !kept.is_empty() {
+                context += &format!("; agents {kept:?} keep their new values");
             }
-            return Err(raise_in(Some(&format!("{name}[{k}] (agent {})", id.0)), &e));
+            return Err(raise_in(Some(&context), &e));
         }
         old.push(before);
     }

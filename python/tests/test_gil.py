@@ -37,3 +37,25 @@ def test_a_python_thread_runs_while_step_runs():
     assert len(during) >= 0.25 * (end - start) / 0.002, (len(during), end - start)
     assert max(gaps) < 0.1, max(gaps)
     assert world.frame == 6 + n
+
+
+def test_a_second_thread_gets_an_error_not_a_crash_while_a_step_runs():
+    world = throng.World.from_scenario("flock", agents=20000, seed=1, threads=1)
+    started = threading.Event()
+
+    def run():
+        started.set()
+        world.step(n=100)
+
+    thread = threading.Thread(target=run)
+    thread.start()
+    started.wait()
+    time.sleep(0.05)
+    try:
+        world.positions()
+        busy = False
+    except RuntimeError as e:
+        busy = "borrowed" in str(e)
+    thread.join()
+    assert busy or world.frame == 100  # the step may have finished on a fast machine
+    assert world.frame == 100 and world.positions().shape == (20000, 2)
