@@ -34,7 +34,10 @@ fn scenarios(py: Python<'_>) -> PyResult<Bound<'_, PyDict>> {
 /// The native part of the `throng` package; import `throng` instead.
 #[pymodule]
 fn _throng(m: &Bound<'_, PyModule>) -> PyResult<()> {
-    m.add("ThrongError", m.py().get_type::<error::ThrongError>())?;
+    let throng_error = m.py().get_type::<error::ThrongError>();
+    // Instances raised without a parameter (from Python code, say) read None.
+    throng_error.setattr("parameter", m.py().None())?;
+    m.add("ThrongError", throng_error)?;
     m.add_class::<world::PyWorld>()?;
     m.add_function(wrap_pyfunction!(bench::bench, m)?)?;
     m.add_function(wrap_pyfunction!(scenarios, m)?)?;

@@ -246,3 +246,15 @@ def test_the_bindings_lock_the_same_versions_as_the_cli():
     shared = root.keys() & ours.keys()
     assert ("glam", "registry+https://github.com/rust-lang/crates.io-index") in shared
     assert {k: ours[k] for k in shared} == {k: root[k] for k in shared}
+
+
+def test_the_type_stubs_match_the_module(tmp_path):
+    """`mypy.stubtest` checks every name and signature of `_throng.pyi` against the module."""
+    pytest.importorskip("mypy")
+    import subprocess
+
+    done = subprocess.run(
+        [sys.executable, "-m", "mypy.stubtest", "throng", "--ignore-disjoint-bases"],
+        capture_output=True, text=True, cwd=tmp_path,
+    )
+    assert done.returncode == 0, done.stdout + done.stderr

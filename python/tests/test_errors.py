@@ -15,6 +15,8 @@ def world():
 
 def test_throng_error_is_a_value_error():
     assert issubclass(ThrongError, ValueError)
+    assert ThrongError("made in Python").parameter is None
+    assert ThrongError.__module__ == "throng"
 
 
 CASES = {

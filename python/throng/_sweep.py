@@ -130,7 +130,7 @@ def _run_on_worker(spec, timings, threads, host_slots):
 
         worker = get_worker()
         host = urlparse(worker.address).hostname
-        slots = host_slots.get(host) or worker.state.nthreads
+        slots = host_slots.get(host) or worker.nthreads
         threads = threads_per_task(_cores(), slots)
     return run(spec, timings=timings, threads=threads)
 

@@ -1,12 +1,13 @@
 """Type stubs of the native module ``throng._throng`` (re-exported by ``throng``)."""
 
 from os import PathLike
-from typing import Any, Dict, List, Literal, Optional, Tuple, TypedDict, Union, overload
+from typing import Any, Dict, List, Literal, Optional, Tuple, TypedDict, Union, final, type_check_only
 
 import numpy as np
 import numpy.typing as npt
 import pandas as pd
 
+__all__ = ["ThrongError", "World", "bench", "scenarios", "__version__"]
 __version__: str
 
 _Order = Literal["storage", "id"]
@@ -18,6 +19,7 @@ class ThrongError(ValueError):
 
     parameter: Optional[str]
 
+@type_check_only
 class StepStats(TypedDict):
     """What ``World.step`` returns: the keys of the CLI's frame line (milliseconds)."""
 
@@ -30,6 +32,7 @@ class StepStats(TypedDict):
     agents: int
     mean_neighbours: float
 
+@type_check_only
 class MsPerStep(TypedDict):
     median: float
     mean: float
@@ -38,6 +41,7 @@ class MsPerStep(TypedDict):
     min: float
     max: float
 
+@type_check_only
 class BenchReport(TypedDict):
     """What ``bench`` returns: the keys of ``throng bench --json``."""
 
@@ -52,10 +56,12 @@ class BenchReport(TypedDict):
     mean_neighbours: float
     peak_rss_mb: float
 
+@type_check_only
 class Bounds(TypedDict):
     kind: Literal["torus", "bounded", "open"]
     size: Optional[Tuple[float, float]]
 
+@final
 class World:
     """A simulated world: agents, groups, bounds, obstacles, gravity points and fields.
 
