@@ -33,9 +33,10 @@ def test_a_python_thread_runs_while_step_runs():
 
     during = [t for t in ticks if start <= t <= end]
     gaps = [b - a for a, b in zip(during, during[1:])]
-    # Holding the GIL would stall the ticker for whole slices of 200 ms.
-    assert len(during) >= 0.25 * (end - start) / 0.002, (len(during), end - start)
-    assert max(gaps) < 0.1, max(gaps)
+    # Holding the GIL would stall the ticker for whole slices of 200 ms: about 5 ticks a
+    # second. Released, it ticks every few milliseconds even on a busy machine.
+    assert len(during) >= 20 * (end - start), (len(during), end - start)
+    assert max(gaps) < 0.15, max(gaps)
     assert world.frame == 6 + n
 
 
