@@ -150,8 +150,8 @@ fn not_writeable() -> PyErr {
     )
 }
 
-/// `obj` as a C-contiguous numpy array of `dtype` (`"float32"` or `"int64"`); integer arrays
-/// accept only integer (or boolean-free integer-valued) input, never silently truncated floats.
+/// `obj` as a C-contiguous numpy array of `dtype` (`"float32"` or `"int64"`); `"int64"` takes
+/// only integer input, never floats that would be truncated silently.
 fn as_numpy<'py>(name: &str, obj: &Bound<'py, PyAny>, dtype: &str) -> PyResult<Bound<'py, PyAny>> {
     let np = obj.py().import("numpy")?;
     let what = || describe(obj);
