@@ -36,6 +36,7 @@
 //! - [`world`]: [`World`], [`WorldBuilder`], [`GroupParams`], the step pipeline and [`StepStats`].
 //! - [`bounds`]: open, walled and wrap-around worlds and their metric.
 //! - [`rng`]: the counter-based random stream keyed by (seed, agent, frame).
+//! - [`timing`]: step timings, run summaries and the benchmark report.
 //! - [`error`]: the [`Error`] type.
 //!
 //! ## Features
@@ -58,6 +59,7 @@ pub mod scenario;
 pub mod spatial;
 mod steer;
 pub mod steering;
+pub mod timing;
 pub mod world;
 
 pub use agents::{AgentId, AgentInit, Agents};

@@ -306,7 +306,7 @@ fn bench(s: Scenario, c: &CommonArgs, warmup: u64) -> Result<()> {
     let index = c.index.clone().unwrap_or_else(|| "grid".to_string());
     println!(
         "{}",
-        timings.json(&s.name, world.len(), threads, &index, steps)
+        timing::json(&timings, &s.name, world.len(), threads, &index, steps)
     );
     Ok(())
 }

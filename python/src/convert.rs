@@ -1,0 +1,148 @@
+//! Conversions between Python values and the TOML values of scenario files, and between Python
+//! sequences and `Vec2`s.
+//!
+//! Scenario overrides, group profiles and gravity motions cross the boundary as TOML values, so
+//! that Python dicts take exactly the keys of a scenario file (`docs/SCENARIOS.md`) and the
+//! library's own deserialisers validate them.
+
+use glam::Vec2;
+use pyo3::IntoPyObjectExt;
+use pyo3::prelude::*;
+use pyo3::types::{PyBool, PyDict, PyFloat, PyInt, PyList, PyString, PyTuple};
+use serde::Serialize;
+use serde::de::DeserializeOwned;
+
+use crate::error::invalid;
+
+/// A Python value (bool, int, float, str, sequence, dict, numpy scalar or array) as TOML.
+pub(crate) fn to_toml(name: &str, obj: &Bound<'_, PyAny>) -> PyResult<toml::Value> {
+    if obj.is_instance_of::<PyBool>() {
+        return Ok(toml::Value::Boolean(obj.extract()?));
+    }
+    if obj.is_instance_of::<PyInt>() {
+        let v: i64 = obj
+            .extract()
+            .map_err(|_| invalid(name, "the integer does not fit in 64 bits"))?;
+        return Ok(toml::Value::Integer(v));
+    }
+    if obj.is_instance_of::<PyFloat>() {
+        return Ok(toml::Value::Float(obj.extract()?));
+    }
+    if let Ok(s) = obj.cast::<PyString>() {
+        return Ok(toml::Value::String(s.extract()?));
+    }
+    if let Ok(d) = obj.cast::<PyDict>() {
+        let mut table = toml::Table::new();
+        for (k, v) in d.iter() {
+            let key: String = k
+                .extract()
+                .map_err(|_| invalid(name, "dictionary keys must be strings"))?;
+            let value = to_toml(&format!("{name}.{key}"), &v)?;
+            table.insert(key, value);
+        }
+        return Ok(toml::Value::Table(table));
+    }
+    if obj.is_instance_of::<PyList>() || obj.is_instance_of::<PyTuple>() {
+        let items = obj
+            .try_iter()?
+            .map(|item| to_toml(name, &item?))
+            .collect::<PyResult<Vec<_>>>()?;
+        return Ok(toml::Value::Array(items));
+    }
+    // numpy scalars and arrays: `item()` / `tolist()` give Python numbers and lists.
+    for method in ["tolist", "item"] {
+        if obj.hasattr(method)? {
+            let plain = obj.call_method0(method)?;
+            if !plain.is(obj) {
+                return to_toml(name, &plain);
+            }
+        }
+    }
+    Err(invalid(
+        name,
+        format!(
+            "a {} cannot go into a scenario (use numbers, strings, booleans, lists or dicts)",
+            obj.get_type().name()?
+        ),
+    ))
+}
+
+/// A TOML value as a Python object (tables become dicts, arrays lists).
+pub(crate) fn to_py<'py>(py: Python<'py>, v: &toml::Value) -> PyResult<Bound<'py, PyAny>> {
+    Ok(match v {
+        toml::Value::String(s) => s.into_bound_py_any(py)?,
+        toml::Value::Integer(i) => i.into_bound_py_any(py)?,
+        toml::Value::Float(f) => f.into_bound_py_any(py)?,
+        toml::Value::Boolean(b) => b.into_bound_py_any(py)?,
+        toml::Value::Datetime(d) => d.to_string().into_bound_py_any(py)?,
+        toml::Value::Array(a) => {
+            let items = a
+                .iter()
+                .map(|x| to_py(py, x))
+                .collect::<PyResult<Vec<_>>>()?;
+            PyList::new(py, items)?.into_any()
+        }
+        toml::Value::Table(t) => {
+            let d = PyDict::new(py);
+            for (k, x) in t {
+                d.set_item(k, to_py(py, x)?)?;
+            }
+            d.into_any()
+        }
+    })
+}
+
+/// An `f32` as the float64 of its shortest decimal form (`0.4`, not `0.4000000059604645`),
+/// which rounds back to the same `f32`.
+pub(crate) fn f32_to_f64(v: f32) -> f64 {
+    v.to_string().parse().unwrap_or(f64::from(v))
+}
+
+/// Floats that are exactly `f32`s take their shortest decimal form (see [`f32_to_f64`]).
+fn shortest_f32(v: &mut toml::Value) {
+    match v {
+        toml::Value::Float(x) if f64::from(*x as f32) == *x => *x = f32_to_f64(*x as f32),
+        toml::Value::Array(a) => a.iter_mut().for_each(shortest_f32),
+        toml::Value::Table(t) => t.iter_mut().for_each(|(_, x)| shortest_f32(x)),
+        _ => {}
+    }
+}
+
+/// A library value (a group profile, a report) as a Python object, through its TOML form;
+/// with `f32_fields`, its floats are `f32`s shown in their shortest form.
+pub(crate) fn serialize_to_py<'py, T: Serialize>(
+    py: Python<'py>,
+    value: &T,
+    f32_fields: bool,
+) -> PyResult<Bound<'py, PyAny>> {
+    let mut v = toml::Value::try_from(value)
+        .map_err(|e| invalid("value", format!("cannot be converted: {e}")))?;
+    if f32_fields {
+        shortest_f32(&mut v);
+    }
+    to_py(py, &v)
+}
+
+/// A Python value (a dict in scenario-file form) as a library value, validated by its
+/// deserialiser; errors name `name`.
+pub(crate) fn deserialize_from_py<T: DeserializeOwned>(
+    name: &str,
+    obj: &Bound<'_, PyAny>,
+) -> PyResult<T> {
+    let v = to_toml(name, obj)?;
+    T::deserialize(v).map_err(|e| invalid(name, e.message().trim().to_string()))
+}
+
+/// A pair of numbers as a `Vec2`.
+pub(crate) fn vec2(name: &str, obj: &Bound<'_, PyAny>) -> PyResult<Vec2> {
+    let pair: Vec<f32> = obj
+        .extract()
+        .map_err(|_| invalid(name, "expected two numbers (x, y)"))?;
+    match pair[..] {
+        [x, y] => Ok(Vec2::new(x, y)),
+        _ => Err(invalid(
+            name,
+            format!("expected two numbers (x, y), got {}", pair.len()),
+        )),
+    }
+}

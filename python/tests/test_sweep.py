@@ -1,0 +1,118 @@
+"""Sweeps: one row per run with the run's keys and its metrics; the same DataFrame locally and
+on a 2-worker Dask LocalCluster."""
+
+import math
+import os
+
+import numpy as np
+import pandas as pd
+import pytest
+
+import throng
+from throng._sweep import TIME_METRICS
+
+WEIGHT = "groups.boids.steering.behaviours.alignment.weight"
+RUNS = [
+    {"scenario": "flock", "agents": 400, "seed": seed, "steps": 25, WEIGHT: w}
+    for seed in (1, 2)
+    for w in (0.25, 1.0, 2.0, 4.0)
+]
+
+
+def without_times(df):
+    return df[[c for c in df.columns if not c.startswith("time_")]]
+
+
+@pytest.fixture(scope="module")
+def local():
+    return throng.sweep(RUNS)
+
+
+def test_one_row_per_run_with_inputs_then_metrics(local):
+    assert len(local) == 8
+    assert list(local.columns) == ["scenario", "agents", "seed", "steps", WEIGHT, *throng.METRICS]
+    assert list(local["seed"]) == [1, 1, 1, 1, 2, 2, 2, 2]
+    assert (local["n_agents"] == 400).all() and (local["frame"] == 25).all()
+    assert local["polarisation"].between(0, 1).all()
+    # Stronger alignment orders the flock more.
+    for _, g in local.groupby("seed"):
+        assert g.sort_values(WEIGHT)["polarisation"].is_monotonic_increasing
+
+
+def test_metrics_are_those_of_the_world(local):
+    w = throng.World.from_scenario("flock", agents=400, seed=2, **{WEIGHT: 2.0})
+    w.step(n=25)
+    v = w.velocities().astype(np.float64)
+    speed = np.hypot(v[:, 0], v[:, 1])
+    row = local.iloc[6]
+    assert row["mean_speed"] == pytest.approx(speed.mean(), rel=1e-12)
+    unit = v[speed > 0] / speed[speed > 0, None]
+    assert row["polarisation"] == pytest.approx(np.hypot(*unit.sum(axis=0)) / len(v), rel=1e-12)
+    assert row["mean_speed"] == w.mean_speed() and row["polarisation"] == w.polarisation()
+
+
+def test_a_local_cluster_gives_exactly_the_local_frame(local):
+    distributed = pytest.importorskip("distributed")
+    with distributed.LocalCluster(
+        n_workers=2, threads_per_worker=1, processes=True, dashboard_address=None
+    ) as cluster, distributed.Client(cluster) as client:
+        remote = throng.sweep(RUNS, client=client, timings=True)
+    pd.testing.assert_frame_equal(without_times(remote), local, check_exact=True)
+    # Two one-thread workers on this host share its cores.
+    share = throng.threads_per_task(len(os.sched_getaffinity(0)), 2)
+    assert (remote["time_threads"] == share).all()
+    assert (remote["time_run_s"] > 0).all()
+
+
+def test_timings_only_on_request(local):
+    timed = throng.sweep(RUNS[:2], timings=True, threads=1)
+    assert [c for c in timed.columns if c.startswith("time_")] == list(TIME_METRICS)
+    assert (timed["time_threads"] == 1).all()
+    pd.testing.assert_frame_equal(without_times(timed), local.iloc[:2], check_exact=True)
+
+
+def test_field_worlds_report_arrivals():
+    df = throng.sweep([{"scenario": "fields", "agents": 200, "seed": 1, "steps": 60}])
+    row = df.iloc[0]
+    assert 0 <= row["arrived"] <= 200
+    assert row["arrived_fraction"] == row["arrived"] / 200
+    assert math.isnan(row["evacuated_at"]) or 0 <= row["evacuated_at"] <= row["t"]
+
+
+def test_toml_runs_and_defaults(tmp_path):
+    path = tmp_path / "tiny.toml"
+    path.write_text(TINY)
+    df = throng.sweep([{"toml": str(path)}, {"toml": TINY, "steps": 3, "seed": 9}])
+    assert list(df["frame"]) == [7, 3]
+
+
+TINY = """
+name = "tiny"
+steps = 7
+[world]
+kind = "torus"
+size = [20, 20]
+[[groups]]
+count = 30
+max_speed = 2
+steering = { behaviours = [{ kind = "wander" }] }
+"""
+
+
+@pytest.mark.parametrize("runs,match", [
+    ([{"agents": 10}], "scenario"),
+    ([{"scenario": "flock", "toml": TINY}], "scenario"),
+    ([["flock"]], r"runs\[0\]"),
+    ([{"scenario": "flock", "polarisation": 1}], "polarisation"),
+    ([{"scenario": "flock", "steps": -1}], "steps"),
+])
+def test_bad_runs_raise(runs, match):
+    with pytest.raises(throng.ThrongError, match=match):
+        throng.sweep(runs)
+
+
+def test_threads_per_task():
+    assert throng.threads_per_task(2, 2) == 1
+    assert throng.threads_per_task(16, 4) == 4
+    assert throng.threads_per_task(2, 8) == 1
+    assert throng.threads_per_task(8, 0) == 8

@@ -1,0 +1,180 @@
+"""Type stubs of the native module ``throng._throng`` (re-exported by ``throng``)."""
+
+from os import PathLike
+from typing import Any, Dict, List, Literal, Optional, Tuple, TypedDict, Union, final, type_check_only
+
+import numpy as np
+import numpy.typing as npt
+import pandas as pd
+
+__all__ = ["ThrongError", "World", "bench", "scenarios", "__version__"]
+__version__: str
+
+_Order = Literal["storage", "id"]
+_Pairs = npt.ArrayLike
+_F32Pairs = np.ndarray  # (N, 2) float32
+
+class ThrongError(ValueError):
+    """A bad argument or scenario; the message is the Rust library's and names the parameter."""
+
+    parameter: Optional[str]
+
+@type_check_only
+class StepStats(TypedDict):
+    """What ``World.step`` returns: the keys of the CLI's frame line (milliseconds)."""
+
+    frame: int
+    step: float
+    index: float
+    steer: float
+    integrate: float
+    bounds: float
+    agents: int
+    mean_neighbours: float
+
+@type_check_only
+class MsPerStep(TypedDict):
+    median: float
+    mean: float
+    p95: float
+    p99: float
+    min: float
+    max: float
+
+@type_check_only
+class BenchReport(TypedDict):
+    """What ``bench`` returns: the keys of ``throng bench --json``."""
+
+    scenario: str
+    agents: int
+    threads: int
+    index: str
+    steps: int
+    ms_per_step: MsPerStep
+    phases_ms: Dict[str, float]
+    agent_steps_per_sec: float
+    mean_neighbours: float
+    peak_rss_mb: float
+
+@type_check_only
+class Bounds(TypedDict):
+    kind: Literal["torus", "bounded", "open"]
+    size: Optional[Tuple[float, float]]
+
+@final
+class World:
+    """A simulated world: agents, groups, bounds, obstacles, gravity points and fields.
+
+    Arrays are fresh copies (or fill ``out=``), rows in storage order unless ``order="id"``.
+    """
+
+    @staticmethod
+    def from_scenario(
+        name: str,
+        *,
+        agents: Optional[int] = None,
+        seed: Optional[int] = None,
+        threads: Optional[int] = None,
+        **overrides: Any,
+    ) -> World: ...
+    @staticmethod
+    def from_toml(
+        path_or_text: Union[str, PathLike],
+        *,
+        agents: Optional[int] = None,
+        seed: Optional[int] = None,
+        threads: Optional[int] = None,
+        **overrides: Any,
+    ) -> World: ...
+    def __len__(self) -> int: ...
+    @property
+    def name(self) -> str: ...
+    @property
+    def frame(self) -> int: ...
+    @property
+    def time(self) -> float: ...
+    @property
+    def seed(self) -> int: ...
+    @property
+    def steps(self) -> int: ...
+    @property
+    def dt(self) -> float: ...
+    @dt.setter
+    def dt(self, dt: float) -> None: ...
+    @property
+    def threads(self) -> int: ...
+    @property
+    def index(self) -> Literal["grid", "kdtree", "brute"]: ...
+    @index.setter
+    def index(self, index: str) -> None: ...
+    @property
+    def reorder_every(self) -> int: ...
+    @reorder_every.setter
+    def reorder_every(self, frames: int) -> None: ...
+    @property
+    def bounds(self) -> Bounds: ...
+    @property
+    def group_names(self) -> List[str]: ...
+    @property
+    def field_count(self) -> int: ...
+    def step(self, dt: Optional[float] = None, n: int = 1) -> StepStats: ...
+    def positions(self, out: Optional[np.ndarray] = None, *, order: _Order = "storage") -> _F32Pairs: ...
+    def velocities(self, out: Optional[np.ndarray] = None, *, order: _Order = "storage") -> _F32Pairs: ...
+    def orientations(self, out: Optional[np.ndarray] = None, *, order: _Order = "storage") -> np.ndarray: ...
+    def ids(self, out: Optional[np.ndarray] = None, *, order: _Order = "storage") -> np.ndarray: ...
+    def groups(self, out: Optional[np.ndarray] = None, *, order: _Order = "storage") -> np.ndarray: ...
+    def arrived(self, out: Optional[np.ndarray] = None, *, order: _Order = "storage") -> np.ndarray: ...
+    def arrived_count(self) -> int: ...
+    def mean_speed(self) -> float: ...
+    def polarisation(self) -> float: ...
+    def add_agents(
+        self,
+        positions: _Pairs,
+        velocities: Optional[_Pairs] = None,
+        *,
+        group: Optional[npt.ArrayLike] = None,
+        orientations: Optional[npt.ArrayLike] = None,
+        max_speed: Optional[npt.ArrayLike] = None,
+        radius: Optional[npt.ArrayLike] = None,
+    ) -> np.ndarray: ...
+    def remove_agents(self, ids: npt.ArrayLike) -> None: ...
+    def set_positions(self, ids: npt.ArrayLike, positions: _Pairs) -> None: ...
+    def set_velocities(self, ids: npt.ArrayLike, velocities: _Pairs) -> None: ...
+    def set_targets(self, ids: npt.ArrayLike, targets: _Pairs) -> None: ...
+    def set_max_speeds(self, ids: npt.ArrayLike, max_speed: npt.ArrayLike) -> None: ...
+    def group_params(self, group: int) -> Dict[str, Any]: ...
+    def set_group_params(self, group: int, params: Dict[str, Any]) -> None: ...
+    def add_group(self, params: Dict[str, Any]) -> int: ...
+    def add_circle(self, center: Tuple[float, float], radius: float) -> None: ...
+    def add_wall(self, a: Tuple[float, float], b: Tuple[float, float]) -> None: ...
+    def add_polygon(self, points: _Pairs, closed: bool = True) -> None: ...
+    def add_gravity_point(
+        self,
+        position: Tuple[float, float],
+        strength: float,
+        radius: float,
+        *,
+        exponent: float = 2.0,
+        motion: Optional[Dict[str, Any]] = None,
+    ) -> int: ...
+    def gravity_positions(self) -> _F32Pairs: ...
+    def set_gravity_position(self, k: int, position: Tuple[float, float]) -> None: ...
+    def set_field_goals(self, field: int, channel: int, goals: npt.ArrayLike) -> None: ...
+    def randomize_field_goals(self, field: int, channel: int, n: int, seed: int) -> None: ...
+    def shuffle_field_goals_every(self, field: int, every: int, count: int) -> None: ...
+    def set_field_blocked(self, field: int, x: int, y: int, blocked: bool = True) -> None: ...
+    def trajectories(self, steps: int, every: int = 1, *, dt: Optional[float] = None) -> pd.DataFrame: ...
+
+def bench(
+    scenario: str,
+    *,
+    agents: Optional[int] = None,
+    steps: int = 100,
+    warmup: int = 10,
+    threads: Optional[int] = None,
+    seed: Optional[int] = None,
+    dt: Optional[float] = None,
+    index: Optional[str] = None,
+    **overrides: Any,
+) -> BenchReport: ...
+def scenarios() -> Dict[str, str]: ...

@@ -1,0 +1,276 @@
+//! Step timings of a run: frame lines, run summaries and the benchmark report.
+//!
+//! [`Timings`] collects the [`StepStats`] of each step; [`Timings::report`] condenses them into a
+//! [`BenchReport`], the object that `throng bench --json` prints and that the Python bindings
+//! return from `throng.bench`. Its serialised keys are a public interface: keys are added, never
+//! renamed. The fields are declared in alphabetical order so that any serialiser writes the keys
+//! in the same order.
+//!
+//! Quantiles are nearest-rank over the per-step totals; the median of an even count is the mean
+//! of the two middle values. Every statistic of an empty record is 0.
+
+use std::collections::BTreeMap;
+use std::time::Duration;
+
+use serde::Serialize;
+
+use crate::world::{PhaseTimes, StepStats};
+
+/// Per-step measurements of a run.
+#[derive(Clone, Debug, Default)]
+pub struct Timings {
+    total_ms: Vec<f64>,
+    phase_ms: Vec<[f64; PhaseTimes::COUNT]>,
+    neighbours: Vec<f64>,
+    agent_steps: u64,
+}
+
+/// Milliseconds per step over a run.
+#[derive(Clone, Copy, Debug, Default, PartialEq, Serialize)]
+pub struct StepMs {
+    /// The slowest step.
+    pub max: f64,
+    /// The mean step.
+    pub mean: f64,
+    /// The median step.
+    pub median: f64,
+    /// The fastest step.
+    pub min: f64,
+    /// The 95th percentile (nearest rank).
+    pub p95: f64,
+    /// The 99th percentile (nearest rank).
+    pub p99: f64,
+}
+
+/// The benchmark report of `throng bench --json` (and of Python's `throng.bench`).
+#[derive(Clone, Debug, Default, PartialEq, Serialize)]
+pub struct BenchReport {
+    /// Agents stepped per second of step time, summed over the timed steps.
+    pub agent_steps_per_sec: f64,
+    /// Agents in the world at the end.
+    pub agents: usize,
+    /// The neighbour-index backend.
+    pub index: String,
+    /// Mean over the timed steps of the mean neighbours per agent.
+    pub mean_neighbours: f64,
+    /// Milliseconds per step.
+    pub ms_per_step: StepMs,
+    /// The process's peak resident memory, MiB (see [`peak_rss_mb`]).
+    pub peak_rss_mb: f64,
+    /// The median milliseconds of each phase, by the names of [`PhaseTimes::NAMES`].
+    pub phases_ms: BTreeMap<&'static str, f64>,
+    /// The scenario's name.
+    pub scenario: String,
+    /// Timed steps.
+    pub steps: u64,
+    /// Worker threads.
+    pub threads: usize,
+}
+
+/// One line per reported frame: frame number, ms for the step and each phase, agents.
+#[must_use]
+pub fn frame_line(s: &StepStats) -> String {
+    let phases: Vec<String> = PhaseTimes::NAMES
+        .iter()
+        .zip(s.phases.as_ms())
+        .map(|(n, ms)| format!("{n} {ms:7.3}"))
+        .collect();
+    format!(
+        "frame {:6}  step {:8.3} ms  [{}]  agents {}",
+        s.frame,
+        s.total_ms(),
+        phases.join("  "),
+        s.agents
+    )
+}
+
+/// The `q` quantile (0..=1) of sorted values, nearest rank.
+fn quantile(sorted: &[f64], q: f64) -> f64 {
+    if sorted.is_empty() {
+        return 0.0;
+    }
+    let rank = ((q * sorted.len() as f64).ceil() as usize).clamp(1, sorted.len());
+    sorted[rank - 1]
+}
+
+fn median(values: &[f64]) -> f64 {
+    let mut v = values.to_vec();
+    v.sort_by(f64::total_cmp);
+    let n = v.len();
+    if n == 0 {
+        0.0
+    } else if n % 2 == 1 {
+        v[n / 2]
+    } else {
+        0.5 * (v[n / 2 - 1] + v[n / 2])
+    }
+}
+
+fn mean(values: &[f64]) -> f64 {
+    if values.is_empty() {
+        0.0
+    } else {
+        values.iter().sum::<f64>() / values.len() as f64
+    }
+}
+
+impl Timings {
+    /// Records one step.
+    pub fn push(&mut self, s: &StepStats) {
+        self.total_ms.push(s.total_ms());
+        self.phase_ms.push(s.phases.as_ms());
+        self.neighbours.push(s.mean_neighbours);
+        self.agent_steps += s.agents as u64;
+    }
+
+    /// Steps recorded.
+    #[must_use]
+    pub fn len(&self) -> usize {
+        self.total_ms.len()
+    }
+
+    /// Whether no step was recorded.
+    #[must_use]
+    pub fn is_empty(&self) -> bool {
+        self.total_ms.is_empty()
+    }
+
+    fn sorted(&self) -> Vec<f64> {
+        let mut v = self.total_ms.clone();
+        v.sort_by(f64::total_cmp);
+        v
+    }
+
+    fn agent_steps_per_sec(&self) -> f64 {
+        let secs: f64 = self.total_ms.iter().sum::<f64>() / 1e3;
+        if secs > 0.0 {
+            self.agent_steps as f64 / secs
+        } else {
+            0.0
+        }
+    }
+
+    /// Milliseconds per step: median, mean, quantiles and extremes.
+    #[must_use]
+    pub fn step_ms(&self) -> StepMs {
+        let s = self.sorted();
+        StepMs {
+            max: s.last().copied().unwrap_or(0.0),
+            mean: mean(&self.total_ms),
+            median: median(&s),
+            min: s.first().copied().unwrap_or(0.0),
+            p95: quantile(&s, 0.95),
+            p99: quantile(&s, 0.99),
+        }
+    }
+
+    /// The median milliseconds of each phase, in the order of [`PhaseTimes::NAMES`].
+    #[must_use]
+    pub fn phase_medians(&self) -> [f64; PhaseTimes::COUNT] {
+        std::array::from_fn(|k| {
+            let v: Vec<f64> = self.phase_ms.iter().map(|p| p[k]).collect();
+            median(&v)
+        })
+    }
+
+    /// The closing summary line of a run that took `wall` in all.
+    #[must_use]
+    pub fn summary(&self, wall: Duration) -> String {
+        let ms = self.step_ms();
+        format!(
+            "summary: {} steps in {:.2} s | ms/step mean {:.3} median {:.3} p95 {:.3} p99 {:.3} max {:.3} | {:.3e} agent-steps/s | mean neighbours {:.2}",
+            self.len(),
+            wall.as_secs_f64(),
+            ms.mean,
+            ms.median,
+            ms.p95,
+            ms.p99,
+            ms.max,
+            self.agent_steps_per_sec(),
+            mean(&self.neighbours)
+        )
+    }
+
+    /// The benchmark report of the recorded steps.
+    #[must_use]
+    pub fn report(
+        &self,
+        scenario: &str,
+        agents: usize,
+        threads: usize,
+        index: &str,
+        steps: u64,
+    ) -> BenchReport {
+        BenchReport {
+            agent_steps_per_sec: self.agent_steps_per_sec(),
+            agents,
+            index: index.to_string(),
+            mean_neighbours: mean(&self.neighbours),
+            ms_per_step: self.step_ms(),
+            peak_rss_mb: peak_rss_mb(),
+            phases_ms: PhaseTimes::NAMES
+                .into_iter()
+                .zip(self.phase_medians())
+                .collect(),
+            scenario: scenario.to_string(),
+            steps,
+            threads,
+        }
+    }
+}
+
+/// The process's peak resident memory in MiB (Linux `VmHWM`; 0 where unavailable).
+#[must_use]
+pub fn peak_rss_mb() -> f64 {
+    std::fs::read_to_string("/proc/self/status")
+        .ok()
+        .and_then(|s| {
+            s.lines().find(|l| l.starts_with("VmHWM:")).and_then(|l| {
+                l.split_whitespace()
+                    .nth(1)
+                    .and_then(|kb| kb.parse::<f64>().ok())
+            })
+        })
+        .map_or(0.0, |kb| kb / 1024.0)
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    fn stats(ms: u64, agents: usize) -> StepStats {
+        StepStats {
+            frame: 1,
+            agents,
+            total: Duration::from_millis(ms),
+            phases: PhaseTimes {
+                steer: Duration::from_millis(ms),
+                ..PhaseTimes::default()
+            },
+            mean_neighbours: 2.0,
+        }
+    }
+
+    #[test]
+    fn quantiles_are_nearest_rank_and_the_even_median_averages() {
+        let mut t = Timings::default();
+        for ms in [4, 1, 3, 2] {
+            t.push(&stats(ms, 10));
+        }
+        let ms = t.step_ms();
+        assert_eq!((ms.min, ms.max, ms.median, ms.mean), (1.0, 4.0, 2.5, 2.5));
+        assert_eq!((ms.p95, ms.p99), (4.0, 4.0));
+        assert_eq!(t.phase_medians(), [0.0, 2.5, 0.0, 0.0]);
+        let r = t.report("s", 10, 2, "grid", 4);
+        assert_eq!(r.agent_steps_per_sec, 40.0 / 0.010);
+        assert_eq!(r.mean_neighbours, 2.0);
+        assert_eq!(r.phases_ms.len(), 4);
+    }
+
+    #[test]
+    fn an_empty_record_reports_zeros() {
+        let r = Timings::default().report("s", 0, 1, "grid", 0);
+        assert_eq!(r.ms_per_step, StepMs::default());
+        assert_eq!(r.agent_steps_per_sec, 0.0);
+    }
+}
