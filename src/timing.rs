@@ -22,6 +22,7 @@ pub struct Timings {
     total_ms: Vec<f64>,
     phase_ms: Vec<[f64; PhaseTimes::COUNT]>,
     neighbours: Vec<f64>,
+    polarisation: Vec<f64>,
     agent_steps: u64,
 }
 
@@ -59,6 +60,9 @@ pub struct BenchReport {
     pub peak_rss_mb: f64,
     /// The median milliseconds of each phase, by the names of [`PhaseTimes::NAMES`].
     pub phases_ms: BTreeMap<&'static str, f64>,
+    /// Mean over the timed steps of the polarisation after each step (the order parameter,
+    /// `World::polarisation`); 0 when it was not recorded.
+    pub polarisation: f64,
     /// The scenario's name.
     pub scenario: String,
     /// Timed steps.
@@ -123,6 +127,13 @@ impl Timings {
         self.agent_steps += s.agents as u64;
     }
 
+    /// Records one step and the world's polarisation after it (measured outside the step's
+    /// time).
+    pub fn push_world(&mut self, s: &StepStats, world: &crate::World) {
+        self.push(s);
+        self.polarisation.push(f64::from(world.polarisation()));
+    }
+
     /// Steps recorded.
     #[must_use]
     pub fn len(&self) -> usize {
@@ -178,7 +189,7 @@ impl Timings {
     pub fn summary(&self, wall: Duration) -> String {
         let ms = self.step_ms();
         format!(
-            "summary: {} steps in {:.2} s | ms/step mean {:.3} median {:.3} p95 {:.3} p99 {:.3} max {:.3} | {:.3e} agent-steps/s | mean neighbours {:.2}",
+            "summary: {} steps in {:.2} s | ms/step mean {:.3} median {:.3} p95 {:.3} p99 {:.3} max {:.3} | {:.3e} agent-steps/s | mean neighbours {:.2} | polarisation {:.4}",
             self.len(),
             wall.as_secs_f64(),
             ms.mean,
@@ -187,7 +198,8 @@ impl Timings {
             ms.p99,
             ms.max,
             self.agent_steps_per_sec(),
-            mean(&self.neighbours)
+            mean(&self.neighbours),
+            mean(&self.polarisation)
         )
     }
 
@@ -212,6 +224,7 @@ impl Timings {
                 .into_iter()
                 .zip(self.phase_medians())
                 .collect(),
+            polarisation: mean(&self.polarisation),
             scenario: scenario.to_string(),
             steps,
             threads,
@@ -260,11 +273,12 @@ mod tests {
         let ms = t.step_ms();
         assert_eq!((ms.min, ms.max, ms.median, ms.mean), (1.0, 4.0, 2.5, 2.5));
         assert_eq!((ms.p95, ms.p99), (4.0, 4.0));
-        assert_eq!(t.phase_medians(), [0.0, 2.5, 0.0, 0.0]);
+        assert_eq!(t.phase_medians(), [0.0, 2.5, 0.0, 0.0, 0.0, 0.0]);
         let r = t.report("s", 10, 2, "grid", 4);
         assert_eq!(r.agent_steps_per_sec, 40.0 / 0.010);
         assert_eq!(r.mean_neighbours, 2.0);
-        assert_eq!(r.phases_ms.len(), 4);
+        assert_eq!(r.phases_ms.len(), PhaseTimes::COUNT);
+        assert_eq!(r.polarisation, 0.0, "not recorded by push");
     }
 
     #[test]

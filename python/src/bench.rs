@@ -69,7 +69,8 @@ pub(crate) fn bench<'py>(
                 }
                 let mut timings = Timings::default();
                 for _ in 0..steps {
-                    timings.push(&world.step(dt)?);
+                    let stats = world.step(dt)?;
+                    timings.push_world(&stats, &world);
                 }
                 Ok(timings)
             })

@@ -78,8 +78,9 @@ pub(crate) struct FieldSet {
     follow: Vec<Option<(usize, usize)>>,
     /// Channel rebuilds so far.
     pub(crate) rebuilds: u64,
-    /// Scratch of the reordering sort.
+    /// Scratch of the reordering sort, and its permutation.
     sort_keys: Vec<u64>,
+    perm: Vec<u32>,
     /// Scratch: the `(field, channel)`s rebuilt this frame.
     rebuilt: Vec<(usize, usize)>,
     /// Scratch: per agent, whether it stands on a goal of the channel it follows.
@@ -88,7 +89,12 @@ pub(crate) struct FieldSet {
 
 /// Reorders agents by the row-major cell of `grid` they stand in (agents outside last), so that
 /// field lookups walk memory in order. Stable for agents sharing a cell.
-fn reorder_by_cell(agents: &mut Agents, grid: &OccupancyGrid, keys: &mut Vec<u64>) {
+fn reorder_by_cell(
+    agents: &mut Agents,
+    grid: &OccupancyGrid,
+    keys: &mut Vec<u64>,
+    perm: &mut Vec<u32>,
+) {
     let w = grid.width() as u64;
     keys.clear();
     keys.par_extend(
@@ -102,8 +108,9 @@ fn reorder_by_cell(agents: &mut Agents, grid: &OccupancyGrid, keys: &mut Vec<u64
             }),
     );
     keys.par_sort_unstable();
-    let perm: Vec<u32> = keys.iter().map(|&k| k as u32).collect();
-    agents.reorder(&perm);
+    perm.clear();
+    perm.extend(keys.iter().map(|&k| k as u32));
+    agents.reorder(perm);
 }
 
 /// A 64-bit mix (splitmix64's finaliser) for derived seeds.
@@ -361,12 +368,18 @@ impl FieldSet {
         if self.fields.is_empty() {
             return;
         }
+        // One arrival flag per id ever issued, so that arrivals never grow the table mid-run.
+        let issued = agents.ids_issued();
+        if self.arrived.len() < issued {
+            self.arrived.resize(issued, false);
+        }
         if !flocking
             && !agents.is_empty()
             && reorder_every > 0
             && frame.is_multiple_of(u64::from(reorder_every))
         {
-            reorder_by_cell(agents, self.fields[0].channels.grid(), &mut self.sort_keys);
+            let grid = self.fields[0].channels.grid();
+            reorder_by_cell(agents, grid, &mut self.sort_keys, &mut self.perm);
         }
         let agents = &*agents;
         self.rebuilt.clear();

@@ -76,6 +76,11 @@ pub struct GridWalkers {
     cycle_members: Vec<u32>,
     /// Scratch: `(start, length)` pairs into `cycle_members`, flattened.
     cycles: Vec<u32>,
+    /// Scratch of the cycle search: `(walker, walker on the cell it wants)` and the walk.
+    next: Vec<(u32, u32)>,
+    path: Vec<u32>,
+    /// Scratch of the cycle rotation: the members' cells before it.
+    old_cells: Vec<u32>,
 }
 
 impl GridWalkers {
@@ -155,10 +160,14 @@ impl GridWalkers {
             arrived: vec![false; starts.len()],
             active: (0..starts.len() as u32).collect(),
             occupant,
-            proposals: Vec::new(),
-            mark: Vec::new(),
-            cycle_members: Vec::new(),
-            cycles: Vec::new(),
+            // Scratch sized for every walker up front, so that steps never grow it.
+            proposals: Vec::with_capacity(starts.len()),
+            mark: vec![0; starts.len()],
+            cycle_members: Vec::with_capacity(starts.len()),
+            cycles: Vec::with_capacity(2 * starts.len()),
+            next: Vec::with_capacity(starts.len()),
+            path: Vec::with_capacity(starts.len()),
+            old_cells: Vec::with_capacity(starts.len()),
         })
     }
 
@@ -315,17 +324,20 @@ impl GridWalkers {
         self.mark.clear();
         self.mark.resize(self.cells.len(), 0);
         // Blocked walkers sort last; `next[i]` is the walker on the cell `i` wants.
-        let mut next: Vec<(u32, u32)> = self.proposals[self.proposals.len() - blocked..]
-            .iter()
-            .map(|&(_, key, want)| ((key & 0xffff_ffff) as u32, self.occupant[want as usize]))
-            .collect();
+        let mut next = std::mem::take(&mut self.next);
+        next.clear();
+        next.extend(
+            self.proposals[self.proposals.len() - blocked..]
+                .iter()
+                .map(|&(_, key, want)| ((key & 0xffff_ffff) as u32, self.occupant[want as usize])),
+        );
         next.sort_unstable();
         let next_of = |i: u32| {
             next.binary_search_by_key(&i, |e| e.0)
                 .ok()
                 .map(|k| next[k].1)
         };
-        let mut path = Vec::new();
+        let mut path = std::mem::take(&mut self.path);
         for &(start, _) in &next {
             if self.mark[start as usize] != 0 {
                 continue;
@@ -351,6 +363,7 @@ impl GridWalkers {
                 self.mark[m as usize] = 2;
             }
         }
+        (self.next, self.path) = (next, path);
     }
 
     /// The step: arrivals, parallel proposals, deterministic conflict resolution, moves.
@@ -379,7 +392,11 @@ impl GridWalkers {
         let (cells, channels, occupant) = (&self.cells, &self.channels, &self.occupant);
         let mut proposals = std::mem::take(&mut self.proposals);
         proposals.clear();
-        proposals.par_extend(self.active.par_iter().with_min_len(512).filter_map(|&i| {
+        // One slot per active walker, filled in parallel (no allocation once warm), then the
+        // walkers without a move (no better cell) dropped.
+        const NONE: (u32, u64, u32) = (u32::MAX, u64::MAX, u32::MAX);
+        proposals.resize(self.active.len(), NONE);
+        let propose = |i: u32| -> Option<(u32, u64, u32)> {
             let field = field_of(channels[i as usize]);
             let p = cells[i as usize] as usize;
             let best = field.best_from(p, |_| true)?;
@@ -393,7 +410,16 @@ impl GridWalkers {
                 (own << 32) | u64::from(i),
                 best as u32,
             ))
-        }));
+        };
+        proposals
+            .par_chunks_mut(512)
+            .zip(self.active.par_chunks(512))
+            .for_each(|(out, ids)| {
+                for (o, &i) in out.iter_mut().zip(ids) {
+                    *o = propose(i).unwrap_or(NONE);
+                }
+            });
+        proposals.retain(|&p| p != NONE);
         // Keys are unique, so the sorted order (and the winners) do not depend on threads.
         proposals.par_sort_unstable();
         self.proposals = proposals;
@@ -418,7 +444,7 @@ impl GridWalkers {
             std::mem::take(&mut self.cycles),
             std::mem::take(&mut self.cycle_members),
         );
-        let mut old = Vec::new();
+        let mut old = std::mem::take(&mut self.old_cells);
         for cycle in cycles.chunks_exact(2) {
             let members = &members[cycle[0] as usize..(cycle[0] + cycle[1]) as usize];
             old.clear();
@@ -432,6 +458,7 @@ impl GridWalkers {
             stats.waited -= members.len();
         }
         (self.cycles, self.cycle_members, self.proposals) = (cycles, members, proposals);
+        self.old_cells = old;
         let arrived = &self.arrived;
         self.active.retain(|&i| !arrived[i as usize]);
         stats.active = self.active.len();

@@ -7,6 +7,7 @@ pub const BUILTIN: &[(&str, &str)] = &[
     ("arrive", include_str!("../../scenarios/arrive.toml")),
     ("wander", include_str!("../../scenarios/wander.toml")),
     ("flock", include_str!("../../scenarios/flock.toml")),
+    ("vicsek", include_str!("../../scenarios/vicsek.toml")),
     (
         "antigravity",
         include_str!("../../scenarios/antigravity.toml"),

@@ -73,6 +73,9 @@ pub struct WorldSpec {
     pub size: Option<Vec2>,
     /// Size the (square) world from the agent count so that the density stays fixed.
     pub density: Option<DensitySpec>,
+    /// Size the (square) world from the agent count for this many agents per unit area (> 0),
+    /// as the Vicsek model states its density. Used when neither `size` nor `density` is given.
+    pub agents_per_area: Option<f32>,
     /// Neighbour-index backend: `"grid"`, `"kdtree"` or `"brute"`. Default: grid.
     pub index: IndexKind,
     /// Reorder agents by grid cell every this many frames (0: never). Default: 4.
@@ -279,6 +282,9 @@ impl Scenario {
             positive("world.density.neighbours", d.neighbours)?;
             positive("world.density.radius", d.radius)?;
         }
+        if let Some(rho) = self.world.agents_per_area {
+            positive("world.agents_per_area", rho)?;
+        }
         if let Some(size) = self.world.size {
             positive("world.size", size.x)?;
             positive("world.size", size.y)?;
@@ -286,10 +292,12 @@ impl Scenario {
         if self.world.kind != WorldKind::Open
             && self.world.size.is_none()
             && self.world.density.is_none()
+            && self.world.agents_per_area.is_none()
         {
             return Err(Error::Invalid {
                 name: "world.size".into(),
-                reason: "a torus or bounded world needs `size` or `density`".into(),
+                reason: "a torus or bounded world needs `size`, `density` or `agents_per_area`"
+                    .into(),
             });
         }
         for g in &self.groups {
@@ -426,13 +434,18 @@ impl Scenario {
     /// # Errors
     /// As [`Bounds::torus`] for a bad size.
     pub fn bounds(&self) -> Result<Bounds> {
-        let size = match (self.world.size, self.world.density) {
-            (Some(s), _) => s,
-            (None, Some(d)) => {
+        let size = match (
+            self.world.size,
+            self.world.density,
+            self.world.agents_per_area,
+        ) {
+            (Some(s), _, _) => s,
+            (None, Some(d), _) => {
                 let area = self.agent_count() as f32 * PI * d.radius * d.radius / d.neighbours;
                 Vec2::splat(area.sqrt().max(d.radius))
             }
-            (None, None) => Vec2::ZERO,
+            (None, None, Some(rho)) => Vec2::splat((self.agent_count() as f32 / rho).sqrt()),
+            (None, None, None) => Vec2::ZERO,
         };
         match self.world.kind {
             WorldKind::Open => Ok(Bounds::Open),

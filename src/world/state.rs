@@ -222,6 +222,14 @@ impl World {
         self.time
     }
 
+    /// The order parameter of the velocities: the length of the mean unit velocity, 1 when every
+    /// agent moves the same way, about `1 / sqrt(N)` for independent random headings (agents at
+    /// rest are left out; 0 for none). See [`crate::steering::polarisation`].
+    #[must_use]
+    pub fn polarisation(&self) -> f32 {
+        crate::steering::polarisation(&self.agents.vel_x, &self.agents.vel_y)
+    }
+
     /// The state of agent `id`, if it is alive.
     #[must_use]
     pub fn agent(&self, id: AgentId) -> Option<AgentState> {

@@ -264,7 +264,7 @@ fn run_scenario(s: Scenario, args: &RunArgs) -> Result<()> {
     let wall = Instant::now();
     for _ in 0..s.steps {
         let stats = pool.install(|| world.step(s.dt))?;
-        timings.push(&stats);
+        timings.push_world(&stats, &world);
         if stats.frame % every == 0 {
             if !args.quiet {
                 log(timing::frame_line(&stats));
@@ -301,9 +301,9 @@ fn bench(s: Scenario, c: &CommonArgs, warmup: u64) -> Result<()> {
     let mut timings = Timings::default();
     for _ in 0..steps {
         let stats = pool.install(|| world.step(s.dt))?;
-        timings.push(&stats);
+        timings.push_world(&stats, &world);
     }
-    let index = c.index.clone().unwrap_or_else(|| "grid".to_string());
+    let index = world.index_kind().to_string();
     println!(
         "{}",
         timing::json(&timings, &s.name, world.len(), threads, &index, steps)
