@@ -1,4 +1,4 @@
-//! Anti-gravity movement (document 000): gravity points that repel or attract.
+//! Anti-gravity movement (potential-field motion planning): gravity points that repel or attract.
 //!
 //! Each point pushes an agent with `strength / distance^exponent` along the bearing from the point
 //! to the agent: a positive strength repels, a negative one attracts. The total force is the sum
@@ -6,7 +6,7 @@
 //! agent only visits the points near it, never all of them. Points can be static, move on a
 //! script (a constant velocity, an orbit), or ride on an agent.
 //!
-//! [`antigravity_seek`] is document 000's combination:
+//! [`antigravity_seek`] is the anti-gravity seek:
 //! `normalize(normalize(target - p) + total_force)`.
 
 use glam::Vec2;
@@ -119,7 +119,7 @@ impl GravityPoint {
     }
 }
 
-/// Document 000's direction: `normalize(normalize(target - position) + force)` (zero when both
+/// The anti-gravity seek direction: `normalize(normalize(target - position) + force)` (zero when both
 /// vanish).
 #[inline]
 #[must_use]

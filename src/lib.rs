@@ -32,8 +32,15 @@
 //! - [`agents`]: SoA storage with stable [`AgentId`]s.
 //! - [`movement`]: the kinematic and dynamic models and the vectorised integrator.
 //! - [`steering`]: behaviours as pure functions and as data, and their combination.
+//! - [`profile`]: [`Profile`](profile::Profile), what the agents of a group share.
+//! - [`spatial`]: the neighbour-index contract and its grid, k-d tree and brute-force backends.
+//! - [`field`]: occupancy grids, BFS potential, Dijkstra integration and flow fields, walkers.
+//! - [`obstacles`]: circles and walls, their avoidance and non-penetration.
+//! - [`gravity`]: anti-gravity points and the force they exert.
 //! - [`group`]: group movement: path following, leader following, formations, jumps.
 //! - [`world`]: [`World`], [`WorldBuilder`], [`GroupParams`], the step pipeline and [`StepStats`].
+//! - [`scenario`]: scenario files and the built-in scenarios.
+//! - `render` (feature `render`): PNG and animated GIF output.
 //! - [`bounds`]: open, walled and wrap-around worlds and their metric.
 //! - [`rng`]: the counter-based random stream keyed by (seed, agent, frame).
 //! - [`timing`]: step timings, run summaries and the benchmark report.

@@ -337,3 +337,75 @@ fn the_cell_batch_equals_the_per_agent_general_loop_to_rounding() {
         );
     }
 }
+
+#[test]
+fn the_cell_batch_matches_the_scalar_reference_for_groups_cones_and_walls() {
+    // Two flocking groups (own group only, then every group; narrow and wide view cones,
+    // separate radii) in a walled world and on a torus: the grid's cell batch against the k-d
+    // tree's scalar traversal, to rounding.
+    let profile = |same_group: bool, view_cos: f32, r: f32| {
+        let hood = |radius: f32| Neighbourhood {
+            radius,
+            view_cos,
+            same_group,
+        };
+        GroupParams {
+            max_speed: 3.0,
+            max_acceleration: 6.0,
+            ..GroupParams::dynamic(
+                SteeringProfile::default()
+                    .with(
+                        Behaviour::Separation {
+                            hood: hood(0.4 * r),
+                        },
+                        1.5,
+                    )
+                    .with(Behaviour::Alignment { hood: hood(r) }, 1.0)
+                    .with(
+                        Behaviour::Cohesion {
+                            hood: hood(0.8 * r),
+                        },
+                        0.7,
+                    ),
+            )
+        }
+    };
+    for bounds in [
+        Bounds::bounded(60.0, 40.0).unwrap(),
+        Bounds::torus(60.0, 40.0).unwrap(),
+    ] {
+        let outputs = |kind: IndexKind| {
+            let mut b = World::builder()
+                .bounds(bounds)
+                .seed(8)
+                .group(profile(true, 0.3, 4.0))
+                .group(profile(false, -0.6, 3.0));
+            let mut rng = throng::rng::AgentRng::new(8, 0, 0, 5);
+            for k in 0..1500 {
+                let p = Vec2::new(rng.unit() * 60.0, rng.unit() * 40.0);
+                let heading = rng.unit() * std::f32::consts::TAU;
+                b = b.agent(AgentInit {
+                    velocity: Vec2::from_angle(heading) * 2.0,
+                    orientation: heading,
+                    ..AgentInit::at(p, k % 2)
+                });
+            }
+            let mut w = b.build().unwrap();
+            w.set_index(kind);
+            let mut out = w.steering_outputs(DT).unwrap();
+            out.sort_by_key(|(id, _)| *id);
+            out
+        };
+        let (grid, kd) = (outputs(IndexKind::Grid), outputs(IndexKind::KdTree));
+        for ((id, g), (_, k)) in grid.iter().zip(&kd) {
+            let diff = (g.linear - k.linear).length();
+            let scale = g.linear.length().max(k.linear.length()).max(6.0);
+            assert!(
+                diff <= 1e-5 * scale,
+                "{bounds:?} {id}: {:?} vs {:?}",
+                g.linear,
+                k.linear
+            );
+        }
+    }
+}

@@ -2,7 +2,7 @@
 //!
 //! Each channel holds its goal cells, its [`PotentialField`] and that field's [`FlowField`].
 //! Agents of a group follow their group's channel. Changing a channel's goals (moving them, or
-//! re-randomising them as the notes do on a click) marks that channel dirty; changing a cell
+//! re-randomising them, as a click does in the classic flow-field demo) marks that channel dirty; changing a cell
 //! between free and wall marks every channel dirty. [`GoalChannels::rebuild_dirty`] rebuilds the
 //! dirty channels, in parallel (each build is itself sequential and deterministic).
 //!
@@ -125,7 +125,7 @@ impl GoalChannels {
     }
 
     /// Re-randomises the goals of `channel`: `n` distinct free cells drawn with `seed` (the
-    /// notes' "click to randomize goals").
+    /// the classic demo's "click to randomize goals").
     ///
     /// # Errors
     /// [`Error::Invalid`] when the channel does not exist, `n` is 0, or the grid has fewer than

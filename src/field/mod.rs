@@ -10,7 +10,7 @@
 //!   optional per-cell costs) for smoother paths.
 //! - [`FlowField`]: the direction to the best neighbour, precomputed per cell and sampled
 //!   bilinearly in continuous space.
-//! - [`GridWalkers`]: the discrete climb of the notes, with queueing, in a parallel
+//! - [`GridWalkers`]: the discrete climb to the best free neighbour cell, with queueing, in a parallel
 //!   deterministic step.
 //! - [`GoalChannels`]: one field per goal type, rebuilt when goals or obstacles change.
 //!

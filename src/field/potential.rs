@@ -86,7 +86,7 @@ impl PotentialField {
     /// Builds the field of `goals` on `grid`: potential 1 at every goal, times `decay` per step.
     /// Duplicate goals are harmless.
     ///
-    /// The result is the notes' algorithm's (see [`PotentialField::bfs_reference`]), bit for
+    /// The result is the classic multi-goal BFS's (see [`PotentialField::bfs_reference`]), bit for
     /// bit; see the module docs for how it is computed.
     ///
     /// # Examples
@@ -149,7 +149,7 @@ impl PotentialField {
         Ok(())
     }
 
-    /// The reference build: the notes' algorithm literally, each popped cell giving
+    /// The reference build: the classic multi-goal BFS literally, each popped cell giving
     /// `current * decay` to every unset free neighbour, with fresh buffers. Slower than
     /// [`PotentialField::bfs`], which must return the same field; kept for tests to compare
     /// against.

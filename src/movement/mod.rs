@@ -5,7 +5,7 @@
 //!   orientation either follows the velocity or integrates the rotation.
 //! - **Dynamic** (steering): a behaviour yields a force; the world turns it into a linear
 //!   acceleration `force / mass` clamped to the maximum acceleration, and an angular acceleration
-//!   clamped to its maximum. The update is the Newton-Euler step of the notes, in their order:
+//!   clamped to its maximum. The update is the classic Newton-Euler step, in its textbook order:
 //!   `position += velocity * dt`; `orientation += rotation * dt (mod 2pi)` or, when the group faces
 //!   its velocity, the orientation of that (pre-update) velocity; `velocity += linear * dt`;
 //!   `rotation += angular * dt`; then the speed is clamped (`velocity *= max / |velocity|`) and the

@@ -59,7 +59,7 @@ pub struct RandomCircles {
     pub keep_clear: Vec<Circle>,
 }
 
-/// The `[gravity]` table: document 000's gravity points.
+/// The `[gravity]` table: anti-gravity points.
 #[derive(Clone, Debug, Default, PartialEq, Serialize, Deserialize)]
 #[serde(default, deny_unknown_fields)]
 pub struct GravitySpec {

@@ -45,7 +45,7 @@ pub struct Scenario {
     /// Obstacles: circles, walls, polygons, random circles. Default: none.
     #[serde(default)]
     pub obstacles: super::ObstacleSpec,
-    /// Gravity points (document 000). Default: none.
+    /// Anti-gravity points. Default: none.
     #[serde(default)]
     pub gravity: super::GravitySpec,
     /// A grid field (goal channels, walls, walkers). Default: none.

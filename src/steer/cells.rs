@@ -352,6 +352,7 @@ fn chunk(
     let order = grid.order();
     let starts = grid.cell_start();
     let end = base + lx.len();
+    let groups = specs.iter().flatten().any(Query::needs_groups);
     let mut out = Outputs { base, lx, ly, nb };
     let mut lanes = Lanes::default();
     let mut batch = Batch {
@@ -377,7 +378,7 @@ fn chunk(
                 continue;
             }
             if !gathered {
-                gather(grid, sorted, view.bounds, cell, buf);
+                gather(grid, sorted, view.bounds, cell, groups, buf);
                 gathered = true;
             }
             if batch.len == CELL_BATCH || (batch.len > 0 && batch.group != g) {
@@ -553,9 +554,17 @@ fn term_lanes<const KINEMATIC: bool, const MEAN: bool>(
 }
 
 /// Gathers the 3 x 3 block of cells around `cell` into `buf`, shifted across torus seams, and
-/// pads it to whole blocks of lanes with far-away points.
+/// pads it to whole blocks of lanes with far-away points. The groups are gathered only when
+/// some kernel tells groups apart (`groups`); otherwise `buf.g` keeps stale values nobody reads.
 #[inline(always)]
-fn gather(grid: &GridIndex, s: &SortedCopies, bounds: Bounds, cell: usize, buf: &mut CellBuf) {
+fn gather(
+    grid: &GridIndex,
+    s: &SortedCopies,
+    bounds: Bounds,
+    cell: usize,
+    groups: bool,
+    buf: &mut CellBuf,
+) {
     buf.len = 0;
     let (nx, ny) = (grid.cells_x() as i64, grid.cells_y() as i64);
     let (cx, cy) = (cell as i64 % nx, cell as i64 / nx);
@@ -606,7 +615,9 @@ fn gather(grid: &GridIndex, s: &SortedCopies, bounds: Bounds, cell: usize, buf: 
             append::<true>(&mut buf.y, len, &s.y, a, b, shift_y);
             append::<false>(&mut buf.vx, len, &s.vx, a, b, 0.0);
             append::<false>(&mut buf.vy, len, &s.vy, a, b, 0.0);
-            append::<false>(&mut buf.g, len, &s.g, a, b, 0.0);
+            if groups {
+                append::<false>(&mut buf.g, len, &s.g, a, b, 0.0);
+            }
             buf.len += b - a;
         }
     }
@@ -681,6 +692,11 @@ struct Query {
 }
 
 impl Query {
+    /// Whether some slot counts only the agent's own group (the kernel reads groups).
+    fn needs_groups(&self) -> bool {
+        !self.any_group.iter().all(|&a| a)
+    }
+
     /// The query template of a neighbour spec (the agent's own numbers are filled in later).
     fn of(spec: &NeighbourSpec, one_group: bool) -> Query {
         let cone = spec.cos.map(|c| {

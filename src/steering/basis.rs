@@ -1,4 +1,4 @@
-//! The heading/side basis of a vehicle and its local <-> world transforms (the vehicle notes'
+//! The heading/side basis of a vehicle and its local <-> world transforms (Buckland's vehicle
 //! drawing matrix).
 
 use glam::{Affine2, Mat2, Vec2};

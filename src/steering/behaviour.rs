@@ -222,14 +222,14 @@ pub enum Behaviour {
         #[serde(default = "half")]
         lookahead: f32,
     },
-    /// The total force of the world's gravity points (document 000), as a steering force.
+    /// The total force of the world's anti-gravity points, as a steering force.
     AntiGravity,
-    /// Document 000's seek: full speed along `normalize(normalize(target - p) + total force)`.
+    /// The anti-gravity seek: full speed along `normalize(normalize(target - p) + total force)`.
     AntiGravitySeek {
         /// Where to go.
         target: Target,
     },
-    /// Other agents as repelling gravity points (document 000): each neighbour within `radius`
+    /// Other agents as repelling gravity points: each neighbour within `radius`
     /// pushes with `strength / distance^exponent` along the bearing away from it.
     Repulsion {
         /// Force at distance 1 (> 0).
@@ -274,7 +274,7 @@ pub enum Behaviour {
         #[serde(flatten)]
         params: crate::group::JumpParams,
     },
-    /// Follow a world field's flow towards its goals (document 001): the desired velocity is the
+    /// Follow a world field's flow towards its goals: the desired velocity is the
     /// bilinearly sampled flow direction at full speed; an agent on a goal cell of its channel,
     /// or one that has arrived since the channel's goals last changed, brakes to rest. Yields
     /// nothing when the field or channel does not exist.

@@ -6,7 +6,7 @@ use super::behaviour::ArriveParams;
 
 /// Dynamic seek: the force that turns `velocity` into full speed towards `target`.
 ///
-/// Returns zero once the agent is within `threshold` of the target (the vehicle notes' seek).
+/// Returns zero once the agent is within `threshold` of the target (Reynolds and Buckland's vehicle seek).
 #[inline]
 #[must_use]
 pub fn seek(position: Vec2, velocity: Vec2, target: Vec2, max_speed: f32, threshold: f32) -> Vec2 {

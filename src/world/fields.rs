@@ -109,7 +109,7 @@ impl World {
     }
 
     /// Re-randomises every channel's goals of `field` to `count` free cells each, every `every`
-    /// frames (the notes' click; 0 turns it off). The draws derive from the world seed, the
+    /// frames (the classic demo's click; 0 turns it off). The draws derive from the world seed, the
     /// frame and the channel.
     ///
     /// # Errors
@@ -175,8 +175,8 @@ impl World {
         Ok(())
     }
 
-    /// Turns the agents of `group` into grid walkers on `field` following `channel` (the notes'
-    /// discrete movement): each is moved to the centre of its cell (or, when another walker has
+    /// Turns the agents of `group` into grid walkers on `field` following `channel` (the discrete
+    /// climb to the best free neighbour cell): each is moved to the centre of its cell (or, when another walker has
     /// that cell, of the next free cell in row-major order), and from then on every step moves it
     /// at most one cell, by [`GridWalkers`] with `policy`, overriding its own steering. Returns
     /// the number of walkers. Agents added to the group later are not walkers.

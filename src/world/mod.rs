@@ -1,17 +1,18 @@
-//! The world: agents, groups and their profiles, bounds, and the step pipeline.
+//! The world: agents, groups and their profiles, bounds, obstacles, gravity points, fields,
+//! paths and formations, and the step that orchestrates them.
 //!
 //! [`World::step`] runs the phases of one frame and returns their timings in [`StepStats`]:
-//!
-//! 1. **steer**: rayon over agents; each agent reads only frame-t state and writes only its own
-//!    entries of the SoA output buffers (linear, angular, wander state);
-//! 2. **integrate**: the vectorised integrator of [`crate::movement`];
-//! 3. **bounds**: wrap-around on a torus, or clamping to a walled rectangle (the velocity
-//!    component into the wall is removed).
+//! plans compiled when stale; **index** (gravity points, the neighbour index and reordering, the
+//! nearest-agent indices); the subsystems' prepare hooks (**fields**, **formations**);
+//! **steer** (the steering layer's pass); **integrate** (the vectorised integrator of
+//! [`crate::movement`]); **bounds** (torus wrap or wall clamp, obstacle non-penetration); the
+//! fields' constrain hook. No per-agent logic lives here.
 //!
 //! Determinism: per-agent randomness is keyed by (seed, [`crate::AgentId`], frame), steering has
 //! no cross-agent writes and the integrator is element-wise, so the state after any number of
-//! steps is bit-identical for any thread count. [`World::step_sequential`] is the single-threaded
-//! scalar reference the parallel step is tested against.
+//! steps is bit-identical for any thread count. [`World::step_sequential`] runs the same phases
+//! and kernels on the calling thread alone (with the scalar integrator), the reference the
+//! parallel step is tested against bit for bit.
 
 mod builder;
 mod fields;
