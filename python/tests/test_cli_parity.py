@@ -85,7 +85,10 @@ def test_bench_returns_the_cli_bench_json_keys_and_values(throng_bin):
     assert keys(ours) == keys(theirs)
     for k in ("scenario", "agents", "threads", "index", "steps", "mean_neighbours"):
         assert ours[k] == theirs[k], k
-    assert set(ours["phases_ms"]) == {"index", "steer", "integrate", "bounds"}
+    assert set(ours["phases_ms"]) == {
+        "index", "steer", "integrate", "bounds", "fields", "formations",
+    }
+    assert 0.0 <= ours["polarisation"] <= 1.0
     ms = ours["ms_per_step"]
     assert 0 < ms["min"] <= ms["median"] <= ms["max"]
     assert ours["agent_steps_per_sec"] > 0 and ours["peak_rss_mb"] > 0

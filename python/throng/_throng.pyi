@@ -29,6 +29,8 @@ class StepStats(TypedDict):
     steer: float
     integrate: float
     bounds: float
+    fields: float
+    formations: float
     agents: int
     mean_neighbours: float
 
@@ -54,6 +56,7 @@ class BenchReport(TypedDict):
     phases_ms: Dict[str, float]
     agent_steps_per_sec: float
     mean_neighbours: float
+    polarisation: float
     peak_rss_mb: float
 
 @type_check_only
