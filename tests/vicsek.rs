@@ -119,3 +119,26 @@ fn the_model_is_kinematic_and_its_numbers_are_checked() {
         assert!(World::builder().group(g).build().is_err(), "{r} {eta}");
     }
 }
+
+#[test]
+fn the_cell_batch_equals_the_scalar_reference_to_rounding() {
+    // On the grid the Vicsek plan runs in cell batches; on the k-d tree through the per-agent
+    // scalar traversal. The headings sum in another order, so the requests agree to rounding.
+    let outputs = |kind: IndexKind| {
+        let mut w = world(3000, 0.7, 13);
+        run(&mut w, 5);
+        w.set_index(kind);
+        let mut out = w.steering_outputs(1.0).unwrap();
+        out.sort_by_key(|(id, _)| *id);
+        out
+    };
+    let (grid, kd) = (outputs(IndexKind::Grid), outputs(IndexKind::KdTree));
+    for ((id, g), (_, k)) in grid.iter().zip(&kd) {
+        assert!(
+            (g.linear - k.linear).length() <= 1e-5,
+            "{id}: {:?} vs {:?}",
+            g.linear,
+            k.linear
+        );
+    }
+}

@@ -30,6 +30,7 @@ use super::neighbours::{LANES, SortedCopies, without_self};
 use super::plan::{ALI, COH, NeighbourSpec, PlanKind, SEP};
 use super::view::SteerView;
 use crate::bounds::Bounds;
+use crate::rng::{AgentRng, Stream};
 use crate::spatial::{GridIndex, SpatialIndex};
 use crate::steering::{NeighbourSums, Steering};
 
@@ -38,6 +39,8 @@ const CELL_CHUNK: usize = 2048;
 /// Lanes of the neighbour kernel: two vectors per operation, for instruction-level parallelism
 /// over the short candidate lists of a cell.
 const KLANES: usize = 8;
+/// The smallest size of a cell buffer's vectors.
+const MIN_CELL_BUF: usize = 4096;
 /// A padding coordinate: far from every point, with a finite square.
 const FAR: f32 = 1e18;
 
@@ -72,6 +75,9 @@ struct CellBuf {
     vx: Vec<f32>,
     vy: Vec<f32>,
     g: Vec<f32>,
+    /// Unit headings, gathered only for Vicsek batches.
+    hx: Vec<f32>,
+    hy: Vec<f32>,
 }
 
 thread_local! {
@@ -88,8 +94,16 @@ pub(crate) fn is_batched(view: &SteerView, i: usize) -> bool {
 /// Whether the agents of group `g` are evaluated by the batch.
 #[inline]
 pub(crate) fn is_batched_group(view: &SteerView, g: usize) -> bool {
-    let plan = &view.plans[g];
-    matches!(plan.kind, PlanKind::Flock { .. }) && plan.spec.kernel_ok()
+    batched(&view.plans[g])
+}
+
+/// Whether a plan is evaluated by the batch: flocking the lane kernel serves, or Vicsek.
+fn batched(plan: &super::plan::Plan) -> bool {
+    match plan.kind {
+        PlanKind::Flock { .. } => plan.spec.kernel_ok(),
+        PlanKind::Vicsek { .. } => plan.spec.batch_ok(),
+        _ => false,
+    }
 }
 
 /// One block of the cell buffer: positions, velocities and groups of `KLANES` candidates.
@@ -202,10 +216,11 @@ pub(crate) fn run(view: &SteerView, out: &mut CellOut, parallel: bool) -> bool {
     let a = view.agents;
     let one_group = view.plans.len() == 1;
     out.specs.clear();
-    out.specs.extend(view.plans.iter().map(|p| {
-        (matches!(p.kind, PlanKind::Flock { .. }) && p.spec.kernel_ok())
-            .then(|| Query::of(&p.spec, one_group))
-    }));
+    out.specs.extend(
+        view.plans
+            .iter()
+            .map(|p| batched(p).then(|| Query::of(&p.spec, one_group))),
+    );
     if out.specs.iter().all(Option::is_none) {
         return false;
     }
@@ -318,7 +333,27 @@ impl Batch {
             }
         }
         kernel_cell(buf, q, agents, &mut self.sums[..m]);
-        let spec = &view.plans[self.group].spec;
+        let plan = &view.plans[self.group];
+        if let PlanKind::Vicsek { noise, weight } = plan.kind {
+            for k in 0..m {
+                let (p, i) = self.slots[k];
+                let s = &self.sums[k];
+                let a = view.agents;
+                // As `eval::vicsek` in the general plan: the same draw of the same stream.
+                let mut rng =
+                    AgentRng::new(view.seed, a.ids[i].0, view.frame, Stream::Steer as u32);
+                let angle = s.heading.y.atan2(s.heading.x) + noise * 0.5 * rng.signed();
+                let mut total = Steering::ZERO;
+                total += Steering::linear(Vec2::from_angle(angle) * a.max_speed[i]).scaled(weight);
+                let o = plan.adapter.finish(total);
+                let slot = p - out.base;
+                (out.lx[slot], out.ly[slot]) = (o.linear.x, o.linear.y);
+                out.nb[slot] = s.count - 1.0;
+            }
+            self.len = 0;
+            return;
+        }
+        let spec = &plan.spec;
         for k in 0..m {
             let (p, i) = self.slots[k];
             let velocity = Vec2::new(sorted.vx[p], sorted.vy[p]);
@@ -353,6 +388,7 @@ fn chunk(
     let starts = grid.cell_start();
     let end = base + lx.len();
     let groups = specs.iter().flatten().any(Query::needs_groups);
+    let headings = specs.iter().flatten().any(|q| q.mode == VICSEK);
     let mut out = Outputs { base, lx, ly, nb };
     let mut lanes = Lanes::default();
     let mut batch = Batch {
@@ -378,7 +414,7 @@ fn chunk(
                 continue;
             }
             if !gathered {
-                gather(grid, sorted, view.bounds, cell, groups, buf);
+                gather(grid, sorted, view.bounds, cell, groups, headings, buf);
                 gathered = true;
             }
             if batch.len == CELL_BATCH || (batch.len > 0 && batch.group != g) {
@@ -563,6 +599,7 @@ fn gather(
     bounds: Bounds,
     cell: usize,
     groups: bool,
+    headings: bool,
     buf: &mut CellBuf,
 ) {
     buf.len = 0;
@@ -607,8 +644,18 @@ fn gather(
             let len = buf.len;
             let need = len + (b - a) + KLANES;
             if buf.x.len() < need {
-                for v in [&mut buf.x, &mut buf.y, &mut buf.vx, &mut buf.vy, &mut buf.g] {
-                    v.resize(need, 0.0);
+                for v in [
+                    &mut buf.x,
+                    &mut buf.y,
+                    &mut buf.vx,
+                    &mut buf.vy,
+                    &mut buf.g,
+                    &mut buf.hx,
+                    &mut buf.hy,
+                ] {
+                    // Room for dense cells from the start, so that a flock clumping after warm-up
+                    // rarely grows the buffers again.
+                    v.resize(need.max(MIN_CELL_BUF), 0.0);
                 }
             }
             append::<true>(&mut buf.x, len, &s.x, a, b, shift_x);
@@ -617,6 +664,10 @@ fn gather(
             append::<false>(&mut buf.vy, len, &s.vy, a, b, 0.0);
             if groups {
                 append::<false>(&mut buf.g, len, &s.g, a, b, 0.0);
+            }
+            if headings {
+                append::<false>(&mut buf.hx, len, &s.hx, a, b, 0.0);
+                append::<false>(&mut buf.hy, len, &s.hy, a, b, 0.0);
             }
             buf.len += b - a;
         }
@@ -628,6 +679,8 @@ fn gather(
     buf.vx[len..padded].fill(0.0);
     buf.vy[len..padded].fill(0.0);
     buf.g[len..padded].fill(-1.0);
+    buf.hx[len..padded].fill(0.0);
+    buf.hy[len..padded].fill(0.0);
     buf.len = padded;
 }
 
@@ -687,9 +740,14 @@ struct Query {
     cone: [u8; 3],
     /// Per slot: any group counts.
     any_group: [bool; 3],
+    /// The Vicsek neighbourhood's squared radius (`VICSEK` mode).
+    vicsek_r_sq: f32,
     /// The kernel body that serves this shape.
     mode: u8,
 }
+
+/// The kernel mode of the Vicsek sum.
+const VICSEK: u8 = 32;
 
 impl Query {
     /// Whether some slot counts only the agent's own group (the kernel reads groups).
@@ -720,7 +778,9 @@ impl Query {
             && c2[ALI] == c2[COH]
             && any_group[ALI] == any_group[COH];
         let q_sq = spec.query_r * spec.query_r;
-        let mode = if shared {
+        let mode = if spec.vicsek_r_sq.is_some() {
+            VICSEK
+        } else if shared {
             cone[ALI] | (u8::from(groups) << 2) | (u8::from(q_sq == r_sq[ALI]) << 4)
         } else {
             8 | u8::from(groups)
@@ -736,6 +796,7 @@ impl Query {
             c2,
             cone,
             any_group,
+            vicsek_r_sq: spec.vicsek_r_sq.unwrap_or(-1.0),
             mode,
         }
     }
@@ -781,6 +842,7 @@ fn kernel_cell(buf: &CellBuf, q: &Query, agents: &[Agent], out: &mut [NeighbourS
             21 => shared::<1, true, true>(buf, &q),
             22 => shared::<2, true, true>(buf, &q),
             8 => general::<false>(buf, &q),
+            VICSEK => vicsek(buf, &q),
             _ => general::<true>(buf, &q),
         };
     }
@@ -870,6 +932,35 @@ fn shared<const CONE: u8, const GROUPS: bool, const Q_AC: bool>(
         n,
     }
     .sums(true)
+}
+
+/// The Vicsek sum: the unit headings of every agent within the radius, the agent itself
+/// included (in `heading`), and their number (in `count`).
+#[inline(always)]
+fn vicsek(buf: &CellBuf, q: &Query) -> NeighbourSums {
+    let z = [0.0_f32; KLANES];
+    let (mut hx, mut hy, mut n) = (z, z, z);
+    let m = buf.len;
+    let blocks = buf.x[..m]
+        .chunks_exact(KLANES)
+        .zip(buf.y[..m].chunks_exact(KLANES))
+        .zip(buf.hx[..m].chunks_exact(KLANES))
+        .zip(buf.hy[..m].chunks_exact(KLANES));
+    for (((xs, ys), hxs), hys) in blocks {
+        for l in 0..KLANES {
+            let dx = xs[l] - q.x;
+            let dy = ys[l] - q.y;
+            let seen = one_if(dx * dx + dy * dy <= q.vicsek_r_sq);
+            hx[l] += seen * hxs[l];
+            hy[l] += seen * hys[l];
+            n[l] += seen;
+        }
+    }
+    NeighbourSums {
+        heading: Vec2::new(tree_sum(&hx), tree_sum(&hy)),
+        count: tree_sum(&n),
+        ..NeighbourSums::default()
+    }
 }
 
 /// Any shape: a mask per slot, view cones by their kind per slot.

@@ -33,6 +33,9 @@ pub(crate) struct SortedCopies {
     pub vx: Vec<f32>,
     pub vy: Vec<f32>,
     pub g: Vec<f32>,
+    /// Unit headings (velocity, or orientation at rest), filled only when some plan needs them.
+    pub hx: Vec<f32>,
+    pub hy: Vec<f32>,
 }
 
 /// `dst[k] = f(order[k])` for every `k`, in parallel chunks, with `LANES` zeros of padding.
@@ -59,20 +62,36 @@ fn copy_into(dst: &mut Vec<f32>, src: &[f32]) {
 }
 
 impl SortedCopies {
-    /// Fills the copies in the grid's order from the agents' buffers.
-    pub(crate) fn fill(&mut self, grid: &GridIndex, vel_x: &[f32], vel_y: &[f32], group: &[u32]) {
+    /// Fills the copies in the grid's order from the agents' buffers (the unit headings only
+    /// when `headings`).
+    pub(crate) fn fill(&mut self, grid: &GridIndex, agents: &Agents, headings: bool) {
         let order = grid.order();
         let (sx, sy) = (grid.sorted_x(), grid.sorted_y());
-        let SortedCopies { x, y, vx, vy, g } = self;
+        let (vel_x, vel_y, group) = (&agents.vel_x, &agents.vel_y, &agents.group);
+        let SortedCopies {
+            x,
+            y,
+            vx,
+            vy,
+            g,
+            hx,
+            hy,
+        } = self;
         rayon::join(
             || {
                 copy_into(x, sx);
                 copy_into(y, sy);
                 gather_into(g, order, |j| group[j] as f32);
+                if headings {
+                    gather_into(hx, order, |j| unit_heading(agents, j).x);
+                }
             },
             || {
                 gather_into(vx, order, |j| vel_x[j]);
                 gather_into(vy, order, |j| vel_y[j]);
+                if headings {
+                    gather_into(hy, order, |j| unit_heading(agents, j).y);
+                }
             },
         );
     }

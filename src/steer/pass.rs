@@ -149,7 +149,7 @@ pub(crate) fn steer_agent(v: &SteerView, i: usize) -> (Steering, f32, f32) {
                 sums.count,
             )
         }
-        PlanKind::General => general(v, i, &adapter),
+        PlanKind::General | PlanKind::Vicsek { .. } => general(v, i, &adapter),
     }
 }
 

@@ -48,6 +48,11 @@ pub(crate) struct NeighbourSpec {
 }
 
 impl NeighbourSpec {
+    /// Whether the cell batch can gather this group's sums (no repulsion, no cap).
+    pub(crate) fn batch_ok(&self) -> bool {
+        self.repel.is_none() && self.cap.is_none()
+    }
+
     /// Whether the SIMD grid kernels can serve this group (they do not do repulsion, Vicsek
     /// sums or caps).
     pub(crate) fn kernel_ok(&self) -> bool {
@@ -72,6 +77,13 @@ pub(crate) enum PlanKind {
         field: usize,
         /// Its channel.
         channel: usize,
+        /// The behaviour's weight.
+        weight: f32,
+    },
+    /// One `vicsek` alone in a weighted sum. Evaluated in cell batches when the grid is ready.
+    Vicsek {
+        /// The noise width, radians.
+        noise: f32,
         /// The behaviour's weight.
         weight: f32,
     },
@@ -156,6 +168,14 @@ impl Plan {
             PlanKind::FollowField {
                 field,
                 channel,
+                weight: w.weight,
+            }
+        } else if let [w] = &profile.steering.behaviours[..]
+            && let Behaviour::Vicsek { noise, .. } = w.behaviour
+            && profile.steering.combine == Combine::WeightedSum
+        {
+            PlanKind::Vicsek {
+                noise,
                 weight: w.weight,
             }
         } else {

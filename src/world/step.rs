@@ -360,8 +360,8 @@ impl World {
         let SpatialIndex::Grid(grid) = &self.index else {
             return false;
         };
-        let a = &self.agents;
-        self.scratch.sorted.fill(grid, &a.vel_x, &a.vel_y, &a.group);
+        let headings = self.plans.iter().any(|p| p.spec.vicsek_r_sq.is_some());
+        self.scratch.sorted.fill(grid, &self.agents, headings);
         true
     }
 }
