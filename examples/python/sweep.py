@@ -1,14 +1,17 @@
 #!/usr/bin/env python3
-"""A flocking-parameter sweep on a Dask cluster: how ordered does a flock get as the weight of
-Reynolds' alignment grows?
+"""A parameter sweep on a Dask cluster: the Vicsek model's order-disorder transition, or how
+ordered a Reynolds flock gets as the weight of alignment grows.
 
-Each run steps the built-in `flock` scenario (boids on a torus at constant density) from a
-random start and reports its polarisation, the Vicsek order parameter |mean unit velocity|
-(0: headings at random, 1: all agents fly the same way). The runs are mapped over the cluster's
-workers by `throng.sweep`; the script draws the polarisation against the alignment weight, one
-dot per seed and the mean over seeds, into a PNG.
+Each run steps a built-in scenario from a random start and reports its polarisation, the order
+parameter |mean unit velocity| (0: headings at random, 1: all agents move the same way). With
+`--model vicsek` (the default) the runs sweep the `vicsek` scenario's noise from 0 to 2 pi; with
+`--model flock` they sweep the alignment weight of the `flock` scenario (boids on a torus at
+constant density). The runs are mapped over the cluster's workers by `throng.sweep`; the script
+draws the polarisation against the parameter, one dot per seed and the mean over seeds, into a
+PNG.
 
     python examples/python/sweep.py sweep.png                              # a 2-worker LocalCluster
+    python examples/python/sweep.py sweep.png --model flock                # the alignment sweep
     python examples/python/sweep.py sweep.png --scheduler tcp://HOST:8786  # an existing cluster
 
 With `--scheduler` the script connects to a running scheduler instead of starting a local
@@ -20,7 +23,21 @@ installed. The numbers are the same wherever the runs go.
 import argparse
 import sys
 
-WEIGHT = "groups.boids.steering.behaviours.alignment.weight"
+# Per model: the scenario, the override the sweep varies, its default values, the axis label.
+MODELS = {
+    "vicsek": (
+        "vicsek",
+        "groups.particles.steering.behaviours.vicsek.noise",
+        "0,0.5,1,1.5,2,2.5,3,3.5,4,5,6.283",
+        "noise width (radians), 2 agents per unit area, radius 1",
+    ),
+    "flock": (
+        "flock",
+        "groups.boids.steering.behaviours.alignment.weight",
+        "0,0.125,0.25,0.5,1,2,4",
+        "alignment weight (separation 1.5, cohesion 0.8)",
+    ),
+}
 
 
 def main(argv=None):
@@ -31,10 +48,10 @@ def main(argv=None):
     parser.add_argument("--agents", type=int, default=1000)
     parser.add_argument("--steps", type=int, default=300)
     parser.add_argument("--seeds", type=int, default=3)
-    parser.add_argument(
-        "--weights", default="0,0.125,0.25,0.5,1,2,4", help="alignment weights, comma-separated"
-    )
+    parser.add_argument("--model", choices=sorted(MODELS), default="vicsek")
+    parser.add_argument("--values", help="the swept values, comma-separated (default per model)")
     args = parser.parse_args(argv)
+    scenario, key, default_values, label = MODELS[args.model]
 
     import matplotlib
 
@@ -44,9 +61,9 @@ def main(argv=None):
 
     import throng
 
-    weights = [float(w) for w in args.weights.split(",")]
+    weights = [float(w) for w in (args.values or default_values).split(",")]
     runs = [
-        {"scenario": "flock", "agents": args.agents, "seed": seed, "steps": args.steps, WEIGHT: w}
+        {"scenario": scenario, "agents": args.agents, "seed": seed, "steps": args.steps, key: w}
         for w in weights
         for seed in range(1, args.seeds + 1)
     ]
@@ -67,23 +84,24 @@ def main(argv=None):
         if cluster is not None:
             cluster.close()
 
-    summary = df.groupby(WEIGHT)["polarisation"].agg(["mean", "std", "min", "max"])
-    print(summary.rename_axis("alignment weight").to_string(float_format="%.3f"))
+    summary = df.groupby(key)["polarisation"].agg(["mean", "std", "min", "max"])
+    print(summary.rename_axis(key.rsplit(".", 1)[-1]).to_string(float_format="%.3f"))
     print(f"median run time {df['time_run_s'].median():.2f} s on {df['time_threads'].iloc[0]} "
           f"thread(s) per run", file=sys.stderr)
 
     fig, ax = plt.subplots(figsize=(6, 4), dpi=120)
-    ax.scatter(df[WEIGHT], df["polarisation"], s=14, alpha=0.5, label="one seed")
+    ax.scatter(df[key], df["polarisation"], s=14, alpha=0.5, label="one seed")
     ax.plot(summary.index, summary["mean"], marker="o", label=f"mean of {args.seeds} seeds")
-    ax.set_xscale("symlog", linthresh=min([w for w in weights if w > 0], default=1.0))
-    ax.set_xticks(weights)
-    ax.set_xticklabels([f"{w:g}" for w in weights])
-    ax.minorticks_off()
-    ax.set_xlabel("alignment weight (separation 1.5, cohesion 0.8)")
+    if args.model == "flock":
+        ax.set_xscale("symlog", linthresh=min([w for w in weights if w > 0], default=1.0))
+        ax.set_xticks(weights)
+        ax.set_xticklabels([f"{w:g}" for w in weights])
+        ax.minorticks_off()
+    ax.set_xlabel(label)
     ax.set_ylabel("polarisation |<v/|v|>|")
     ax.set_ylim(0, 1)
-    ax.set_title(f"flock, {args.agents} agents, after {args.steps} steps")
-    ax.legend(loc="upper left")
+    ax.set_title(f"{scenario}, {args.agents} agents, after {args.steps} steps")
+    ax.legend(loc="upper right" if args.model == "vicsek" else "upper left")
     fig.tight_layout()
     fig.savefig(args.png)
     print(f"wrote {args.png}", file=sys.stderr)
