@@ -13,6 +13,7 @@
 
 use glam::Vec2;
 
+use super::neighbours::LANES;
 use crate::error::MAX_SPEED;
 use crate::movement::MovementModel;
 use crate::profile::Profile;
@@ -109,6 +110,42 @@ impl Adapter {
             return out;
         }
         self.finish_overflow(total)
+    }
+
+    /// [`Adapter::finish`] for `LANES` linear requests at once (the first `len` in use), with the
+    /// same operations in the same order, so each lane equals the scalar result bit for bit;
+    /// when some lane overflowed, the used lanes take the scalar path.
+    #[inline(always)]
+    pub(crate) fn finish_lanes(
+        &self,
+        tx: [f32; LANES],
+        ty: [f32; LANES],
+        len: usize,
+    ) -> ([f32; LANES], [f32; LANES]) {
+        let (mut ox, mut oy) = (tx, ty);
+        if !self.kinematic {
+            let (mass, max) = (self.mass, self.max_acceleration);
+            for k in 0..LANES {
+                // `truncate(total / mass, max)`.
+                let (vx, vy) = (tx[k] / mass, ty[k] / mass);
+                let len_sq = vx * vx + vy * vy;
+                let over = len_sq > max * max;
+                let s = max / len_sq.sqrt();
+                ox[k] = if over { vx * s } else { vx };
+                oy[k] = if over { vy * s } else { vy };
+            }
+        }
+        let mut finite = true;
+        for k in 0..LANES {
+            finite &= (ox[k] * ox[k] + oy[k] * oy[k]).is_finite();
+        }
+        if !finite {
+            for k in 0..len {
+                let s = self.finish(Steering::linear(Vec2::new(tx[k], ty[k])));
+                (ox[k], oy[k]) = (s.linear.x, s.linear.y);
+            }
+        }
+        (ox, oy)
     }
 
     /// [`Adapter::finish`] for requests whose magnitude overflowed (a gravity point almost on

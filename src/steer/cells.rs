@@ -493,30 +493,7 @@ fn evaluate_lanes(
     } else {
         total_lanes::<false>(l, terms)
     };
-    let (mut ox, mut oy) = (tx, ty);
-    if !adapter.kinematic {
-        let (mass, max) = (adapter.mass, adapter.max_acceleration);
-        for k in 0..LANES {
-            // `truncate(total / mass, max)`.
-            let (vx, vy) = (tx[k] / mass, ty[k] / mass);
-            let len_sq = vx * vx + vy * vy;
-            let over = len_sq > max * max;
-            let s = max / len_sq.sqrt();
-            ox[k] = if over { vx * s } else { vx };
-            oy[k] = if over { vy * s } else { vy };
-        }
-    }
-    let mut finite = true;
-    for k in 0..LANES {
-        finite &= (ox[k] * ox[k] + oy[k] * oy[k]).is_finite();
-    }
-    if !finite {
-        for k in 0..l.len {
-            let s = adapter.finish(Steering::linear(Vec2::new(tx[k], ty[k])));
-            (ox[k], oy[k]) = (s.linear.x, s.linear.y);
-        }
-    }
-    (ox, oy)
+    adapter.finish_lanes(tx, ty, l.len)
 }
 
 /// The weighted sum of the flocking terms per lane, in the profile's order.

@@ -14,6 +14,7 @@ use rayon::prelude::*;
 use super::adapter::Adapter;
 use super::cells;
 use super::eval::{self, Draws, Me, evaluate};
+use super::neighbours::LANES;
 use super::plan::PlanKind;
 use super::view::SteerView;
 use crate::rng::{AgentRng, Stream};
@@ -70,8 +71,17 @@ pub(crate) fn run(view: &SteerView, out: &mut SteerOut, scratch: &mut PassScratc
             scratch.cells.take_all(base, view, (lx, ly, an, wa, nb));
             return;
         }
+        let mut seekers = SeekLanes::default();
         for k in 0..lx.len() {
             let i = base + k;
+            let g = view.agents.group[i] as usize;
+            if let PlanKind::Seek { .. } = view.plans[g].kind {
+                if seekers.len == LANES || (seekers.len > 0 && seekers.group != g) {
+                    seekers.flush(view, (lx, ly, an, wa, nb), base);
+                }
+                seekers.push(view, g, i);
+                continue;
+            }
             if batched && cells::is_batched(view, i) {
                 scratch.cells.take(i, view, (lx, ly, an, wa, nb), k);
                 continue;
@@ -83,6 +93,7 @@ pub(crate) fn run(view: &SteerView, out: &mut SteerOut, scratch: &mut PassScratc
             wa[k] = w;
             nb[k] = count;
         }
+        seekers.flush(view, (lx, ly, an, wa, nb), base);
     };
     if parallel {
         (
@@ -105,6 +116,105 @@ pub(crate) fn run(view: &SteerView, out: &mut SteerOut, scratch: &mut PassScratc
             &mut out.neighbours,
         );
     }
+}
+
+/// Up to [`LANES`] agents of one seek plan, evaluated together.
+#[derive(Debug, Default)]
+struct SeekLanes {
+    len: usize,
+    group: usize,
+    index: [usize; LANES],
+    px: [f32; LANES],
+    py: [f32; LANES],
+    vx: [f32; LANES],
+    vy: [f32; LANES],
+    max_speed: [f32; LANES],
+}
+
+impl SeekLanes {
+    fn push(&mut self, view: &SteerView, group: usize, i: usize) {
+        let a = view.agents;
+        let l = self.len;
+        self.group = group;
+        self.index[l] = i;
+        (self.px[l], self.py[l]) = (a.pos_x[i], a.pos_y[i]);
+        (self.vx[l], self.vy[l]) = (a.vel_x[i], a.vel_y[i]);
+        self.max_speed[l] = a.max_speed[i];
+        self.len += 1;
+    }
+
+    /// Evaluates the filled lanes and writes their outputs into the chunks starting at `base`.
+    fn flush(&mut self, view: &SteerView, (lx, ly, an, wa, nb): cells::OutChunks, base: usize) {
+        if self.len == 0 {
+            return;
+        }
+        let plan = &view.plans[self.group];
+        let PlanKind::Seek {
+            target,
+            threshold,
+            weight,
+        } = plan.kind
+        else {
+            unreachable!("only seek plans are gathered");
+        };
+        let (tx, ty) = seek_lanes(
+            self,
+            view.bounds,
+            target,
+            threshold,
+            weight,
+            plan.adapter.kinematic,
+        );
+        let (ox, oy) = plan.adapter.finish_lanes(tx, ty, self.len);
+        for l in 0..self.len {
+            let (i, k) = (self.index[l], self.index[l] - base);
+            (lx[k], ly[k], an[k], nb[k]) = (ox[l], oy[l], 0.0, 0.0);
+            wa[k] = view.agents.wander[i];
+        }
+        self.len = 0;
+    }
+}
+
+/// The weighted seek request of every lane: the same operations in the same order as
+/// resolving the point target (its nearest image) and `steering::seek` / `kinematic_seek`.
+#[multiversion::multiversion(targets("x86_64+avx2+fma", "x86_64+avx"))]
+fn seek_lanes(
+    l: &SeekLanes,
+    bounds: crate::bounds::Bounds,
+    target: glam::Vec2,
+    threshold: f32,
+    weight: f32,
+    kinematic: bool,
+) -> ([f32; LANES], [f32; LANES]) {
+    let (mut tx, mut ty) = ([0.0_f32; LANES], [0.0_f32; LANES]);
+    let torus = match bounds {
+        crate::bounds::Bounds::Torus { size } => Some(size),
+        _ => None,
+    };
+    let thr_sq = threshold * threshold;
+    for k in 0..LANES {
+        let (px, py) = (l.px[k], l.py[k]);
+        let (mut dx, mut dy) = (target.x - px, target.y - py);
+        if let Some(size) = torus {
+            dx = crate::bounds::wrap_delta(dx, size.x);
+            dy = crate::bounds::wrap_delta(dy, size.y);
+        }
+        // The resolved target, then the offset to it, as the scalar path computes them.
+        let (to_x, to_y) = ((px + dx) - px, (py + dy) - py);
+        let d_sq = to_x * to_x + to_y * to_y;
+        let stop = (d_sq <= thr_sq) | (d_sq == 0.0);
+        let s = l.max_speed[k] / d_sq.sqrt();
+        let (fx, fy) = if kinematic {
+            (to_x * s, to_y * s)
+        } else {
+            (to_x * s - l.vx[k], to_y * s - l.vy[k])
+        };
+        let (fx, fy) = if stop { (0.0, 0.0) } else { (fx, fy) };
+        // `Steering::ZERO + request * weight`, as the general plan sums it.
+        tx[k] = 0.0 + fx * weight;
+        ty[k] = 0.0 + fy * weight;
+    }
+    (tx, ty)
 }
 
 /// The steering of agent `i`, per agent: `(request, new wander angle, neighbours found)`, the
@@ -149,7 +259,9 @@ pub(crate) fn steer_agent(v: &SteerView, i: usize) -> (Steering, f32, f32) {
                 sums.count,
             )
         }
-        PlanKind::General | PlanKind::Vicsek { .. } => general(v, i, &adapter),
+        PlanKind::General | PlanKind::Vicsek { .. } | PlanKind::Seek { .. } => {
+            general(v, i, &adapter)
+        }
     }
 }
 

@@ -80,6 +80,16 @@ pub(crate) enum PlanKind {
         /// The behaviour's weight.
         weight: f32,
     },
+    /// One `seek` of a fixed point alone in a weighted sum: evaluated eight agents at a time in
+    /// lanes.
+    Seek {
+        /// The point sought.
+        target: glam::Vec2,
+        /// Distance at which seeking stops.
+        threshold: f32,
+        /// The behaviour's weight.
+        weight: f32,
+    },
     /// One `vicsek` alone in a weighted sum. Evaluated in cell batches when the grid is ready.
     Vicsek {
         /// The noise width, radians.
@@ -168,6 +178,18 @@ impl Plan {
             PlanKind::FollowField {
                 field,
                 channel,
+                weight: w.weight,
+            }
+        } else if let [w] = &profile.steering.behaviours[..]
+            && let Behaviour::Seek {
+                target: Target::Point(target),
+                threshold,
+            } = w.behaviour
+            && profile.steering.combine == Combine::WeightedSum
+        {
+            PlanKind::Seek {
+                target,
+                threshold,
                 weight: w.weight,
             }
         } else if let [w] = &profile.steering.behaviours[..]
