@@ -918,12 +918,10 @@ fn vicsek(buf: &CellBuf, q: &Query) -> NeighbourSums {
     let z = [0.0_f32; KLANES];
     let (mut hx, mut hy, mut n) = (z, z, z);
     let m = buf.len;
-    let blocks = buf.x[..m]
+    let headings = buf.hx[..m]
         .chunks_exact(KLANES)
-        .zip(buf.y[..m].chunks_exact(KLANES))
-        .zip(buf.hx[..m].chunks_exact(KLANES))
         .zip(buf.hy[..m].chunks_exact(KLANES));
-    for (((xs, ys), hxs), hys) in blocks {
+    for ((xs, ys, ..), (hxs, hys)) in buf.blocks().zip(headings) {
         for l in 0..KLANES {
             let dx = xs[l] - q.x;
             let dy = ys[l] - q.y;
