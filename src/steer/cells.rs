@@ -26,7 +26,7 @@ use multiversion::multiversion;
 use rayon::prelude::*;
 
 use super::adapter::Adapter;
-use super::neighbours::{LANES, SortedCopies, without_self};
+use super::neighbours::{LANES, SortedCopies, positive_finite, without_self};
 use super::plan::{ALI, COH, NeighbourSpec, PlanKind, SEP};
 use super::view::SteerView;
 use crate::bounds::Bounds;
@@ -545,7 +545,7 @@ fn term_lanes<const KINEMATIC: bool, const MEAN: bool>(
         };
         // `normalize_or_zero(d) * max_speed`, as glam computes it.
         let rcp = 1.0 / (dx * dx + dy * dy).sqrt();
-        let unit = rcp.is_finite() & (rcp > 0.0);
+        let unit = positive_finite(rcp);
         let ms = l.max_speed[k];
         let ux = if unit { dx * rcp } else { 0.0 };
         let uy = if unit { dy * rcp } else { 0.0 };
@@ -786,7 +786,7 @@ fn headings(agents: &mut [Agent]) -> bool {
     let mut ok = true;
     for a in agents.iter_mut() {
         let rcp = 1.0 / (a.hx * a.hx + a.hy * a.hy).sqrt();
-        ok &= rcp.is_finite() & (rcp > 0.0);
+        ok &= positive_finite(rcp);
         a.hx *= rcp;
         a.hy *= rcp;
     }

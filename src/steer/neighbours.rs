@@ -24,6 +24,13 @@ use crate::steering::NeighbourSums;
 /// SIMD width of the grid kernel.
 pub(crate) const LANES: usize = 8;
 
+/// `x.is_finite() && x > 0.0` as two ordered comparisons, which vectorise (the class test
+/// behind `is_finite` compiles to scalar bit tests per lane).
+#[inline(always)]
+pub(crate) fn positive_finite(x: f32) -> bool {
+    (x > 0.0) & (x <= f32::MAX)
+}
+
 /// Cell-ordered copies of what the kernel reads, padded with `LANES` zeros so that a block of
 /// eight lanes never reads past the end.
 #[derive(Debug, Default)]
