@@ -92,6 +92,14 @@ pub enum Error {
         /// How many paths the world has.
         count: usize,
     },
+    /// A target slot that names no slot of the world.
+    #[error("no target slot {slot} (the world has {count})")]
+    UnknownTarget {
+        /// The slot given.
+        slot: u32,
+        /// How many target slots the world has.
+        count: usize,
+    },
     /// A formation id that names no formation.
     #[error("no formation {formation} (the world has {count})")]
     UnknownFormation {

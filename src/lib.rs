@@ -41,6 +41,9 @@
 //! - [`world`]: [`World`], [`WorldBuilder`], [`GroupParams`], the step pipeline and [`StepStats`].
 //! - [`scenario`]: scenario files and the built-in scenarios.
 //! - `render` (feature `render`): PNG and animated GIF output.
+//! - [`spawn`]: seeded placements in rectangles, discs, rings, grids, Poisson-disc layouts and
+//!   free cells, clear of obstacles when asked.
+//! - [`targets`]: shared target slots that behaviours refer to and a program moves every frame.
 //! - [`bounds`]: open, walled and wrap-around worlds and their metric.
 //! - [`rng`]: the counter-based random stream keyed by (seed, agent, frame).
 //! - [`timing`]: step timings, run summaries and the benchmark report.
@@ -64,8 +67,10 @@ pub mod render;
 pub mod rng;
 pub mod scenario;
 pub mod spatial;
+pub mod spawn;
 mod steer;
 pub mod steering;
+pub mod targets;
 pub mod timing;
 pub mod world;
 
@@ -90,6 +95,7 @@ pub mod prelude {
         ArriveParams, Behaviour, Combine, Neighbourhood, Steering, SteeringProfile, Target,
         WanderParams, Weighted,
     };
+    pub use crate::targets::{TargetPoint, TargetSlot};
     pub use crate::world::{AgentState, GroupParams, StepStats, World, WorldBuilder};
     pub use glam::Vec2;
 }

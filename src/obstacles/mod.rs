@@ -179,17 +179,23 @@ impl Obstacles {
     /// Whether `p` lies strictly inside some circle.
     #[must_use]
     pub fn inside_circle(&self, p: Vec2) -> bool {
-        let mut inside = false;
+        self.near_circle(p, 0.0)
+    }
+
+    /// Whether `p` lies closer than `margin` (>= 0) to some circle's edge, or inside it.
+    #[must_use]
+    pub fn near_circle(&self, p: Vec2, margin: f32) -> bool {
+        let mut near = false;
         self.grid.visit(
             p,
-            0.0,
+            margin,
             |c| {
-                inside |= self.circles[c as usize].center.distance_squared(p)
-                    < sq(self.circles[c as usize].radius)
+                let c = &self.circles[c as usize];
+                near |= c.center.distance_squared(p) < sq(c.radius + margin);
             },
             |_| {},
         );
-        inside
+        near
     }
 
     /// Whether the move `from -> to` crosses a wall.

@@ -543,18 +543,10 @@ impl GroupSpec {
         Ok(match &self.spawn {
             Spawn::FreeCells => super::fields::free_point(world, rng)?,
             Spawn::Uniform => {
-                let size = bounds.size().unwrap_or(Vec2::ONE);
-                Vec2::new(rng.random::<f32>() * size.x, rng.random::<f32>() * size.y)
+                crate::spawn::sample_rect(rng, Vec2::ZERO, bounds.size().unwrap_or(Vec2::ONE))
             }
-            Spawn::Rect { min, max } => Vec2::new(
-                min.x + rng.random::<f32>() * (max.x - min.x),
-                min.y + rng.random::<f32>() * (max.y - min.y),
-            ),
-            Spawn::Disc { center, radius } => {
-                let r = radius * rng.random::<f32>().sqrt();
-                let a = rng.random::<f32>() * 2.0 * PI;
-                *center + Vec2::from_angle(a) * r
-            }
+            Spawn::Rect { min, max } => crate::spawn::sample_rect(rng, *min, *max),
+            Spawn::Disc { center, radius } => crate::spawn::sample_ring(rng, *center, 0.0, *radius),
             Spawn::Points { points } => points.first().copied().unwrap_or(Vec2::ZERO),
         })
     }

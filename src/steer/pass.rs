@@ -18,7 +18,7 @@ use super::neighbours::LANES;
 use super::plan::PlanKind;
 use super::view::SteerView;
 use crate::rng::{AgentRng, Stream};
-use crate::steering::{Combine, Steering};
+use crate::steering::{Combine, Steering, Target};
 
 /// Agents per parallel steering task.
 pub(crate) const STEER_CHUNK: usize = 1024;
@@ -156,6 +156,11 @@ impl SeekLanes {
         } = plan.kind
         else {
             unreachable!("only seek plans are gathered");
+        };
+        let target = match target {
+            Target::Point(p) => p,
+            Target::Slot(s) => view.targets[s.0 as usize].position,
+            _ => unreachable!("seek plans name a point or a slot"),
         };
         let (tx, ty) = seek_lanes(
             self,

@@ -80,11 +80,11 @@ pub(crate) enum PlanKind {
         /// The behaviour's weight.
         weight: f32,
     },
-    /// One `seek` of a fixed point alone in a weighted sum: evaluated eight agents at a time in
-    /// lanes.
+    /// One `seek` of a fixed point or a target slot alone in a weighted sum: evaluated eight
+    /// agents at a time in lanes.
     Seek {
-        /// The point sought.
-        target: glam::Vec2,
+        /// The point sought: a [`Target::Point`] or a [`Target::Slot`] (read when the step runs).
+        target: Target,
         /// Distance at which seeking stops.
         threshold: f32,
         /// The behaviour's weight.
@@ -110,6 +110,8 @@ pub(crate) struct References {
     pub paths: usize,
     /// Number of groups.
     pub groups: usize,
+    /// Number of target slots.
+    pub targets: usize,
 }
 
 /// One group's compiled plan.
@@ -130,7 +132,8 @@ impl Plan {
     /// # Errors
     /// [`Error::UnknownField`] for a `follow_field` naming a missing field or channel,
     /// [`Error::UnknownGroup`] for a nearest-agent target of a missing group,
-    /// [`Error::UnknownPath`] for a `follow_path` naming a missing path.
+    /// [`Error::UnknownPath`] for a `follow_path` naming a missing path,
+    /// [`Error::UnknownTarget`] for a target slot the world does not have.
     pub(crate) fn compile(profile: &Profile, group: usize, refs: &References) -> Result<Plan> {
         let mut nearest: Vec<(usize, f32)> = Vec::new();
         let mut follow = None;
@@ -154,6 +157,14 @@ impl Plan {
                     });
                 }
                 _ => {}
+            }
+            if let Some(Target::Slot(s)) = w.behaviour.target()
+                && s.0 as usize >= refs.targets
+            {
+                return Err(Error::UnknownTarget {
+                    slot: s.0,
+                    count: refs.targets,
+                });
             }
             if let Some(Target::Nearest { group: g, within }) = w.behaviour.target() {
                 if g >= refs.groups {
@@ -181,10 +192,8 @@ impl Plan {
                 weight: w.weight,
             }
         } else if let [w] = &profile.steering.behaviours[..]
-            && let Behaviour::Seek {
-                target: Target::Point(target),
-                threshold,
-            } = w.behaviour
+            && let Behaviour::Seek { target, threshold } = w.behaviour
+            && matches!(target, Target::Point(_) | Target::Slot(_))
             && profile.steering.combine == Combine::WeightedSum
         {
             PlanKind::Seek {

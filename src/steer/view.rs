@@ -21,6 +21,7 @@ use crate::obstacles::Obstacles;
 use crate::profile::Profile;
 use crate::spatial::{GridIndex, Neighbour, NeighbourIndex, SpatialIndex};
 use crate::steering::{NeighbourSums, Target};
+use crate::targets::TargetPoint;
 
 thread_local! {
     /// Per-worker neighbour list of the scalar traversal, reused across agents and frames.
@@ -94,6 +95,8 @@ pub(crate) struct SteerView<'a> {
     pub gravity: &'a GravityField,
     pub group_movement: &'a GroupMovement,
     pub fields: &'a FieldSet,
+    /// The world's target slots.
+    pub targets: &'a [TargetPoint],
 }
 
 /// A resolved target: its position (nearest image) and velocity.
@@ -110,6 +113,10 @@ impl SteerView<'_> {
         let (p, v) = match target {
             Target::Point(p) => (p, Vec2::ZERO),
             Target::Own => (Vec2::new(a.target_x[i], a.target_y[i]), Vec2::ZERO),
+            Target::Slot(s) => {
+                let t = self.targets.get(s.0 as usize)?;
+                (t.position, t.velocity)
+            }
             Target::Agent(id) => {
                 let j = a.index_of(id)?;
                 if j == i {

@@ -18,6 +18,10 @@ pub enum Target {
     Agent(AgentId),
     /// Each agent's own target point, set with `World::set_target`.
     Own,
+    /// One of the world's shared target slots (`World::add_target`), moved with
+    /// `World::set_target_point`; pursuit and evasion predict with the slot's velocity. In
+    /// scenario files: `{ slot = N }`, the index in `[[targets]]`.
+    Slot(crate::targets::TargetSlot),
     /// The nearest agent of `group` within `within` (found through a neighbour index of that
     /// group); nothing when none is that close.
     Nearest {
@@ -37,7 +41,7 @@ impl Target {
             Target::Nearest { within, .. } => {
                 positive("target.within", *within)?;
             }
-            Target::Agent(_) | Target::Own => {}
+            Target::Agent(_) | Target::Own | Target::Slot(_) => {}
         }
         Ok(())
     }
@@ -577,8 +581,9 @@ pub enum Combine {
     /// Sum of weighted requests (default).
     #[default]
     WeightedSum,
-    /// Prioritised, truncated running sum: behaviours in order, each using what is left of the
-    /// force budget (maximum force, or maximum speed in the kinematic model).
+    /// Prioritised, truncated running sum: behaviours in order, each request first scaled by
+    /// its weight, then using what is left of the force budget (maximum force, or maximum
+    /// speed in the kinematic model); behaviours after the budget is spent are not evaluated.
     Priority,
 }
 

@@ -20,6 +20,7 @@ mod align;
 mod basis;
 mod behaviour;
 mod combine;
+mod constructors;
 mod flocking;
 mod pursuit;
 mod seek;

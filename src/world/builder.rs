@@ -3,7 +3,14 @@ use super::state::World;
 use crate::agents::{AgentId, AgentInit};
 use crate::bounds::Bounds;
 use crate::error::Result;
+use crate::field::GoalChannels;
+use crate::gravity::GravityPoint;
 use crate::group::FormationParams;
+use crate::obstacles::{Circle, Wall};
+use crate::targets::TargetPoint;
+
+/// The seed a builder starts with, the same as a scenario file without a `seed` key.
+pub const DEFAULT_SEED: u64 = 1;
 
 /// Builds a [`World`], validating everything before the first step.
 ///
@@ -24,18 +31,43 @@ use crate::group::FormationParams;
 /// # Ok(())
 /// # }
 /// ```
-#[derive(Clone, Debug, Default)]
+#[derive(Clone, Debug)]
 pub struct WorldBuilder {
     bounds: Bounds,
     seed: u64,
     groups: Vec<GroupParams>,
     agents: Vec<AgentInit>,
     paths: Vec<crate::group::Path>,
+    targets: Vec<TargetPoint>,
+    circles: Vec<Circle>,
+    walls: Vec<Wall>,
+    polygons: Vec<(Vec<glam::Vec2>, bool)>,
+    fields: Vec<GoalChannels>,
+    gravity: Vec<GravityPoint>,
     formations: Vec<(AgentId, FormationParams, Vec<AgentId>)>,
 }
 
+impl Default for WorldBuilder {
+    fn default() -> Self {
+        WorldBuilder {
+            bounds: Bounds::default(),
+            seed: DEFAULT_SEED,
+            groups: Vec::new(),
+            agents: Vec::new(),
+            paths: Vec::new(),
+            targets: Vec::new(),
+            circles: Vec::new(),
+            walls: Vec::new(),
+            polygons: Vec::new(),
+            fields: Vec::new(),
+            gravity: Vec::new(),
+            formations: Vec::new(),
+        }
+    }
+}
+
 impl WorldBuilder {
-    /// An empty builder: open world, seed 0, no groups.
+    /// An empty builder: open world, seed [`DEFAULT_SEED`] (as scenario files), no groups.
     #[must_use]
     pub fn new() -> Self {
         Self::default()
@@ -62,6 +94,13 @@ impl WorldBuilder {
         self
     }
 
+    /// Adds groups (indices in order, after the groups added before).
+    #[must_use]
+    pub fn groups(mut self, groups: impl IntoIterator<Item = GroupParams>) -> Self {
+        self.groups.extend(groups);
+        self
+    }
+
     /// Adds an agent.
     #[must_use]
     pub fn agent(mut self, init: AgentInit) -> Self {
@@ -83,6 +122,60 @@ impl WorldBuilder {
         self
     }
 
+    /// Adds a target slot (its [`TargetSlot`](crate::targets::TargetSlot) is the number of
+    /// slots added before it), for behaviours to name with
+    /// [`Target::Slot`](crate::steering::Target::Slot).
+    #[must_use]
+    pub fn target(mut self, target: TargetPoint) -> Self {
+        self.targets.push(target);
+        self
+    }
+
+    /// Adds a circular obstacle (as [`World::add_circle`]: no agent may stand inside it).
+    #[must_use]
+    pub fn circle(mut self, circle: Circle) -> Self {
+        self.circles.push(circle);
+        self
+    }
+
+    /// Adds circular obstacles.
+    #[must_use]
+    pub fn circles(mut self, circles: impl IntoIterator<Item = Circle>) -> Self {
+        self.circles.extend(circles);
+        self
+    }
+
+    /// Adds a wall (as [`World::add_wall`]).
+    #[must_use]
+    pub fn wall(mut self, wall: Wall) -> Self {
+        self.walls.push(wall);
+        self
+    }
+
+    /// Adds the walls of a polyline, closed into a polygon when `closed` (as
+    /// [`World::add_polygon`]).
+    #[must_use]
+    pub fn polygon(mut self, points: impl IntoIterator<Item = glam::Vec2>, closed: bool) -> Self {
+        self.polygons.push((points.into_iter().collect(), closed));
+        self
+    }
+
+    /// Adds a goal field (its index is the number of fields added before it; as
+    /// [`World::add_field`]: no agent may stand inside one of its walls).
+    #[must_use]
+    pub fn field(mut self, channels: GoalChannels) -> Self {
+        self.fields.push(channels);
+        self
+    }
+
+    /// Adds a gravity point (as [`World::add_gravity_point`]; a point riding on an agent names
+    /// an agent added to this builder).
+    #[must_use]
+    pub fn gravity_point(mut self, point: GravityPoint) -> Self {
+        self.gravity.push(point);
+        self
+    }
+
     /// Adds a formation of agents added to this builder (ids count from 0 in the order added),
     /// as [`World::add_formation`] does after the agents.
     #[must_use]
@@ -100,8 +193,13 @@ impl WorldBuilder {
     /// Validates everything and builds the world.
     ///
     /// # Errors
-    /// The variant naming the first bad parameter: bounds, a group's limits or behaviours, or an
-    /// agent (unknown group, NaN, outside the world).
+    /// The variant naming the first bad parameter: bounds, a group's limits or behaviours
+    /// (including a path, target slot or field they name that was not added), an agent
+    /// (unknown group, NaN, outside the world, inside an obstacle or a field's wall: the error
+    /// names the agent), an obstacle, field, gravity point or formation.
+    ///
+    /// The world is the same as one built from the groups, paths, target slots and agents alone
+    /// with the obstacles, fields, gravity points and formations then added in that order.
     pub fn build(self) -> Result<World> {
         self.bounds.validate()?;
         for g in &self.groups {
@@ -111,11 +209,31 @@ impl WorldBuilder {
         for p in self.paths {
             world.add_path(p)?;
         }
+        for t in self.targets {
+            world.add_target_point(t)?;
+        }
+        // Fields named by behaviours are checked when the plans compile (a field may also be
+        // added after the build).
         for g in &world.groups {
             world.check_group_refs(g)?;
         }
         for a in self.agents {
             world.add_agent(a)?;
+        }
+        for c in self.circles {
+            world.add_circle(c)?;
+        }
+        for w in self.walls {
+            world.add_wall(w)?;
+        }
+        for (points, closed) in &self.polygons {
+            world.add_polygon(points, *closed)?;
+        }
+        for f in self.fields {
+            world.add_field(f)?;
+        }
+        for g in self.gravity {
+            world.add_gravity_point(g)?;
         }
         for (anchor, params, members) in self.formations {
             world.add_formation(anchor, params, &members)?;

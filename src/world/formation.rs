@@ -10,7 +10,7 @@ use crate::error::{Error, Result};
 use crate::group::{
     self, Formation, FormationId, FormationParams, JumpParams, JumpPlan, NO_FORMATION, Path, PathId,
 };
-use crate::steering::{Basis, Behaviour};
+use crate::steering::{Basis, Behaviour, Target};
 
 impl World {
     /// Adds a path that `FollowPath` behaviours can refer to.
@@ -226,6 +226,14 @@ impl World {
     /// possible at the group's maximum speed.
     pub(crate) fn check_group_refs(&self, g: &GroupParams) -> Result<()> {
         for w in &g.steering.behaviours {
+            if let Some(Target::Slot(slot)) = w.behaviour.target()
+                && self.target_slot(slot).is_none()
+            {
+                return Err(Error::UnknownTarget {
+                    slot: slot.0,
+                    count: self.target_slots(),
+                });
+            }
             match &w.behaviour {
                 Behaviour::FollowPath { path, .. } if self.path(*path).is_none() => {
                     return Err(Error::UnknownPath {

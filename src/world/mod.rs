@@ -20,10 +20,11 @@ mod formation;
 mod state;
 mod stats;
 mod step;
+mod targets;
 
 pub use crate::group::Formation;
 pub use crate::profile::Profile;
-pub use builder::WorldBuilder;
+pub use builder::{DEFAULT_SEED, WorldBuilder};
 
 /// The former name of [`Profile`]: a group's movement model, limits and behaviours.
 pub type GroupParams = Profile;

@@ -54,6 +54,8 @@ pub struct World {
     pub(crate) plans: Vec<crate::steer::Plan>,
     /// Set when a group, field or path changed: plans are compiled again before the next step.
     pub(crate) plans_stale: bool,
+    /// Shared target slots behaviours refer to.
+    pub(crate) targets: crate::targets::TargetSlots,
 }
 
 impl World {
@@ -80,6 +82,7 @@ impl World {
             fields: Default::default(),
             plans: Vec::new(),
             plans_stale: true,
+            targets: Default::default(),
         }
     }
 
@@ -309,8 +312,10 @@ impl World {
             return Err(Error::Invalid {
                 name: "position".into(),
                 reason: format!(
-                    "({}, {}) lies inside an obstacle",
-                    init.position.x, init.position.y
+                    "agent {} at ({}, {}) lies inside an obstacle",
+                    AgentId(self.agents.ids_issued() as u32),
+                    init.position.x,
+                    init.position.y
                 ),
             });
         }

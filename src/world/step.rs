@@ -82,6 +82,7 @@ impl World {
                 .collect(),
             paths: self.group_movement.paths.len(),
             groups: self.groups.len(),
+            targets: self.targets.len(),
         };
         let plans = self
             .groups
@@ -216,6 +217,7 @@ impl World {
             gravity: &self.gravity,
             group_movement: &self.group_movement,
             fields: &self.fields,
+            targets: self.targets.as_slice(),
         };
         steer::pass::run(
             &view,
