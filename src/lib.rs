@@ -50,8 +50,10 @@
 //! - [`error`]: the [`Error`] type.
 //!
 //! ## Features
-//! - `cli` (default): the `throng` command-line program.
-//! - `render` (default): PNG and animated GIF output.
+//! By default the crate is the simulation core alone.
+//! - `render` (opt-in): PNG and animated GIF output (the `gif` and `png` crates).
+//!
+//! The `throng` command-line program is the workspace's `throng-cli` package (`cli/`).
 
 pub mod agents;
 pub mod bounds;
@@ -100,6 +102,7 @@ pub mod prelude {
     pub use glam::Vec2;
 }
 
+/// The README's code blocks, doctested: its library example is a whole `main.rs`.
 #[doc = include_str!("../README.md")]
 #[cfg(doctest)]
 pub struct ReadmeDoctests;

@@ -1,7 +1,6 @@
 //! The real `throng` binary: every built-in scenario runs, `bench --json` holds every key with
 //! sane values, trajectories have one row per agent per written frame, and bad input gets a
 //! non-zero exit with a one-line message.
-#![cfg(feature = "cli")]
 
 use std::path::PathBuf;
 use std::process::{Command, Output};
