@@ -438,3 +438,37 @@ fn impossible_or_absurd_spawns_are_errors_not_hangs() {
     assert!(s.ring(1, Vec2::ZERO, 2.0, 1.0).is_err());
     assert!(s.jittered_grid(1, min, max, 2.0).is_err());
 }
+
+#[test]
+fn scenario_files_declare_target_slots() {
+    let text = r#"
+name = "slots"
+[world]
+kind = "bounded"
+size = [100, 100]
+[[targets]]
+position = [90, 90]
+[[groups]]
+count = 50
+model = "kinematic"
+max_speed = 10
+spawn = { kind = "rect", min = [5, 5], max = [20, 20] }
+steering = { behaviours = [{ kind = "arrive", target = { slot = 0 } }] }
+"#;
+    let s = throng::scenario::Scenario::from_toml(text, "slots.toml").unwrap();
+    let mut w = s.build().unwrap();
+    assert_eq!(w.target_slots(), 1);
+    w.set_target_point(TargetSlot(0), Vec2::new(50.0, 80.0))
+        .unwrap();
+    for _ in 0..600 {
+        w.step(DT).unwrap();
+    }
+    let a = w.agents();
+    assert!((0..a.len()).all(|i| a.position(i).distance(Vec2::new(50.0, 80.0)) < 1.0));
+    let missing = text.replace("{ slot = 0 }", "{ slot = 1 }");
+    let err = throng::scenario::Scenario::from_toml(&missing, "slots.toml")
+        .and_then(|s| s.build())
+        .unwrap_err()
+        .to_string();
+    assert!(err.contains("no target slot 1"), "{err}");
+}

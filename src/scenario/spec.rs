@@ -39,6 +39,9 @@ pub struct Scenario {
     /// Paths that `follow_path` behaviours name by index. Default: none.
     #[serde(default)]
     pub paths: Vec<crate::group::Path>,
+    /// Shared target slots (`{ slot = N }` in a behaviour's target names the `N`-th).
+    #[serde(default, skip_serializing_if = "Vec::is_empty")]
+    pub targets: Vec<crate::targets::TargetPoint>,
     /// Formations, added once every agent has spawned. Default: none.
     #[serde(default)]
     pub formations: Vec<super::FormationSpec>,
@@ -465,6 +468,9 @@ impl Scenario {
         world.set_index(self.world.index);
         if let Some(k) = self.world.reorder_every {
             world.set_reorder_every(k);
+        }
+        for t in &self.targets {
+            world.add_target_point(*t)?;
         }
         for p in &self.paths {
             world.add_path(p.clone())?;
