@@ -1,7 +1,6 @@
 use std::f32::consts::TAU;
 
 use rayon::prelude::*;
-use wide::f32x8;
 
 /// Per-group constants the integrator needs, resolved for one time step.
 #[derive(Clone, Copy, Debug, PartialEq)]
@@ -155,6 +154,149 @@ fn check_lengths(state: &MotionState<'_>, steer: &SteeringBuffers<'_>, n: usize)
     }
 }
 
+/// One agent's inputs to the integrator.
+#[derive(Clone, Copy, Debug, Default)]
+struct Lane {
+    kinematic: bool,
+    face_velocity: bool,
+    damp: f32,
+    max_rotation: f32,
+    px: f32,
+    py: f32,
+    vx: f32,
+    vy: f32,
+    lx: f32,
+    ly: f32,
+    ang: f32,
+    max_speed: f32,
+    orientation: f32,
+    rotation: f32,
+}
+
+/// One agent's state after the step: position, velocity, orientation, rotation.
+type Out = [f32; 6];
+
+/// The step of one agent, branch-free (every `if` is a select), so that the chunk's loop over
+/// [`LANES`] agents compiles to vector instructions and the scalar reference, which calls the
+/// same function, equals it bit for bit.
+#[inline(always)]
+fn step_lane(l: &Lane, dt: f32) -> Out {
+    // Angular part (reads the pre-update velocity in the dynamic model).
+    let (hx, hy) = if l.kinematic {
+        (l.lx, l.ly)
+    } else {
+        (l.vx, l.vy)
+    };
+    let moving = hx * hx + hy * hy > 0.0;
+    let heading = atan2(hy, hx);
+    let heading = wrap_turn(if heading < 0.0 {
+        heading + TAU
+    } else {
+        heading
+    });
+    let clamp = |x: f32| {
+        let x = if x < -l.max_rotation {
+            -l.max_rotation
+        } else {
+            x
+        };
+        if x > l.max_rotation {
+            l.max_rotation
+        } else {
+            x
+        }
+    };
+    let rot_kin = clamp(l.ang);
+    let rot_dyn = clamp(l.rotation + l.ang * dt);
+    let turning = if l.kinematic { rot_kin } else { l.rotation };
+    let integrated = wrap_turn(l.orientation + turning * dt);
+    let orientation = if l.face_velocity {
+        if moving { heading } else { l.orientation }
+    } else {
+        integrated
+    };
+    let rotation = if l.kinematic { rot_kin } else { rot_dyn };
+    let rotation = if rotation.abs() < REST_ROTATION {
+        0.0
+    } else {
+        rotation
+    };
+
+    // Linear part.
+    let (dvx, dvy) = ((l.vx + l.lx * dt) * l.damp, (l.vy + l.ly * dt) * l.damp);
+    let (nvx, nvy) = if l.kinematic {
+        (l.lx, l.ly)
+    } else {
+        (dvx, dvy)
+    };
+    let sp_sq = nvx * nvx + nvy * nvy;
+    let over = sp_sq > l.max_speed * l.max_speed;
+    let scale = l.max_speed / sp_sq.sqrt();
+    let (nvx, nvy) = if over {
+        (nvx * scale, nvy * scale)
+    } else {
+        (nvx, nvy)
+    };
+    let still = sp_sq < REST_SPEED * REST_SPEED;
+    let (nvx, nvy) = if still { (0.0, 0.0) } else { (nvx, nvy) };
+    let (mx, my) = if l.kinematic {
+        (nvx, nvy)
+    } else {
+        (l.vx, l.vy)
+    };
+    [
+        l.px + mx * dt,
+        l.py + my * dt,
+        nvx,
+        nvy,
+        orientation,
+        rotation,
+    ]
+}
+
+/// `atan2(y, x)` in `(-pi, pi]` to a few units in the last place, branch-free: the octant
+/// reduction to `a = min / max` in `[0, 1]`, Cephes' reduction of `a > tan(pi / 8)` to
+/// `(a - 1) / (a + 1)` around `pi / 4`, and its degree-9 odd polynomial. `(0, 0)` gives 0.
+#[inline(always)]
+fn atan2(y: f32, x: f32) -> f32 {
+    use std::f32::consts::{FRAC_PI_2, FRAC_PI_4, PI};
+    let (ax, ay) = (x.abs(), y.abs());
+    let (hi, lo) = if ay > ax { (ay, ax) } else { (ax, ay) };
+    let a = if hi > 0.0 { lo / hi } else { 0.0 };
+    let far = a > 0.414_213_57;
+    let (base, t) = if far {
+        (FRAC_PI_4, (a - 1.0) / (a + 1.0))
+    } else {
+        (0.0, a)
+    };
+    let z = t * t;
+    let p = 8.053_744_5e-2_f32;
+    let p = p * z - 1.387_768_6e-1;
+    let p = p * z + 1.997_771_1e-1;
+    let p = p * z - 3.333_295e-1;
+    let r = base + (p * z * t + t);
+    let r = if ay > ax { FRAC_PI_2 - r } else { r };
+    let r = if x < 0.0 { PI - r } else { r };
+    if y < 0.0 { -r } else { r }
+}
+
+/// An angle into `[0, 2pi)`: one turn added or taken away covers every step the limits allow;
+/// anything farther is reduced with `floor` (computed in every lane, selected where needed).
+// `&` rather than a range test: no short circuit, so no branch in the lanes.
+#[allow(clippy::manual_range_contains)]
+#[inline(always)]
+fn wrap_turn(a: f32) -> f32 {
+    let a = if a >= TAU { a - TAU } else { a };
+    let a = if a < 0.0 { a + TAU } else { a };
+    let inside = (a >= 0.0) & (a < TAU);
+    let r = a - TAU * (a / TAU).floor();
+    let r = if (r >= 0.0) & (r < TAU) { r } else { 0.0 };
+    if inside { a } else { r }
+}
+
+/// One task's agents, [`LANES`] at a time (runtime dispatch: AVX2 + FMA where the processor has
+/// it, the baseline otherwise; the same operations either way).
+#[multiversion::multiversion(targets("x86_64+avx2+fma", "x86_64+avx"))]
 fn integrate_chunk(
     s: MotionState<'_>,
     st: SteeringBuffers<'_>,
@@ -162,127 +304,102 @@ fn integrate_chunk(
     dt: f32,
 ) {
     let n = s.pos_x.len();
-    let dt8 = f32x8::splat(dt);
-    let zero = f32x8::ZERO;
-    let one = f32x8::ONE;
-    let tau = f32x8::splat(TAU);
     let mut i = 0;
     while i < n {
         let lanes = (n - i).min(LANES);
-        // Gather the lanes (a short last block is padded with inert zeros).
-        let mut kin = [0.0_f32; LANES];
-        let mut face = [0.0_f32; LANES];
+        // Structure of arrays, so that the loop over lanes compiles to vector instructions; a
+        // short last block is padded with inert agents at rest.
+        let mut kinematic = [false; LANES];
+        let mut face = [false; LANES];
         let mut damp = [1.0_f32; LANES];
         let mut max_rot = [0.0_f32; LANES];
-        for l in 0..lanes {
-            let p = &params[st.group[i + l] as usize];
-            kin[l] = if p.kinematic { 1.0 } else { 0.0 };
-            face[l] = if p.face_velocity { 1.0 } else { 0.0 };
-            damp[l] = p.damp;
-            max_rot[l] = p.max_rotation;
+        for k in 0..lanes {
+            let p = &params[st.group[i + k] as usize];
+            kinematic[k] = p.kinematic;
+            face[k] = p.face_velocity;
+            damp[k] = p.damp;
+            max_rot[k] = p.max_rotation;
         }
-        let kin = f32x8::from(kin).simd_gt(zero);
-        let face = f32x8::from(face).simd_gt(zero);
-        let damp = f32x8::from(damp);
-        let max_rot = f32x8::from(max_rot);
-        let vx = load(s.vel_x, i, lanes);
-        let vy = load(s.vel_y, i, lanes);
-        let lx = load(st.lin_x, i, lanes);
-        let ly = load(st.lin_y, i, lanes);
-        let ang = load(st.ang, i, lanes);
-        let ms = load(st.max_speed, i, lanes);
-        let orient = load(s.orientation, i, lanes);
-        let rot = load(s.rotation, i, lanes);
-
-        // Angular part (reads the pre-update velocity in the dynamic model).
-        let hx = kin.bitselect(lx, vx);
-        let hy = kin.bitselect(ly, vy);
-        let moving = (hx * hx + hy * hy).simd_gt(zero);
-        let heading = hy.atan2(hx);
-        let heading = wrap8(heading.simd_lt(zero).bitselect(heading + tau, heading));
-        let rot_kin = clamp8(ang, max_rot);
-        let rot_dyn = clamp8(rot + ang * dt8, max_rot);
-        let turning = kin.bitselect(rot_kin, rot);
-        let integrated = wrap8(orient + turning * dt8);
-        let new_orient = face.bitselect(moving.bitselect(heading, orient), integrated);
-        let new_rot = kin.bitselect(rot_kin, rot_dyn);
-        let new_rot = new_rot
-            .abs()
-            .simd_lt(f32x8::splat(REST_ROTATION))
-            .bitselect(zero, new_rot);
-
-        // Linear part.
-        let dvx = (vx + lx * dt8) * damp;
-        let dvy = (vy + ly * dt8) * damp;
-        let mut nvx = kin.bitselect(lx, dvx);
-        let mut nvy = kin.bitselect(ly, dvy);
-        let sp_sq = nvx * nvx + nvy * nvy;
-        let over = sp_sq.simd_gt(ms * ms);
-        let scale = over.bitselect(ms / sp_sq.sqrt(), one);
-        nvx = over.bitselect(nvx * scale, nvx);
-        nvy = over.bitselect(nvy * scale, nvy);
-        let still = sp_sq.simd_lt(f32x8::splat(REST_SPEED * REST_SPEED));
-        nvx = still.bitselect(zero, nvx);
-        nvy = still.bitselect(zero, nvy);
-        let mx = kin.bitselect(nvx, vx);
-        let my = kin.bitselect(nvy, vy);
-        let px = load(s.pos_x, i, lanes) + mx * dt8;
-        let py = load(s.pos_y, i, lanes) + my * dt8;
-
-        store(s.pos_x, i, lanes, px);
-        store(s.pos_y, i, lanes, py);
-        store(s.vel_x, i, lanes, nvx);
-        store(s.vel_y, i, lanes, nvy);
-        store(s.orientation, i, lanes, new_orient);
-        store(s.rotation, i, lanes, new_rot);
+        let load = |v: &[f32]| {
+            let mut a = [0.0_f32; LANES];
+            a[..lanes].copy_from_slice(&v[i..i + lanes]);
+            a
+        };
+        let (px, py, vx, vy) = (load(s.pos_x), load(s.pos_y), load(s.vel_x), load(s.vel_y));
+        let (lx, ly, ang, ms) = (
+            load(st.lin_x),
+            load(st.lin_y),
+            load(st.ang),
+            load(st.max_speed),
+        );
+        let (orient, rot) = (load(s.orientation), load(s.rotation));
+        let mut out = [[0.0_f32; LANES]; 6];
+        for k in 0..LANES {
+            let l = Lane {
+                kinematic: kinematic[k],
+                face_velocity: face[k],
+                damp: damp[k],
+                max_rotation: max_rot[k],
+                px: px[k],
+                py: py[k],
+                vx: vx[k],
+                vy: vy[k],
+                lx: lx[k],
+                ly: ly[k],
+                ang: ang[k],
+                max_speed: ms[k],
+                orientation: orient[k],
+                rotation: rot[k],
+            };
+            let o = step_lane(&l, dt);
+            for (v, &x) in out.iter_mut().zip(&o) {
+                v[k] = x;
+            }
+        }
+        let range = i..i + lanes;
+        let dst = [
+            &mut s.pos_x[range.clone()],
+            &mut s.pos_y[range.clone()],
+            &mut s.vel_x[range.clone()],
+            &mut s.vel_y[range.clone()],
+            &mut s.orientation[range.clone()],
+            &mut s.rotation[range],
+        ];
+        for (d, v) in dst.into_iter().zip(&out) {
+            d.copy_from_slice(&v[..lanes]);
+        }
         i += LANES;
     }
 }
 
-/// `x` clamped to `[-limit, limit]` (NaN-free inputs).
+/// Agent `i`'s inputs.
 #[inline(always)]
-fn clamp8(x: f32x8, limit: f32x8) -> f32x8 {
-    let lo = -limit;
-    let x = x.simd_lt(lo).bitselect(lo, x);
-    x.simd_gt(limit).bitselect(limit, x)
-}
-
-/// Angles into `[0, 2pi)`: one turn added or taken away covers every step the limits allow;
-/// anything farther is reduced with `floor`, lane by lane, exactly as [`wrap_one`] does.
-#[inline(always)]
-fn wrap8(a: f32x8) -> f32x8 {
-    let tau = f32x8::splat(TAU);
-    let zero = f32x8::ZERO;
-    let a = a.simd_ge(tau).bitselect(a - tau, a);
-    let a = a.simd_lt(zero).bitselect(a + tau, a);
-    let outside = a.simd_lt(zero) | a.simd_ge(tau);
-    if outside.any() {
-        f32x8::from(a.to_array().map(reduce_turns))
-    } else {
-        a
+fn lane(
+    s: &MotionState<'_>,
+    st: &SteeringBuffers<'_>,
+    params: &[IntegrationParams],
+    i: usize,
+) -> Lane {
+    let p = &params[st.group[i] as usize];
+    Lane {
+        kinematic: p.kinematic,
+        face_velocity: p.face_velocity,
+        damp: p.damp,
+        max_rotation: p.max_rotation,
+        px: s.pos_x[i],
+        py: s.pos_y[i],
+        vx: s.vel_x[i],
+        vy: s.vel_y[i],
+        lx: st.lin_x[i],
+        ly: st.lin_y[i],
+        ang: st.ang[i],
+        max_speed: st.max_speed[i],
+        orientation: s.orientation[i],
+        rotation: s.rotation[i],
     }
 }
 
-/// The scalar form of [`wrap8`], operation for operation.
-#[inline]
-fn wrap_one(a: f32) -> f32 {
-    let a = if a >= TAU { a - TAU } else { a };
-    let a = if a < 0.0 { a + TAU } else { a };
-    reduce_turns(a)
-}
-
-/// Whole turns taken away from an angle more than one turn outside `[0, 2pi)`.
-#[inline]
-fn reduce_turns(a: f32) -> f32 {
-    if (0.0..TAU).contains(&a) {
-        return a;
-    }
-    let r = a - TAU * (a / TAU).floor();
-    if (0.0..TAU).contains(&r) { r } else { 0.0 }
-}
-
-/// One agent, in plain scalar code: the reference the SIMD path is tested against bit for bit.
-/// The heading's `atan2` is the same polynomial as the lanes' (lane 0 of it).
+/// One agent, in plain scalar code: the reference the lanes are tested against bit for bit.
 fn integrate_one(
     s: &mut MotionState<'_>,
     st: &SteeringBuffers<'_>,
@@ -290,85 +407,33 @@ fn integrate_one(
     dt: f32,
     i: usize,
 ) {
-    let p = &params[st.group[i] as usize];
-    let (vx, vy) = (s.vel_x[i], s.vel_y[i]);
-    let (lx, ly) = (st.lin_x[i], st.lin_y[i]);
-    let (hx, hy) = if p.kinematic { (lx, ly) } else { (vx, vy) };
-    let moving = hx * hx + hy * hy > 0.0;
-    let heading = f32x8::splat(hy).atan2(f32x8::splat(hx)).to_array()[0];
-    let heading = wrap_one(if heading < 0.0 {
-        heading + TAU
-    } else {
-        heading
-    });
-    let clamp = |x: f32| {
-        let x = if x < -p.max_rotation {
-            -p.max_rotation
-        } else {
-            x
-        };
-        if x > p.max_rotation {
-            p.max_rotation
-        } else {
-            x
-        }
-    };
-    let rot_kin = clamp(st.ang[i]);
-    let rot_dyn = clamp(s.rotation[i] + st.ang[i] * dt);
-    let turning = if p.kinematic { rot_kin } else { s.rotation[i] };
-    let integrated = wrap_one(s.orientation[i] + turning * dt);
-    let orientation = if p.face_velocity {
-        if moving { heading } else { s.orientation[i] }
-    } else {
-        integrated
-    };
-    let rotation = if p.kinematic { rot_kin } else { rot_dyn };
-    let rotation = if rotation.abs() < REST_ROTATION {
-        0.0
-    } else {
-        rotation
-    };
-
-    let (mut nvx, mut nvy) = if p.kinematic {
-        (lx, ly)
-    } else {
-        ((vx + lx * dt) * p.damp, (vy + ly * dt) * p.damp)
-    };
-    let ms = st.max_speed[i];
-    let sp_sq = nvx * nvx + nvy * nvy;
-    if sp_sq > ms * ms {
-        let scale = ms / sp_sq.sqrt();
-        nvx *= scale;
-        nvy *= scale;
-    }
-    if sp_sq < REST_SPEED * REST_SPEED {
-        (nvx, nvy) = (0.0, 0.0);
-    }
-    let (mx, my) = if p.kinematic { (nvx, nvy) } else { (vx, vy) };
-    let (px, py) = (s.pos_x[i] + mx * dt, s.pos_y[i] + my * dt);
+    let [px, py, vx, vy, orientation, rotation] = step_lane(&lane(s, st, params, i), dt);
     s.pos_x[i] = px;
     s.pos_y[i] = py;
-    s.vel_x[i] = nvx;
-    s.vel_y[i] = nvy;
+    s.vel_x[i] = vx;
+    s.vel_y[i] = vy;
     s.orientation[i] = orientation;
     s.rotation[i] = rotation;
-}
-
-#[inline(always)]
-fn load(s: &[f32], i: usize, lanes: usize) -> f32x8 {
-    let mut a = [0.0_f32; LANES];
-    a[..lanes].copy_from_slice(&s[i..i + lanes]);
-    f32x8::from(a)
-}
-
-#[inline(always)]
-fn store(s: &mut [f32], i: usize, lanes: usize, v: f32x8) {
-    s[i..i + lanes].copy_from_slice(&v.to_array()[..lanes]);
 }
 
 #[cfg(test)]
 mod tests {
     use super::*;
+
+    #[test]
+    fn atan2_is_within_a_few_ulps_of_the_standard_library() {
+        let mut worst = 0.0_f32;
+        for k in 0..20_000 {
+            let angle = -std::f32::consts::PI + k as f32 * (std::f32::consts::TAU / 20_000.0);
+            for r in [1e-3_f32, 1.0, 7.5, 1e4] {
+                let (y, x) = (r * angle.sin(), r * angle.cos());
+                worst = worst.max((atan2(y, x) - y.atan2(x)).abs());
+            }
+        }
+        assert!(worst < 1e-6, "largest error {worst}");
+        assert_eq!(atan2(0.0, 0.0), 0.0);
+        assert_eq!(atan2(0.0, -1.0), std::f32::consts::PI);
+    }
     use crate::rng::AgentRng;
 
     fn params() -> Vec<IntegrationParams> {
