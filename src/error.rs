@@ -136,6 +136,14 @@ pub enum Error {
         /// Why it cannot be done.
         reason: String,
     },
+    /// A buffer could not be allocated, or a scenario needs more memory than may be used.
+    #[error("not enough memory for {what}: {reason}")]
+    OutOfMemory {
+        /// What was being built (`"agents"`, `"field cells"`, a scenario's name).
+        what: String,
+        /// How much was needed against what is available, in words.
+        reason: String,
+    },
     /// An input or output operation failed.
     #[error("{path}: {source}")]
     Io {
@@ -160,6 +168,21 @@ pub const MAX_RATE: f32 = 1e12;
 pub const MAX_COORDINATE: f32 = 1e18;
 /// The most agents a scenario may spawn (about 15 GB of state at 146 bytes per agent).
 pub const MAX_AGENTS: usize = 100_000_000;
+
+/// Reserves room for `additional` more elements in `v`, as an error instead of an abort when
+/// the allocator cannot give it.
+///
+/// # Errors
+/// [`Error::OutOfMemory`] naming `what`.
+pub fn try_reserve<T>(v: &mut Vec<T>, additional: usize, what: &str) -> Result<()> {
+    v.try_reserve(additional).map_err(|e| Error::OutOfMemory {
+        what: what.to_string(),
+        reason: format!(
+            "{additional} more elements of {} bytes: {e}",
+            std::mem::size_of::<T>()
+        ),
+    })
+}
 
 /// The crate's result type.
 pub type Result<T, E = Error> = std::result::Result<T, E>;

@@ -23,7 +23,9 @@ mod movement;
 mod path;
 
 pub(crate) use assignment::distance_matrix;
-pub use assignment::{assign_min_cost, assign_slots, assignment_cost};
+pub use assignment::{
+    BLOCK, EXACT_MAX, assign_min_cost, assign_slots, assign_slots_local, assignment_cost,
+};
 pub use formation::{
     FormationId, FormationParams, FormationShape, SlotParams, slot_offsets, slot_velocity,
 };

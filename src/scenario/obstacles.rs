@@ -159,9 +159,7 @@ impl ObstacleSpec {
     /// # Errors
     /// As the world's `add_circle`, `add_wall` and `add_polygon`.
     pub fn apply(&self, world: &mut World, seed: u64) -> Result<()> {
-        for c in &self.circles {
-            world.add_circle(*c)?;
-        }
+        world.add_circles(&self.circles)?;
         for w in &self.walls {
             world.add_wall(*w)?;
         }
@@ -170,11 +168,14 @@ impl ObstacleSpec {
         }
         if let Some(r) = &self.random_circles {
             let mut rng = ChaCha8Rng::seed_from_u64(seed ^ 0x0b57_ac1e);
+            let mut circles = Vec::new();
+            crate::error::try_reserve(&mut circles, r.count, "random_circles.count")?;
             for _ in 0..r.count {
                 let radius = r.min_radius + rng.random::<f32>() * (r.max_radius - r.min_radius);
                 let center = place(&mut rng, r.min, r.max, &r.keep_clear, radius)?;
-                world.add_circle(Circle { center, radius })?;
+                circles.push(Circle { center, radius });
             }
+            world.add_circles(&circles)?;
         }
         Ok(())
     }
