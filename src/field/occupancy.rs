@@ -97,11 +97,13 @@ fn check_size(width: u32, height: u32) -> Result<()> {
             reason: format!("{width}x{height} has no cells"),
         });
     }
-    let padded = (u64::from(width) + 2) * (u64::from(height) + 2);
-    if padded >= u64::from(u32::MAX) {
+    if u64::from(width) * u64::from(height) > crate::limits::MAX_CELLS {
         return Err(Error::Invalid {
             name: "grid size".into(),
-            reason: format!("{width}x{height} has too many cells (at most about 4e9)"),
+            reason: format!(
+                "{width}x{height} has too many cells (at most {})",
+                crate::limits::MAX_CELLS
+            ),
         });
     }
     Ok(())
@@ -124,12 +126,16 @@ impl OccupancyGrid {
     /// [`Error::Invalid`] when a side is zero or the grid is too large.
     pub fn new(width: u32, height: u32) -> Result<Self> {
         check_size(width, height)?;
+        let n = width as usize * height as usize;
+        let mut cells = Vec::new();
+        crate::error::try_reserve(&mut cells, n, "field cells")?;
+        cells.resize(n, Cell::Free);
         Ok(OccupancyGrid {
             width,
             height,
             cell_size: 1.0,
             origin: Vec2::ZERO,
-            cells: vec![Cell::Free; width as usize * height as usize],
+            cells,
         })
     }
 
@@ -377,16 +383,15 @@ impl OccupancyGrid {
         })
     }
 
-    /// Reads and parses an ASCII map file (see [`OccupancyGrid::parse_ascii`]).
+    /// Reads and parses an ASCII map file (see [`OccupancyGrid::parse_ascii`]) of at most
+    /// [`MAX_MAP_BYTES`](crate::limits::MAX_MAP_BYTES); larger files are refused before they
+    /// are read, endless ones (`/dev/zero`) after that many bytes.
     ///
     /// # Errors
     /// [`Error::Io`] when the file cannot be read, else as [`OccupancyGrid::parse_ascii`].
     pub fn load_ascii(path: impl AsRef<std::path::Path>) -> Result<MapFile> {
         let path = path.as_ref();
-        let text = std::fs::read_to_string(path).map_err(|source| Error::Io {
-            path: path.display().to_string(),
-            source,
-        })?;
+        let text = crate::limits::read_text(path, crate::limits::MAX_MAP_BYTES, "map files")?;
         Self::parse_ascii(&text, &path.display().to_string())
     }
 

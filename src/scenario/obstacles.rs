@@ -95,6 +95,18 @@ fn two() -> f32 {
     2.0
 }
 
+/// Checks a count against its ceiling.
+pub(crate) fn at_most(name: &'static str, n: usize, max: usize, range: &'static str) -> Result<()> {
+    if n > max {
+        return Err(Error::OutOfRange {
+            name,
+            value: n as f64,
+            range,
+        });
+    }
+    Ok(())
+}
+
 fn region(min: Vec2, max: Vec2) -> Result<()> {
     finite_vec("region.min", min)?;
     finite_vec("region.max", max)?;
@@ -141,6 +153,12 @@ impl ObstacleSpec {
     /// The variant naming the first bad value.
     pub fn validate(&self) -> Result<()> {
         if let Some(r) = &self.random_circles {
+            at_most(
+                "obstacles.random_circles.count",
+                r.count,
+                crate::limits::MAX_RANDOM_CIRCLES,
+                "[0, 1000000]",
+            )?;
             positive("random_circles.min_radius", r.min_radius)?;
             positive("random_circles.max_radius", r.max_radius)?;
             if r.max_radius < r.min_radius {
@@ -187,6 +205,14 @@ impl GravitySpec {
     /// # Errors
     /// The variant naming the first bad value.
     pub fn validate(&self) -> Result<()> {
+        at_most(
+            "gravity points (points and random.count)",
+            self.points
+                .len()
+                .saturating_add(self.random.as_ref().map_or(0, |r| r.count)),
+            crate::limits::MAX_GRAVITY_POINTS,
+            "[0, 100000]",
+        )?;
         for p in &self.points {
             p.validate()?;
         }

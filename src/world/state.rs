@@ -306,6 +306,15 @@ impl World {
         Ok(())
     }
 
+    /// Reserves room for `additional` more agents in every agent buffer, as an error instead
+    /// of an abort when the memory is not there.
+    ///
+    /// # Errors
+    /// [`Error::OutOfMemory`].
+    pub fn try_reserve_agents(&mut self, additional: usize) -> Result<()> {
+        self.agents.try_reserve(additional)
+    }
+
     /// Adds an agent and returns its id.
     ///
     /// # Errors

@@ -79,6 +79,10 @@ struct CommonArgs {
     /// Neighbour index backend: grid, kdtree or brute.
     #[arg(long, value_parser = ["grid", "kdtree", "brute"])]
     index: Option<String>,
+    /// Memory the world may take, bytes or with K, M, G, T (default: the machine's available
+    /// memory); a scenario estimated to need more is refused before it is built.
+    #[arg(long, value_name = "SIZE")]
+    max_memory: Option<String>,
 }
 
 /// Options of `demo` and `run`.
@@ -207,7 +211,7 @@ fn prepare(mut s: Scenario, c: &CommonArgs) -> Result<(Scenario, World, rayon::T
         s.world.index = index.parse()?;
     }
     if let Some(dt) = c.dt {
-        if !(dt.is_finite() && dt > 0.0) {
+        if !(dt.is_finite() && (throng::limits::MIN_DT..=throng::error::MAX_DT).contains(&dt)) {
             return Err(Error::InvalidTimeStep { dt: f64::from(dt) });
         }
         s.dt = dt;
@@ -239,8 +243,12 @@ fn prepare(mut s: Scenario, c: &CommonArgs) -> Result<(Scenario, World, rayon::T
             name: "threads".into(),
             reason: e.to_string(),
         })?;
-    let world = s.build().map_err(|e| match e {
-        Error::Scenario { .. } | Error::Io { .. } => e,
+    let memory = match &c.max_memory {
+        Some(text) => Some(throng::limits::parse_size(text)?),
+        None => throng::limits::available_memory(),
+    };
+    let world = s.build_within(memory).map_err(|e| match e {
+        Error::Scenario { .. } | Error::Io { .. } | Error::OutOfMemory { .. } => e,
         other => Error::Scenario {
             source_name: s.name.clone(),
             location: None,
