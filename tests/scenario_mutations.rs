@@ -242,10 +242,10 @@ fn a_sweep_of_number_mutations_builds_worlds_and_stays_finite() {
     // Every value to each of a few numbers, scenario by scenario: enough of them still build
     // that the stepping is exercised, not only the parser.
     let (mut cases, mut built) = (0, 0);
-    for k in 0..BUILTIN.len() {
+    for (k, (name, _)) in BUILTIN.iter().enumerate() {
         let mut all = Vec::new();
         paths(&toml::Value::Table(shrunk(k)), &mut Vec::new(), &mut all);
-        for pick in 0..all.len() {
+        for (pick, path) in all.iter().enumerate() {
             for m in [
                 Mutation::Number(-1.0),
                 Mutation::Number(1e18),
@@ -254,9 +254,9 @@ fn a_sweep_of_number_mutations_builds_worlds_and_stays_finite() {
             ] {
                 let text = mutate(k, pick, m);
                 cases += 1;
-                match holds_built(&text, BUILTIN[k].0) {
+                match holds_built(&text, name) {
                     Ok(b) => built += usize::from(b),
-                    Err(e) => panic!("{} {:?} {m:?}: {e}\n{text}", BUILTIN[k].0, all[pick]),
+                    Err(e) => panic!("{name} {path:?} {m:?}: {e}\n{text}"),
                 }
             }
         }
@@ -266,12 +266,12 @@ fn a_sweep_of_number_mutations_builds_worlds_and_stays_finite() {
 
 #[test]
 fn every_builtin_shrunk_and_unmutated_builds_and_stays_finite() {
-    for k in 0..BUILTIN.len() {
+    for (k, (name, _)) in BUILTIN.iter().enumerate() {
         let text = toml::to_string(&shrunk(k)).unwrap();
-        Scenario::from_toml(&text, BUILTIN[k].0)
+        Scenario::from_toml(&text, name)
             .and_then(|s| s.build_within(Some(MEMORY)))
-            .unwrap_or_else(|e| panic!("{}: {e}", BUILTIN[k].0));
-        holds(&text, BUILTIN[k].0).unwrap();
+            .unwrap_or_else(|e| panic!("{name}: {e}"));
+        holds(&text, name).unwrap();
     }
 }
 

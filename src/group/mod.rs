@@ -32,5 +32,5 @@ pub use formation::{
 pub use jump::{JumpParams, JumpPhase, JumpPlan, jump_phase, jump_plan, run_up_length};
 pub use leader::{FollowParams, follow_leader};
 pub use movement::Formation;
-pub(crate) use movement::{GroupMovement, NO_FORMATION, update_formations};
+pub(crate) use movement::{GroupMovement, NO_FORMATION, update_formations, update_formations_in};
 pub use path::{Path, PathDirection, PathFollowParams, PathId, PathSpec, Projection, follow_path};

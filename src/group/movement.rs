@@ -99,7 +99,18 @@ pub(crate) fn update_formations(
     bounds: Bounds,
     frame: u64,
 ) {
-    for f in 0..gm.formations.len() {
+    update_formations_in(gm, agents, bounds, frame, 0..gm.formations.len());
+}
+
+/// [`update_formations`] for the formations of `range` only.
+pub(crate) fn update_formations_in(
+    gm: &mut GroupMovement,
+    agents: &Agents,
+    bounds: Bounds,
+    frame: u64,
+    range: std::ops::Range<usize>,
+) {
+    for f in range {
         let form = &mut gm.formations[f];
         let before = form.members.len();
         if form.members.iter().any(|&m| !agents.contains(m)) {

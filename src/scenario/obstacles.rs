@@ -184,17 +184,30 @@ impl ObstacleSpec {
         for p in &self.polygons {
             world.add_polygon(&p.points, p.closed)?;
         }
+        world.add_circles(&self.random_list(seed)?)?;
+        Ok(())
+    }
+
+    /// The random circles drawn from `seed`.
+    fn random_list(&self, seed: u64) -> Result<Vec<Circle>> {
+        let mut circles = Vec::new();
         if let Some(r) = &self.random_circles {
             let mut rng = ChaCha8Rng::seed_from_u64(seed ^ 0x0b57_ac1e);
-            let mut circles = Vec::new();
             crate::error::try_reserve(&mut circles, r.count, "random_circles.count")?;
             for _ in 0..r.count {
                 let radius = r.min_radius + rng.random::<f32>() * (r.max_radius - r.min_radius);
                 let center = place(&mut rng, r.min, r.max, &r.keep_clear, radius)?;
                 circles.push(Circle { center, radius });
             }
-            world.add_circles(&circles)?;
         }
+        Ok(circles)
+    }
+
+    /// Draws the random circles from `seed` and lists them with the explicit ones.
+    pub(crate) fn materialise(&mut self, seed: u64) -> Result<()> {
+        let mut drawn = self.random_list(seed)?;
+        self.circles.append(&mut drawn);
+        self.random_circles = None;
         Ok(())
     }
 }
@@ -230,18 +243,33 @@ impl GravitySpec {
     /// # Errors
     /// As [`World::add_gravity_point`].
     pub fn apply(&self, world: &mut World, seed: u64) -> Result<()> {
-        for p in &self.points {
+        for p in self.points.iter().chain(&self.random_list(seed)?) {
             world.add_gravity_point(*p)?;
         }
+        Ok(())
+    }
+
+    /// The random points drawn from `seed`.
+    fn random_list(&self, seed: u64) -> Result<Vec<GravityPoint>> {
+        let mut points = Vec::new();
         if let Some(r) = &self.random {
             let mut rng = ChaCha8Rng::seed_from_u64(seed ^ 0x9a71_7e5d);
+            crate::error::try_reserve(&mut points, r.count, "gravity.random.count")?;
             for _ in 0..r.count {
                 let position = place(&mut rng, r.min, r.max, &r.keep_clear, 0.0)?;
-                world.add_gravity_point(GravityPoint::fixed(
+                points.push(GravityPoint::fixed(
                     position, r.strength, r.exponent, r.radius,
-                ))?;
+                ));
             }
         }
+        Ok(points)
+    }
+
+    /// Draws the random points from `seed` and lists them with the explicit ones.
+    pub(crate) fn materialise(&mut self, seed: u64) -> Result<()> {
+        let mut drawn = self.random_list(seed)?;
+        self.points.append(&mut drawn);
+        self.random = None;
         Ok(())
     }
 }

@@ -80,6 +80,21 @@ pub struct WorldSpec {
     pub index: IndexKind,
     /// Reorder agents by grid cell every this many frames (0: never). Default: 4.
     pub reorder_every: Option<u32>,
+    /// How `--agents` scales the scenario: `"counts"` (the groups' counts, in proportion) or
+    /// `"tiles"` (copies of the whole scenario side by side, so density and squad sizes stay).
+    /// Default: counts.
+    pub scale: WorldScale,
+}
+
+/// How a scenario grows with `--agents` ([`Scenario::with_agents`]).
+#[derive(Clone, Copy, Debug, Default, PartialEq, Eq, Serialize, Deserialize)]
+#[serde(rename_all = "snake_case")]
+pub enum WorldScale {
+    /// The groups' counts grow in proportion, in the same world (or one sized by `density`).
+    #[default]
+    Counts,
+    /// The scenario is repeated on a grid of copies of its world, each with its share.
+    Tiles,
 }
 
 /// The kind of world.
@@ -408,7 +423,8 @@ impl Scenario {
     }
 
     /// The same scenario scaled to `total` agents: scalable groups share what the fixed ones leave,
-    /// in proportion to their counts (each keeps at least one agent).
+    /// in proportion to their counts (each keeps at least one agent); with
+    /// `world.scale = "tiles"`, copies of the whole scenario side by side, each with its share.
     ///
     /// # Errors
     /// [`Error::NotPositive`] for `total == 0`; [`Error::Invalid`] when `total` is smaller than
@@ -426,6 +442,9 @@ impl Scenario {
                 value: total as f64,
                 range: "[1, 100000000]",
             });
+        }
+        if self.world.scale == WorldScale::Tiles {
+            return self.tiled(total);
         }
         let fixed: usize = self
             .groups
@@ -640,8 +659,11 @@ impl Scenario {
             }
         }
         self.gravity.apply(&mut world, self.seed)?;
-        for f in &self.formations {
-            f.add_to(&mut world)?;
+        if !self.formations.is_empty() {
+            let by_group = super::group::members_by_group(&world);
+            for f in &self.formations {
+                f.add_with(&mut world, &by_group)?;
+            }
         }
         if let (Some(f), Some(id)) = (&self.field, field) {
             f.finish(&mut world, id)?;
