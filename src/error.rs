@@ -40,8 +40,9 @@ pub enum Error {
         /// The value given.
         value: f64,
     },
-    /// A time step was zero, negative, larger than [`MAX_DT`] or not finite.
-    #[error("dt must be a number greater than zero and at most 1e6 seconds, got {dt}")]
+    /// A time step was below [`MIN_DT`](crate::limits::MIN_DT), larger than [`MAX_DT`] or not
+    /// finite.
+    #[error("dt must be a number in [1e-6, 1e6] seconds, got {dt}")]
     InvalidTimeStep {
         /// The value given.
         dt: f64,
@@ -109,7 +110,7 @@ pub enum Error {
         count: usize,
     },
     /// A parameter was invalid for a reason other than its numeric range.
-    #[error("invalid {name}: {reason}")]
+    #[error("invalid {}: {}", escaped(name), escaped(reason))]
     Invalid {
         /// The parameter's name.
         name: String,
@@ -117,7 +118,7 @@ pub enum Error {
         reason: String,
     },
     /// A text map (occupancy grid) could not be parsed.
-    #[error("{source_name}:{line}:{column}: {message}")]
+    #[error("{}:{line}:{column}: {}", escaped(source_name), escaped(message))]
     MapParse {
         /// The file name, or `<map>` for text given in code.
         source_name: String,
@@ -129,7 +130,7 @@ pub enum Error {
         message: String,
     },
     /// A scenario file could not be read or is invalid.
-    #[error("{source_name}{}: {message}", location.map(|(l, c)| format!(":{l}:{c}")).unwrap_or_default())]
+    #[error("{}{}: {}", escaped(source_name), location.map(|(l, c)| format!(":{l}:{c}")).unwrap_or_default(), escaped(message))]
     Scenario {
         /// The file name, or the built-in scenario's name.
         source_name: String,
@@ -139,13 +140,21 @@ pub enum Error {
         message: String,
     },
     /// A requested movement is impossible for the agent's limits (for example a jump).
-    #[error("impossible: {reason}")]
+    #[error("impossible: {}", escaped(reason))]
     Impossible {
         /// Why it cannot be done.
         reason: String,
     },
+    /// A buffer could not be allocated, or a scenario needs more memory than may be used.
+    #[error("not enough memory for {}: {}", escaped(what), escaped(reason))]
+    OutOfMemory {
+        /// What was being built (`"agents"`, `"field cells"`, a scenario's name).
+        what: String,
+        /// How much was needed against what is available, in words.
+        reason: String,
+    },
     /// An input or output operation failed.
-    #[error("{path}: {source}")]
+    #[error("{}: {source}", escaped(path))]
     Io {
         /// The file involved.
         path: String,
@@ -168,6 +177,39 @@ pub const MAX_RATE: f32 = 1e12;
 pub const MAX_COORDINATE: f32 = 1e18;
 /// The most agents a scenario may spawn (about 15 GB of state at 146 bytes per agent).
 pub const MAX_AGENTS: usize = 100_000_000;
+
+/// `text` with every control character (newlines, escape codes) written as a Rust escape, so
+/// that an error message stays one line and cannot drive the terminal.
+#[must_use]
+pub fn escaped(text: &str) -> std::borrow::Cow<'_, str> {
+    if !text.chars().any(char::is_control) {
+        return std::borrow::Cow::Borrowed(text);
+    }
+    let mut out = String::with_capacity(text.len() + 8);
+    for c in text.chars() {
+        if c.is_control() {
+            out.extend(c.escape_default());
+        } else {
+            out.push(c);
+        }
+    }
+    std::borrow::Cow::Owned(out)
+}
+
+/// Reserves room for `additional` more elements in `v`, as an error instead of an abort when
+/// the allocator cannot give it.
+///
+/// # Errors
+/// [`Error::OutOfMemory`] naming `what`.
+pub fn try_reserve<T>(v: &mut Vec<T>, additional: usize, what: &str) -> Result<()> {
+    v.try_reserve(additional).map_err(|e| Error::OutOfMemory {
+        what: what.to_string(),
+        reason: format!(
+            "{additional} more elements of {} bytes: {e}",
+            std::mem::size_of::<T>()
+        ),
+    })
+}
 
 /// The crate's result type.
 pub type Result<T, E = Error> = std::result::Result<T, E>;

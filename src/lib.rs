@@ -61,6 +61,7 @@ pub mod error;
 pub mod field;
 pub mod gravity;
 pub mod group;
+pub mod limits;
 pub mod movement;
 pub mod obstacles;
 pub mod profile;

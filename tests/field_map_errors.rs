@@ -151,7 +151,9 @@ fn geometry_maps_world_points_to_cells() {
         .unwrap();
     assert_eq!(g.world_to_cell(Vec2::new(-4.0, 10.0)), Some((0, 0)));
     assert_eq!(g.world_to_cell(Vec2::new(3.99, 15.99)), Some((3, 2)));
-    assert_eq!(g.world_to_cell(Vec2::new(4.0, 12.0)), None);
+    // The far edge belongs to the last column (an agent clamped onto it stays on the grid).
+    assert_eq!(g.world_to_cell(Vec2::new(4.0, 12.0)), Some((3, 1)));
+    assert_eq!(g.world_to_cell(Vec2::new(4.01, 12.0)), None);
     assert_eq!(g.world_to_cell(Vec2::new(-4.01, 12.0)), None);
     assert_eq!(g.world_to_cell(Vec2::new(f32::NAN, 12.0)), None);
     assert_eq!(g.cell_center(1, 2), Vec2::new(-1.0, 15.0));

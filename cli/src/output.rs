@@ -1,5 +1,8 @@
 //! Streaming outputs of a run: trajectory CSV rows and pictures (animated GIF frames as the run
 //! goes, or the last frame as PNG).
+//!
+//! Every file is written through an [`AtomicOutput`]: complete (renamed into place by
+//! [`Outputs::finish`]) or absent (the previous file untouched) after a failure.
 
 use std::fs::File;
 use std::io::{BufWriter, Write};
@@ -7,10 +10,12 @@ use std::path::Path;
 
 use throng::{Error, Result, World};
 
+use crate::files::AtomicOutput;
+
 /// The files a run writes as it goes.
 #[derive(Debug, Default)]
 pub struct Outputs {
-    csv: Option<(BufWriter<File>, String)>,
+    csv: Option<(BufWriter<File>, AtomicOutput)>,
     #[cfg(feature = "render")]
     picture: Option<Picture>,
 }
@@ -19,7 +24,7 @@ pub struct Outputs {
 #[derive(Debug)]
 enum Target {
     Gif(Box<throng::render::GifRecorder>),
-    Png(std::path::PathBuf),
+    Png,
 }
 
 #[cfg(feature = "render")]
@@ -27,13 +32,8 @@ enum Target {
 struct Picture {
     painter: throng::render::WorldPainter,
     target: Target,
-}
-
-fn io_err(path: &str) -> impl FnOnce(std::io::Error) -> Error + '_ {
-    move |source| Error::Io {
-        path: path.to_string(),
-        source,
-    }
+    /// Declared after `target` so that an unfinished GIF is closed before its file is removed.
+    file: AtomicOutput,
 }
 
 /// What to draw and how.
@@ -58,11 +58,10 @@ impl Outputs {
             out.open_picture(p, world, options)?;
         }
         if let Some(p) = trajectories {
-            let name = p.display().to_string();
-            let f = File::create(p).map_err(io_err(&name))?;
+            let (file, f) = AtomicOutput::create(p)?;
             let mut w = BufWriter::new(f);
-            writeln!(w, "frame,t,id,x,y,vx,vy,heading").map_err(io_err(&name))?;
-            out.csv = Some((w, name));
+            writeln!(w, "frame,t,id,x,y,vx,vy,heading").map_err(|e| file.io(e))?;
+            out.csv = Some((w, file));
         }
         Ok(out)
     }
@@ -90,12 +89,24 @@ impl Outputs {
             .extension()
             .and_then(|e| e.to_str())
             .map(str::to_ascii_lowercase);
+        if !matches!(ext.as_deref(), Some("gif" | "png")) {
+            return Err(Error::Invalid {
+                name: "render".into(),
+                reason: format!(
+                    "{}: the file must end in .gif (animation) or .png (last frame)",
+                    path.display()
+                ),
+            });
+        }
+        let (file, _) = AtomicOutput::create(path)?;
         let target = match ext.as_deref() {
             Some("gif") => {
                 let delay = (options.frame_seconds * 100.0).round().clamp(2.0, 65_535.0) as u16;
-                Target::Gif(Box::new(GifRecorder::create(path, w, h, delay)?))
+                let gif = GifRecorder::create(file.write_path(), w, h, delay)
+                    .map_err(|e| file.named(e))?;
+                Target::Gif(Box::new(gif))
             }
-            Some("png") => Target::Png(path.to_path_buf()),
+            Some("png") => Target::Png,
             _ => {
                 return Err(Error::Invalid {
                     name: "render".into(),
@@ -106,7 +117,11 @@ impl Outputs {
                 });
             }
         };
-        self.picture = Some(Picture { painter, target });
+        self.picture = Some(Picture {
+            painter,
+            target,
+            file,
+        });
         Ok(())
     }
 
@@ -120,7 +135,7 @@ impl Outputs {
 
     /// Writes the world's current frame to every open output.
     pub fn frame(&mut self, world: &World) -> Result<()> {
-        if let Some((w, name)) = &mut self.csv {
+        if let Some((w, file)) = &mut self.csv {
             let a = world.agents();
             let (frame, t) = (world.frame(), world.time());
             for i in 0..a.len() {
@@ -134,7 +149,7 @@ impl Outputs {
                     a.vel_y()[i],
                     a.orientations()[i]
                 )
-                .map_err(io_err(name))?;
+                .map_err(|e| file.io(e))?;
             }
         }
         #[cfg(feature = "render")]
@@ -142,25 +157,29 @@ impl Outputs {
             && let Target::Gif(gif) = &mut p.target
         {
             let canvas = p.painter.draw(world)?;
-            gif.push(canvas)?;
+            gif.push(canvas).map_err(|e| p.file.named(e))?;
         }
         Ok(())
     }
 
-    /// Flushes and closes everything; a PNG gets the last frame.
+    /// Flushes and closes everything and moves each complete file into place; a PNG gets the
+    /// last frame.
     pub fn finish(mut self, world: &World) -> Result<()> {
-        if let Some((mut w, name)) = self.csv.take() {
-            w.flush().map_err(io_err(&name))?;
+        if let Some((w, file)) = self.csv.take() {
+            w.into_inner().map_err(|e| file.io(e.into_error()))?;
+            file.commit()?;
         }
         #[cfg(feature = "render")]
         if let Some(mut p) = self.picture.take() {
             match p.target {
-                Target::Gif(gif) => gif.finish()?,
-                Target::Png(path) => {
+                Target::Gif(gif) => gif.finish().map_err(|e| p.file.named(e))?,
+                Target::Png => {
                     let canvas = p.painter.draw(world)?;
-                    throng::render::write_png(canvas, &path)?;
+                    throng::render::write_png(canvas, p.file.write_path())
+                        .map_err(|e| p.file.named(e))?;
                 }
             }
+            p.file.commit()?;
         }
         #[cfg(not(feature = "render"))]
         let _ = world;

@@ -336,3 +336,198 @@ fn render_writes_a_gif_and_a_png_of_the_stated_size_and_frame_count() {
         ".gif",
     );
 }
+
+/// Runs `throng` with its stdout going to `stdout`.
+fn throng_to(args: &[&str], stdout: std::process::Stdio) -> Output {
+    Command::new(env!("CARGO_BIN_EXE_throng"))
+        .args(args)
+        .stdout(stdout)
+        .stderr(std::process::Stdio::piped())
+        .output()
+        .expect("run throng")
+}
+
+#[test]
+fn a_closed_stdout_pipe_ends_quietly_with_status_0() {
+    for args in [
+        &["list"][..],
+        &[
+            "demo", "flock", "--agents", "200", "--steps", "6", "--every", "1",
+        ][..],
+        &[
+            "bench", "wander", "--agents", "100", "--steps", "2", "--json",
+        ][..],
+    ] {
+        // The reading end is closed before the program starts, so every write meets a broken pipe.
+        let (reader, writer) = std::io::pipe().unwrap();
+        drop(reader);
+        let o = throng_to(args, writer.into());
+        assert!(
+            o.status.success(),
+            "{args:?}: {:?} {}",
+            o.status,
+            stderr(&o)
+        );
+        assert_eq!(stderr(&o), "", "{args:?}");
+    }
+}
+
+#[test]
+fn a_full_disk_is_a_one_line_error() {
+    let full = || {
+        std::fs::OpenOptions::new()
+            .write(true)
+            .open("/dev/full")
+            .unwrap()
+    };
+    for args in [
+        &["list"][..],
+        &["demo", "wander", "--agents", "50", "--steps", "2"][..],
+    ] {
+        let o = throng_to(args, full().into());
+        assert_eq!(o.status.code(), Some(1), "{args:?}: {}", stderr(&o));
+        let err = stderr(&o);
+        assert_eq!(err.lines().count(), 1, "{args:?}: {err}");
+        assert!(err.contains("No space left"), "{args:?}: {err}");
+    }
+    assert_one_line_failure(
+        &[
+            "demo",
+            "wander",
+            "--agents",
+            "500",
+            "--steps",
+            "2",
+            "--quiet",
+            "--trajectories",
+            "/dev/full",
+        ],
+        "/dev/full",
+    );
+}
+
+#[test]
+fn output_paths_are_checked_before_the_run() {
+    // A missing folder is found before the first step, not after the last.
+    let o = throng(&[
+        "demo",
+        "wander",
+        "--agents",
+        "50",
+        "--steps",
+        "3",
+        "--render",
+        "no-such-folder-xyz/x.png",
+    ]);
+    assert!(!o.status.success());
+    assert_eq!(stdout(&o), "", "nothing ran");
+    assert!(stderr(&o).contains("no-such-folder-xyz"), "{}", stderr(&o));
+
+    // The scenario file itself is never an output.
+    let input = tmp("input.toml");
+    let text = throng::scenario::BUILTIN[2].1;
+    std::fs::write(&input, text).unwrap();
+    for flag in ["--trajectories", "--render"] {
+        let o = throng(&[
+            "run",
+            input.to_str().unwrap(),
+            "--steps",
+            "2",
+            flag,
+            input.to_str().unwrap(),
+        ]);
+        assert!(!o.status.success(), "{flag}");
+        assert!(stderr(&o).contains("input"), "{flag}: {}", stderr(&o));
+        assert_eq!(std::fs::read_to_string(&input).unwrap(), text, "{flag}");
+    }
+
+    // Two outputs into one file would interleave into garbage.
+    let both = tmp("both.gif");
+    let o = throng(&[
+        "demo",
+        "wander",
+        "--agents",
+        "50",
+        "--steps",
+        "2",
+        "--render",
+        both.to_str().unwrap(),
+        "--trajectories",
+        both.to_str().unwrap(),
+    ]);
+    assert!(!o.status.success());
+    assert!(stderr(&o).contains("same file"), "{}", stderr(&o));
+    assert!(!both.exists());
+}
+
+#[test]
+fn the_last_frame_is_always_written() {
+    let csv = tmp("last_frame.csv");
+    let o = throng(&[
+        "demo",
+        "wander",
+        "--agents",
+        "20",
+        "--steps",
+        "7",
+        "--every",
+        "3",
+        "--quiet",
+        "--trajectories",
+        csv.to_str().unwrap(),
+    ]);
+    assert!(o.status.success(), "{}", stderr(&o));
+    let text = std::fs::read_to_string(&csv).unwrap();
+    let frames: std::collections::BTreeSet<u64> = text
+        .lines()
+        .skip(1)
+        .map(|l| l.split(',').next().unwrap().parse().unwrap())
+        .collect();
+    assert_eq!(frames.into_iter().collect::<Vec<_>>(), [0, 3, 6, 7]);
+}
+
+#[test]
+fn a_killed_run_leaves_the_previous_output_intact() {
+    let dir = tmp("killed");
+    std::fs::create_dir_all(&dir).unwrap();
+    let csv = dir.join("t.csv");
+    std::fs::write(&csv, "previous\n").unwrap();
+    let mut child = Command::new(env!("CARGO_BIN_EXE_throng"))
+        .args([
+            "demo",
+            "wander",
+            "--agents",
+            "2000",
+            "--steps",
+            "100000000",
+            "--every",
+            "1",
+            "--quiet",
+            "--trajectories",
+            csv.to_str().unwrap(),
+        ])
+        .stdout(std::process::Stdio::null())
+        .spawn()
+        .unwrap();
+    // Wait until the run is writing rows, then kill it.
+    let started = std::time::Instant::now();
+    let writing = || {
+        std::fs::read_dir(&dir).unwrap().any(|e| {
+            let e = e.unwrap();
+            e.path() != csv && e.metadata().unwrap().len() > 100_000
+        }) || std::fs::metadata(&csv).unwrap().len() > 100_000
+    };
+    while !writing() && started.elapsed().as_secs() < 20 {
+        std::thread::sleep(std::time::Duration::from_millis(20));
+    }
+    child.kill().unwrap();
+    child.wait().unwrap();
+    assert_eq!(std::fs::read_to_string(&csv).unwrap(), "previous\n");
+}
+
+#[test]
+fn thread_counts_beyond_the_ceiling_are_refused() {
+    for t in ["5000", "100000", "18446744073709551615"] {
+        assert_one_line_failure(&["demo", "flock", "--threads", t], "threads");
+    }
+}

@@ -142,6 +142,23 @@ impl Agents {
         self.ids.is_empty()
     }
 
+    /// Reserves room for `additional` more agents in every buffer.
+    pub(crate) fn try_reserve(&mut self, additional: usize) -> crate::Result<()> {
+        use crate::error::try_reserve;
+        let mut result = Ok(());
+        let mut f32s = |v: &mut Vec<f32>| {
+            if result.is_ok() {
+                result = try_reserve(v, additional, "agents");
+            }
+        };
+        for_each_buffer!(self, f32s);
+        result?;
+        try_reserve(&mut self.group, additional, "agents")?;
+        try_reserve(&mut self.overrides, additional, "agents")?;
+        try_reserve(&mut self.ids, additional, "agents")?;
+        try_reserve(&mut self.index_of, additional, "agents")
+    }
+
     /// Appends an agent whose values were already validated and resolved; returns its new id.
     pub(crate) fn push(
         &mut self,

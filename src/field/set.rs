@@ -130,11 +130,7 @@ pub(crate) fn in_wall(grid: &OccupancyGrid, p: Vec2) -> bool {
 #[inline]
 pub(crate) fn cell_of(grid: &OccupancyGrid, p: Vec2) -> Option<(usize, usize)> {
     let u = (p - grid.origin()) / grid.cell_size();
-    if !(u.x >= 0.0 && u.y >= 0.0) {
-        return None;
-    }
-    let (x, y) = (u.x as usize, u.y as usize);
-    (x < grid.width() as usize && y < grid.height() as usize).then_some((x, y))
+    super::lattice::cell_coords(u, grid.width() as usize, grid.height() as usize)
 }
 
 /// A grid's walls as the per-agent wall check reads them, with the cell lookup of
@@ -233,11 +229,7 @@ impl<'a> Walls<'a> {
             Some(inv) => d * inv,
             None => d / self.cell_size,
         };
-        if !(u.x >= 0.0 && u.y >= 0.0) {
-            return None;
-        }
-        let (x, y) = (u.x as usize, u.y as usize);
-        (x < self.width && y < self.height).then_some(y * self.width + x)
+        super::lattice::cell_coords(u, self.width, self.height).map(|(x, y)| y * self.width + x)
     }
 
     #[inline]

@@ -4,6 +4,12 @@
 //! over an `f64` cost matrix; it is sequential and deterministic: the same matrix always gives
 //! the same assignment. [`assign_slots`] builds the matrix of Euclidean distances between member
 //! positions and slot positions.
+//!
+//! The exact method costs `O(n^3)` time and an `n x n` matrix, too much for large squads.
+//! [`assign_slots_local`] keeps it exact up to [`EXACT_MAX`] members; above that it splits
+//! members and slots together by recursive coordinate bisection (both sorted along the wider
+//! axis, members halved, slots shared in proportion) into blocks of at most [`BLOCK`] members
+//! and assigns each block exactly: `O(n log^2 n + n BLOCK^2)` time, `O(n + BLOCK^2)` memory.
 
 use glam::Vec2;
 
@@ -122,6 +128,81 @@ fn hungarian(a: &[f64], n: usize, m: usize) -> Vec<usize> {
 pub fn assign_slots(members: &[Vec2], slots: &[Vec2]) -> Result<Vec<usize>> {
     let cost = distance_matrix(members, slots, |a, b| b - a);
     assign_min_cost(&cost, members.len(), slots.len())
+}
+
+/// Squads of at most this many members are assigned exactly by [`assign_slots_local`].
+pub const EXACT_MAX: usize = 256;
+/// The most members in one exactly assigned block of a larger squad.
+pub const BLOCK: usize = 64;
+
+/// Slot assignment that scales: exactly as [`assign_slots`] for at most [`EXACT_MAX`] members,
+/// otherwise by blocks of nearby members and slots (see the module documentation), close to
+/// the least total distance and deterministic.
+///
+/// # Errors
+/// As [`assign_min_cost`]: more members than slots, or a NaN or infinite position.
+pub fn assign_slots_local(members: &[Vec2], slots: &[Vec2]) -> Result<Vec<usize>> {
+    if members.len() <= EXACT_MAX {
+        return assign_slots(members, slots);
+    }
+    if members.len() > slots.len() {
+        return Err(Error::Invalid {
+            name: "assignment".into(),
+            reason: format!("{} members but only {} slots", members.len(), slots.len()),
+        });
+    }
+    if let Some(p) = members.iter().chain(slots).find(|p| !p.is_finite()) {
+        return Err(Error::NonFinite {
+            name: "assignment position",
+            value: f64::from(if p.x.is_finite() { p.y } else { p.x }),
+        });
+    }
+    let mut m: Vec<usize> = (0..members.len()).collect();
+    let mut s: Vec<usize> = (0..slots.len()).collect();
+    let mut out = vec![0; members.len()];
+    bisect(members, slots, &mut m, &mut s, &mut out);
+    Ok(out)
+}
+
+/// Assigns the members `m` to the slots `s` (indices into `members` and `slots`, `s` at least
+/// as long as `m`), writing `out[member] = slot`.
+fn bisect(members: &[Vec2], slots: &[Vec2], m: &mut [usize], s: &mut [usize], out: &mut [usize]) {
+    if m.len() <= BLOCK {
+        let at: Vec<Vec2> = m.iter().map(|&i| members[i]).collect();
+        let to: Vec<Vec2> = s.iter().map(|&j| slots[j]).collect();
+        let cost = distance_matrix(&at, &to, |a, b| b - a);
+        for (r, c) in hungarian(&cost, at.len(), to.len()).into_iter().enumerate() {
+            out[m[r]] = s[c];
+        }
+        return;
+    }
+    let (mut lo, mut hi) = (Vec2::splat(f32::INFINITY), Vec2::splat(f32::NEG_INFINITY));
+    for p in m
+        .iter()
+        .map(|&i| members[i])
+        .chain(s.iter().map(|&j| slots[j]))
+    {
+        lo = lo.min(p);
+        hi = hi.max(p);
+    }
+    let along_x = hi.x - lo.x >= hi.y - lo.y;
+    let key = |p: Vec2| if along_x { (p.x, p.y) } else { (p.y, p.x) };
+    let order = |pts: &[Vec2], a: usize, b: usize| {
+        let (ka, kb) = (key(pts[a]), key(pts[b]));
+        ka.0.total_cmp(&kb.0)
+            .then(ka.1.total_cmp(&kb.1))
+            .then(a.cmp(&b))
+    };
+    m.sort_unstable_by(|&a, &b| order(members, a, b));
+    s.sort_unstable_by(|&a, &b| order(slots, a, b));
+    let m1 = m.len() / 2;
+    let spare = s.len() - m.len();
+    // The slots shared in proportion; each half keeps at least as many slots as members.
+    let s1 = m1 + (spare * m1).div_ceil(m.len());
+    let (m_lo, m_hi) = m.split_at_mut(m1);
+    let (s_lo, s_hi) = s.split_at_mut(s1);
+    bisect(members, slots, m_lo, s_lo, out);
+    bisect(members, slots, m_hi, s_hi, out);
 }
 
 /// The row-major matrix of `|offset(member, slot)|` in `f64`.

@@ -23,12 +23,14 @@ mod movement;
 mod path;
 
 pub(crate) use assignment::distance_matrix;
-pub use assignment::{assign_min_cost, assign_slots, assignment_cost};
+pub use assignment::{
+    BLOCK, EXACT_MAX, assign_min_cost, assign_slots, assign_slots_local, assignment_cost,
+};
 pub use formation::{
     FormationId, FormationParams, FormationShape, SlotParams, slot_offsets, slot_velocity,
 };
 pub use jump::{JumpParams, JumpPhase, JumpPlan, jump_phase, jump_plan, run_up_length};
 pub use leader::{FollowParams, follow_leader};
 pub use movement::Formation;
-pub(crate) use movement::{GroupMovement, NO_FORMATION, update_formations};
+pub(crate) use movement::{GroupMovement, NO_FORMATION, update_formations, update_formations_in};
 pub use path::{Path, PathDirection, PathFollowParams, PathId, PathSpec, Projection, follow_path};

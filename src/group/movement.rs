@@ -75,6 +75,13 @@ impl Formation {
         &self.members
     }
 
+    /// The members' slots in the anchor's local frame, as last assigned, in the order of
+    /// [`Formation::members`].
+    #[must_use]
+    pub fn slots(&self) -> &[Vec2] {
+        &self.slots
+    }
+
     /// Member `id`'s slot in the anchor's local frame, as last assigned.
     #[must_use]
     pub fn slot(&self, id: AgentId) -> Option<Vec2> {
@@ -92,17 +99,24 @@ pub(crate) fn update_formations(
     bounds: Bounds,
     frame: u64,
 ) {
-    for f in 0..gm.formations.len() {
+    update_formations_in(gm, agents, bounds, frame, 0..gm.formations.len());
+}
+
+/// [`update_formations`] for the formations of `range` only.
+pub(crate) fn update_formations_in(
+    gm: &mut GroupMovement,
+    agents: &Agents,
+    bounds: Bounds,
+    frame: u64,
+    range: std::ops::Range<usize>,
+) {
+    for f in range {
         let form = &mut gm.formations[f];
         let before = form.members.len();
-        let mut k = 0;
-        while k < form.members.len() {
-            if agents.contains(form.members[k]) {
-                k += 1;
-            } else {
-                form.members.remove(k);
-                form.slots.remove(k);
-            }
+        if form.members.iter().any(|&m| !agents.contains(m)) {
+            let mut keep = form.members.iter().map(|&m| agents.contains(m));
+            form.slots.retain(|_| keep.next().unwrap_or(false));
+            form.members.retain(|&m| agents.contains(m));
         }
         let periodic =
             form.params.reassign_every > 0 && frame.is_multiple_of(form.params.reassign_every);
@@ -122,8 +136,20 @@ pub(crate) fn update_formations(
             .iter()
             .map(|&m| agents.position(agents.index_of(m).unwrap_or(j)))
             .collect();
-        let cost = group::distance_matrix(&at, &world, |a, b| bounds.offset(a, b));
-        let Ok(assignment) = group::assign_min_cost(&cost, n, local.len()) else {
+        let assignment = if n <= group::EXACT_MAX {
+            let cost = group::distance_matrix(&at, &world, |a, b| bounds.offset(a, b));
+            group::assign_min_cost(&cost, n, local.len())
+        } else {
+            // Members as seen from the anchor (their torus images nearest to it), so that plain
+            // differences are the offsets the exact method uses.
+            let anchor = agents.position(j);
+            let seen: Vec<Vec2> = at
+                .iter()
+                .map(|&p| anchor + bounds.offset(anchor, p))
+                .collect();
+            group::assign_slots_local(&seen, &world)
+        };
+        let Ok(assignment) = assignment else {
             continue;
         };
         for (k, &s) in assignment.iter().enumerate() {

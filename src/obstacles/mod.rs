@@ -123,6 +123,22 @@ impl Obstacles {
         Ok(())
     }
 
+    /// Adds many circles and rebuilds the broad phase once (adding them one by one rebuilds it
+    /// after each, which is quadratic in the count). Nothing is added when one is bad.
+    ///
+    /// # Errors
+    /// As [`Obstacles::add_circle`], for the first bad circle.
+    pub fn add_circles(&mut self, circles: &[Circle]) -> Result<()> {
+        for c in circles {
+            finite_vec("circle.center", c.center)?;
+            positive("circle.radius", c.radius)?;
+        }
+        crate::error::try_reserve(&mut self.circles, circles.len(), "circles")?;
+        self.circles.extend_from_slice(circles);
+        self.grid.rebuild(&self.circles, &self.walls);
+        Ok(())
+    }
+
     /// Adds a wall.
     ///
     /// # Errors

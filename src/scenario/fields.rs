@@ -135,6 +135,86 @@ impl FieldSpec {
         }
     }
 
+    /// Checks the counts against their ceilings before anything is built.
+    pub(crate) fn validate(&self) -> Result<()> {
+        use super::obstacles::at_most;
+        use crate::limits::{MAX_CELLS, MAX_CHANNELS, MAX_RANDOM_GOALS};
+        at_most(
+            "field.channels",
+            self.channels.len(),
+            MAX_CHANNELS,
+            "[1, 64]",
+        )?;
+        at_most(
+            "field.shuffle_goals",
+            self.shuffle_goals,
+            MAX_RANDOM_GOALS,
+            "[0, 1000000]",
+        )?;
+        for g in &self.channels {
+            if let GoalSpec::Random(n) = g {
+                at_most(
+                    "field.channels.random",
+                    *n,
+                    MAX_RANDOM_GOALS,
+                    "[0, 1000000]",
+                )?;
+            }
+        }
+        if let MapSource::Caves { width, height, .. } | MapSource::Tunnels { width, height, .. } =
+            &self.map
+            && u64::from(*width) * u64::from(*height) > MAX_CELLS
+        {
+            return Err(Error::OutOfRange {
+                name: "field.map cells (width x height)",
+                value: f64::from(*width) * f64::from(*height),
+                range: "[1, 268435456]",
+            });
+        }
+        Ok(())
+    }
+
+    /// The number of cells the map will have, as far as it is known before it is read (a map
+    /// file counts one cell per byte).
+    pub(crate) fn cell_estimate(&self) -> u64 {
+        match &self.map {
+            MapSource::File(p) => std::fs::metadata(p).map_or(0, |m| m.len()),
+            MapSource::Ascii(text) => text.len() as u64,
+            MapSource::Caves { width, height, .. } | MapSource::Tunnels { width, height, .. } => {
+                u64::from(*width) * u64::from(*height)
+            }
+        }
+    }
+
+    /// Checks, before any agent is spawned, that the walker groups fit on the free cells (one
+    /// walker per cell).
+    pub(crate) fn check_walkers(
+        &self,
+        world: &World,
+        field: usize,
+        groups: &[super::GroupSpec],
+    ) -> Result<()> {
+        let Some(f) = world.field(field) else {
+            return Ok(());
+        };
+        let free = f.grid().free_count();
+        let walkers = self
+            .walkers
+            .iter()
+            .filter_map(|w| groups.get(w.group))
+            .map(super::GroupSpec::count_of)
+            .fold(0usize, usize::saturating_add);
+        if walkers > free {
+            return Err(Error::Invalid {
+                name: "field.walkers".into(),
+                reason: format!(
+                    "more walkers than free cells ({walkers} walkers, {free} free cells)"
+                ),
+            });
+        }
+        Ok(())
+    }
+
     fn map(&self, seed: u64) -> Result<MapFile> {
         let map = match &self.map {
             MapSource::File(p) => OccupancyGrid::load_ascii(p)?,

@@ -93,18 +93,36 @@ impl FormationSpec {
     /// # Errors
     /// As [`World::add_formation`].
     pub fn add_to(&self, world: &mut World) -> Result<FormationId> {
-        let members: Vec<AgentId> = match &self.members {
-            Members::Agents(ids) => ids.clone(),
-            Members::Group(g) => {
-                let a = world.agents();
-                let mut ids: Vec<AgentId> = (0..a.len())
-                    .filter(|&i| a.groups()[i] as usize == *g)
-                    .map(|i| a.id(i))
-                    .collect();
-                ids.sort_unstable();
-                ids
-            }
-        };
-        world.add_formation(self.anchor.agent, self.params(), &members)
+        let by_group = members_by_group(world);
+        self.add_with(world, &by_group)
     }
+
+    /// As [`FormationSpec::add_to`] with the agents of each group listed in `by_group` (from
+    /// [`members_by_group`]), so that many formations cost one pass over the agents.
+    pub(crate) fn add_with(
+        &self,
+        world: &mut World,
+        by_group: &[Vec<AgentId>],
+    ) -> Result<FormationId> {
+        let members: &[AgentId] = match &self.members {
+            Members::Agents(ids) => ids,
+            Members::Group(g) => by_group.get(*g).map_or(&[], Vec::as_slice),
+        };
+        world.add_formation(self.anchor.agent, self.params(), members)
+    }
+}
+
+/// The ids of each group's agents, ascending.
+pub(crate) fn members_by_group(world: &World) -> Vec<Vec<AgentId>> {
+    let a = world.agents();
+    let mut by_group: Vec<Vec<AgentId>> = vec![Vec::new(); world.groups().len()];
+    for i in 0..a.len() {
+        if let Some(list) = by_group.get_mut(a.groups()[i] as usize) {
+            list.push(a.id(i));
+        }
+    }
+    for list in &mut by_group {
+        list.sort_unstable();
+    }
+    by_group
 }

@@ -7,16 +7,18 @@
 //! crate; `docs/SCENARIOS.md` documents every key.
 //!
 //! Agent counts scale: `--agents N` (or [`Scenario::with_agents`]) shares `N` among the groups in
-//! proportion to their `count`s, except groups marked `fixed`.
+//! proportion to their `count`s, except groups marked `fixed`; with `world.scale = "tiles"` the
+//! whole scenario is repeated side by side instead (`tiles`).
 
 mod builtin;
 mod fields;
 mod group;
 mod obstacles;
 mod spec;
+mod tiles;
 
 pub use builtin::{BUILTIN, builtin, builtin_names};
 pub use fields::{FieldSpec, GoalSpec, MapSource, WalkerSpec};
 pub use group::{AgentRef, FormationSpec, Members};
 pub use obstacles::{GravitySpec, ObstacleSpec, PolygonSpec, RandomCircles, RandomGravity};
-pub use spec::{DensitySpec, GroupSpec, Scenario, Spawn, WorldSpec};
+pub use spec::{DensitySpec, GroupSpec, Scenario, Spawn, WorldScale, WorldSpec};

@@ -95,6 +95,18 @@ fn two() -> f32 {
     2.0
 }
 
+/// Checks a count against its ceiling.
+pub(crate) fn at_most(name: &'static str, n: usize, max: usize, range: &'static str) -> Result<()> {
+    if n > max {
+        return Err(Error::OutOfRange {
+            name,
+            value: n as f64,
+            range,
+        });
+    }
+    Ok(())
+}
+
 fn region(min: Vec2, max: Vec2) -> Result<()> {
     finite_vec("region.min", min)?;
     finite_vec("region.max", max)?;
@@ -141,6 +153,12 @@ impl ObstacleSpec {
     /// The variant naming the first bad value.
     pub fn validate(&self) -> Result<()> {
         if let Some(r) = &self.random_circles {
+            at_most(
+                "obstacles.random_circles.count",
+                r.count,
+                crate::limits::MAX_RANDOM_CIRCLES,
+                "[0, 1000000]",
+            )?;
             positive("random_circles.min_radius", r.min_radius)?;
             positive("random_circles.max_radius", r.max_radius)?;
             if r.max_radius < r.min_radius {
@@ -159,23 +177,37 @@ impl ObstacleSpec {
     /// # Errors
     /// As the world's `add_circle`, `add_wall` and `add_polygon`.
     pub fn apply(&self, world: &mut World, seed: u64) -> Result<()> {
-        for c in &self.circles {
-            world.add_circle(*c)?;
-        }
+        world.add_circles(&self.circles)?;
         for w in &self.walls {
             world.add_wall(*w)?;
         }
         for p in &self.polygons {
             world.add_polygon(&p.points, p.closed)?;
         }
+        world.add_circles(&self.random_list(seed)?)?;
+        Ok(())
+    }
+
+    /// The random circles drawn from `seed`.
+    fn random_list(&self, seed: u64) -> Result<Vec<Circle>> {
+        let mut circles = Vec::new();
         if let Some(r) = &self.random_circles {
             let mut rng = ChaCha8Rng::seed_from_u64(seed ^ 0x0b57_ac1e);
+            crate::error::try_reserve(&mut circles, r.count, "random_circles.count")?;
             for _ in 0..r.count {
                 let radius = r.min_radius + rng.random::<f32>() * (r.max_radius - r.min_radius);
                 let center = place(&mut rng, r.min, r.max, &r.keep_clear, radius)?;
-                world.add_circle(Circle { center, radius })?;
+                circles.push(Circle { center, radius });
             }
         }
+        Ok(circles)
+    }
+
+    /// Draws the random circles from `seed` and lists them with the explicit ones.
+    pub(crate) fn materialise(&mut self, seed: u64) -> Result<()> {
+        let mut drawn = self.random_list(seed)?;
+        self.circles.append(&mut drawn);
+        self.random_circles = None;
         Ok(())
     }
 }
@@ -186,6 +218,14 @@ impl GravitySpec {
     /// # Errors
     /// The variant naming the first bad value.
     pub fn validate(&self) -> Result<()> {
+        at_most(
+            "gravity points (points and random.count)",
+            self.points
+                .len()
+                .saturating_add(self.random.as_ref().map_or(0, |r| r.count)),
+            crate::limits::MAX_GRAVITY_POINTS,
+            "[0, 100000]",
+        )?;
         for p in &self.points {
             p.validate()?;
         }
@@ -203,18 +243,33 @@ impl GravitySpec {
     /// # Errors
     /// As [`World::add_gravity_point`].
     pub fn apply(&self, world: &mut World, seed: u64) -> Result<()> {
-        for p in &self.points {
+        for p in self.points.iter().chain(&self.random_list(seed)?) {
             world.add_gravity_point(*p)?;
         }
+        Ok(())
+    }
+
+    /// The random points drawn from `seed`.
+    fn random_list(&self, seed: u64) -> Result<Vec<GravityPoint>> {
+        let mut points = Vec::new();
         if let Some(r) = &self.random {
             let mut rng = ChaCha8Rng::seed_from_u64(seed ^ 0x9a71_7e5d);
+            crate::error::try_reserve(&mut points, r.count, "gravity.random.count")?;
             for _ in 0..r.count {
                 let position = place(&mut rng, r.min, r.max, &r.keep_clear, 0.0)?;
-                world.add_gravity_point(GravityPoint::fixed(
+                points.push(GravityPoint::fixed(
                     position, r.strength, r.exponent, r.radius,
-                ))?;
+                ));
             }
         }
+        Ok(points)
+    }
+
+    /// Draws the random points from `seed` and lists them with the explicit ones.
+    pub(crate) fn materialise(&mut self, seed: u64) -> Result<()> {
+        let mut drawn = self.random_list(seed)?;
+        self.points.append(&mut drawn);
+        self.random = None;
         Ok(())
     }
 }

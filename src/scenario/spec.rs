@@ -83,6 +83,21 @@ pub struct WorldSpec {
     pub index: IndexKind,
     /// Reorder agents by grid cell every this many frames (0: never). Default: 4.
     pub reorder_every: Option<u32>,
+    /// How `--agents` scales the scenario: `"counts"` (the groups' counts, in proportion) or
+    /// `"tiles"` (copies of the whole scenario side by side, so density and squad sizes stay).
+    /// Default: counts.
+    pub scale: WorldScale,
+}
+
+/// How a scenario grows with `--agents` ([`Scenario::with_agents`]).
+#[derive(Clone, Copy, Debug, Default, PartialEq, Eq, Serialize, Deserialize)]
+#[serde(rename_all = "snake_case")]
+pub enum WorldScale {
+    /// The groups' counts grow in proportion, in the same world (or one sized by `density`).
+    #[default]
+    Counts,
+    /// The scenario is repeated on a grid of copies of its world, each with its share.
+    Tiles,
 }
 
 /// The kind of world.
@@ -204,6 +219,39 @@ impl<'de> Deserialize<'de> for GroupSpec {
     }
 }
 
+/// Checks that every number of a parsed scenario except a `seed` has a magnitude of at most
+/// [`MAX_NUMBER`](crate::limits::MAX_NUMBER); the error names the key.
+fn check_numbers(table: &toml::Table, prefix: &str) -> std::result::Result<(), String> {
+    fn walk(v: &toml::Value, key: &str) -> std::result::Result<(), String> {
+        let max = crate::limits::MAX_NUMBER;
+        let over = |shown: String| {
+            Err(format!(
+                "{key} = {shown} lies beyond 1e18, the ceiling of every number in a scenario file"
+            ))
+        };
+        match v {
+            toml::Value::Float(f) if f.is_finite() && f.abs() > max => over(f.to_string()),
+            toml::Value::Integer(i) if (*i as f64).abs() > max && !key.ends_with("seed") => {
+                over(i.to_string())
+            }
+            toml::Value::Array(a) => a
+                .iter()
+                .enumerate()
+                .try_for_each(|(k, v)| walk(v, &format!("{key}[{k}]"))),
+            toml::Value::Table(t) => check_numbers(t, key),
+            _ => Ok(()),
+        }
+    }
+    table.iter().try_for_each(|(k, v)| {
+        let key = if prefix.is_empty() {
+            k.clone()
+        } else {
+            format!("{prefix}.{k}")
+        };
+        walk(v, &key)
+    })
+}
+
 /// Byte offset to 1-based (line, column).
 pub(crate) fn line_col(text: &str, offset: usize) -> (usize, usize) {
     let before = &text[..offset.min(text.len())];
@@ -227,6 +275,13 @@ impl Scenario {
             location: e.span().map(|sp| line_col(text, sp.start)),
             message: e.message().trim().to_string(),
         })?;
+        if let Ok(table) = toml::from_str::<toml::Table>(text) {
+            check_numbers(&table, "").map_err(|message| Error::Scenario {
+                source_name: source_name.to_string(),
+                location: None,
+                message,
+            })?;
+        }
         if let Some(f) = &mut s.field {
             f.resolve_paths(source_name);
         }
@@ -247,15 +302,16 @@ impl Scenario {
         Ok(s)
     }
 
-    /// Reads and parses a scenario file.
+    /// Reads and parses a scenario file of at most
+    /// [`MAX_SCENARIO_BYTES`](crate::limits::MAX_SCENARIO_BYTES) (larger files are refused
+    /// before they are read).
     ///
     /// # Errors
-    /// [`Error::Io`] when the file cannot be read, otherwise as [`Scenario::from_toml`].
+    /// [`Error::Io`] when the file cannot be read or is too large, otherwise as
+    /// [`Scenario::from_toml`].
     pub fn load(path: &Path) -> Result<Self> {
-        let text = std::fs::read_to_string(path).map_err(|source| Error::Io {
-            path: path.display().to_string(),
-            source,
-        })?;
+        let text =
+            crate::limits::read_text(path, crate::limits::MAX_SCENARIO_BYTES, "scenario files")?;
         Self::from_toml(&text, &path.display().to_string())
     }
 
@@ -265,7 +321,13 @@ impl Scenario {
     /// The variant naming the first bad value.
     pub fn validate(&self) -> Result<()> {
         positive("dt", self.dt)?;
-        crate::error::in_range("dt", self.dt, 0.0, crate::error::MAX_DT, "(0, 1e6]")?;
+        crate::error::in_range(
+            "dt",
+            self.dt,
+            crate::limits::MIN_DT,
+            crate::error::MAX_DT,
+            "[1e-6, 1e6]",
+        )?;
         if self.agent_count() > crate::error::MAX_AGENTS {
             return Err(Error::OutOfRange {
                 name: "count",
@@ -275,6 +337,9 @@ impl Scenario {
         }
         self.obstacles.validate()?;
         self.gravity.validate()?;
+        if let Some(f) = &self.field {
+            f.validate()?;
+        }
         if self.groups.is_empty() {
             return Err(Error::Invalid {
                 name: "groups".into(),
@@ -361,7 +426,8 @@ impl Scenario {
     }
 
     /// The same scenario scaled to `total` agents: scalable groups share what the fixed ones leave,
-    /// in proportion to their counts (each keeps at least one agent).
+    /// in proportion to their counts (each keeps at least one agent); with
+    /// `world.scale = "tiles"`, copies of the whole scenario side by side, each with its share.
     ///
     /// # Errors
     /// [`Error::NotPositive`] for `total == 0`; [`Error::Invalid`] when `total` is smaller than
@@ -379,6 +445,9 @@ impl Scenario {
                 value: total as f64,
                 range: "[1, 100000000]",
             });
+        }
+        if self.world.scale == WorldScale::Tiles {
+            return self.tiled(total);
         }
         let fixed: usize = self
             .groups
@@ -435,7 +504,9 @@ impl Scenario {
     /// The world's bounds for the current agent count.
     ///
     /// # Errors
-    /// As [`Bounds::torus`] for a bad size.
+    /// As [`Bounds::torus`] for a bad size; [`Error::OutOfRange`] when `density` or
+    /// `agents_per_area` would make a side longer than
+    /// [`MAX_DERIVED_SIDE`](crate::limits::MAX_DERIVED_SIDE).
     pub fn bounds(&self) -> Result<Bounds> {
         let size = match (
             self.world.size,
@@ -444,10 +515,17 @@ impl Scenario {
         ) {
             (Some(s), _, _) => s,
             (None, Some(d), _) => {
-                let area = self.agent_count() as f32 * PI * d.radius * d.radius / d.neighbours;
-                Vec2::splat(area.sqrt().max(d.radius))
+                let area = self.agent_count() as f64
+                    * std::f64::consts::PI
+                    * f64::from(d.radius)
+                    * f64::from(d.radius)
+                    / f64::from(d.neighbours);
+                derived_side("world.density", area.sqrt().max(f64::from(d.radius)))?
             }
-            (None, None, Some(rho)) => Vec2::splat((self.agent_count() as f32 / rho).sqrt()),
+            (None, None, Some(rho)) => derived_side(
+                "world.agents_per_area",
+                (self.agent_count() as f64 / f64::from(rho)).sqrt(),
+            )?,
             (None, None, None) => Vec2::ZERO,
         };
         match self.world.kind {
@@ -457,12 +535,62 @@ impl Scenario {
         }
     }
 
-    /// Builds the world: groups, then agents spawned group by group from the seed.
+    /// An estimate of the memory the built world will need, bytes: agents at
+    /// [`BYTES_PER_AGENT`](crate::limits::BYTES_PER_AGENT), field cells and their channels,
+    /// obstacles and gravity points, plus [`BASE_BYTES`](crate::limits::BASE_BYTES).
+    #[must_use]
+    pub fn memory_estimate(&self) -> u64 {
+        use crate::limits::{BASE_BYTES, BYTES_PER_AGENT, BYTES_PER_CELL, BYTES_PER_CHANNEL_CELL};
+        let agents = (self.agent_count() as u64).saturating_mul(BYTES_PER_AGENT);
+        let field = self.field.as_ref().map_or(0, |f| {
+            let per_cell = BYTES_PER_CELL + f.channels.len() as u64 * BYTES_PER_CHANNEL_CELL;
+            f.cell_estimate().saturating_mul(per_cell)
+        });
+        let obstacles = (self.obstacles.circles.len()
+            + self.obstacles.walls.len()
+            + self
+                .obstacles
+                .polygons
+                .iter()
+                .map(|p| p.points.len())
+                .sum::<usize>()
+            + self
+                .obstacles
+                .random_circles
+                .as_ref()
+                .map_or(0, |r| r.count)
+            + self.gravity.points.len()
+            + self.gravity.random.as_ref().map_or(0, |r| r.count)) as u64;
+        BASE_BYTES
+            .saturating_add(agents)
+            .saturating_add(field)
+            .saturating_add(obstacles.saturating_mul(64))
+    }
+
+    /// Builds the world: groups, then agents spawned group by group from the seed. The memory
+    /// estimate is checked first against the machine's available memory (where known).
     ///
     /// # Errors
-    /// The variant naming the first bad value (a spawn region outside the world, say).
+    /// The variant naming the first bad value (a spawn region outside the world, say);
+    /// [`Error::OutOfMemory`] when the estimate exceeds the available memory.
     pub fn build(&self) -> Result<World> {
+        self.build_within(crate::limits::available_memory())
+    }
+
+    /// [`Scenario::build`] with the memory estimate checked against `memory` bytes (`None`:
+    /// not checked).
+    ///
+    /// # Errors
+    /// As [`Scenario::build`].
+    pub fn build_within(&self, memory: Option<u64>) -> Result<World> {
         self.validate()?;
+        if let Some(limit) = memory {
+            crate::limits::check_memory(
+                &format!("scenario {}", self.name),
+                self.memory_estimate(),
+                limit,
+            )?;
+        }
         let bounds = self.bounds()?;
         let mut world = World::builder().bounds(bounds).seed(self.seed).build()?;
         world.set_index(self.world.index);
@@ -483,6 +611,10 @@ impl Scenario {
             Some(f) => Some(f.add_to(&mut world, self.seed)?),
             None => None,
         };
+        if let (Some(f), Some(id)) = (&self.field, field) {
+            f.check_walkers(&world, id, &self.groups)?;
+        }
+        world.try_reserve_agents(self.agent_count())?;
         for (gi, g) in self.groups.iter().enumerate() {
             let mut rng = ChaCha8Rng::seed_from_u64(
                 self.seed ^ (0x5eed_0000_u64 + gi as u64).wrapping_mul(0x9e37_79b9_7f4a_7c15),
@@ -533,14 +665,30 @@ impl Scenario {
             }
         }
         self.gravity.apply(&mut world, self.seed)?;
-        for f in &self.formations {
-            f.add_to(&mut world)?;
+        if !self.formations.is_empty() {
+            let by_group = super::group::members_by_group(&world);
+            for f in &self.formations {
+                f.add_with(&mut world, &by_group)?;
+            }
         }
         if let (Some(f), Some(id)) = (&self.field, field) {
             f.finish(&mut world, id)?;
         }
         Ok(world)
     }
+}
+
+/// A square world of side `side`, derived from a density key.
+fn derived_side(name: &'static str, side: f64) -> Result<Vec2> {
+    let max = crate::limits::MAX_DERIVED_SIDE;
+    if !(side.is_finite() && side <= f64::from(max)) {
+        return Err(Error::OutOfRange {
+            name,
+            value: side,
+            range: "a world side of at most 1e6 (lower the agent count or raise the density)",
+        });
+    }
+    Ok(Vec2::splat(side as f32))
 }
 
 impl GroupSpec {

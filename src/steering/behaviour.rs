@@ -417,7 +417,13 @@ impl Behaviour {
     /// The behaviour's target, if it has one.
     #[must_use]
     pub fn target(&self) -> Option<Target> {
-        match *self {
+        self.clone().target_mut().copied()
+    }
+
+    /// The behaviour's target, if it has one, to change in place (a scenario's tiles move
+    /// each copy's targets to its own tile).
+    pub fn target_mut(&mut self) -> Option<&mut Target> {
+        match self {
             Behaviour::Seek { target, .. }
             | Behaviour::Flee { target, .. }
             | Behaviour::Arrive { target, .. }

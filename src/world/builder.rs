@@ -220,9 +220,7 @@ impl WorldBuilder {
         for a in self.agents {
             world.add_agent(a)?;
         }
-        for c in self.circles {
-            world.add_circle(c)?;
-        }
+        world.add_circles(&self.circles)?;
         for w in self.walls {
             world.add_wall(w)?;
         }

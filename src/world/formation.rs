@@ -96,11 +96,14 @@ impl World {
                 return Err(e);
             }
         }
-        group::update_formations(
+        // Only the new formation: the others are as they were (and checking them all would
+        // make adding many formations quadratic).
+        group::update_formations_in(
             &mut self.group_movement,
             &self.agents,
             self.bounds,
             self.frame,
+            f..f + 1,
         );
         Ok(FormationId(f as u32))
     }

@@ -97,8 +97,18 @@ impl World {
     /// # Errors
     /// As [`Obstacles::add_circle`], or [`Error::Invalid`] when an agent's centre lies inside it.
     pub fn add_circle(&mut self, circle: Circle) -> Result<()> {
+        self.add_circles(&[circle])
+    }
+
+    /// Adds many circles at once, building the obstacle broad phase once; nothing is added
+    /// when one is bad.
+    ///
+    /// # Errors
+    /// As [`Obstacles::add_circles`], or [`Error::Invalid`] when an agent's centre lies inside
+    /// one of them.
+    pub fn add_circles(&mut self, circles: &[Circle]) -> Result<()> {
         let mut test = Obstacles::new();
-        test.add_circle(circle)?;
+        test.add_circles(circles)?;
         if let Some(i) =
             (0..self.agents.len()).find(|&i| test.inside_circle(self.agents.position(i)))
         {
@@ -107,7 +117,7 @@ impl World {
                 reason: format!("agent {} stands inside it", self.agents.id(i)),
             });
         }
-        self.obstacles.add_circle(circle)
+        self.obstacles.add_circles(circles)
     }
 
     /// Adds a wall (a segment agents cannot cross).
@@ -297,6 +307,15 @@ impl World {
         self.groups[group] = params;
         self.plans_stale = true;
         Ok(())
+    }
+
+    /// Reserves room for `additional` more agents in every agent buffer, as an error instead
+    /// of an abort when the memory is not there.
+    ///
+    /// # Errors
+    /// [`Error::OutOfMemory`].
+    pub fn try_reserve_agents(&mut self, additional: usize) -> Result<()> {
+        self.agents.try_reserve(additional)
     }
 
     /// Adds an agent and returns its id.

@@ -97,7 +97,7 @@ impl World {
     }
 
     fn step_with(&mut self, dt: f32, exec: Execution) -> Result<StepStats> {
-        if !(dt.is_finite() && dt > 0.0 && dt <= MAX_DT) {
+        if !(crate::limits::MIN_DT..=MAX_DT).contains(&dt) {
             return Err(Error::InvalidTimeStep { dt: f64::from(dt) });
         }
         self.ensure_plans()?;
@@ -266,7 +266,7 @@ impl World {
     /// # Errors
     /// As [`World::step`].
     pub fn steering_outputs(&mut self, dt: f32) -> Result<Vec<(crate::AgentId, Steering)>> {
-        if !(dt.is_finite() && dt > 0.0 && dt <= MAX_DT) {
+        if !(crate::limits::MIN_DT..=MAX_DT).contains(&dt) {
             return Err(Error::InvalidTimeStep { dt: f64::from(dt) });
         }
         self.ensure_plans()?;

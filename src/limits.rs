@@ -1,0 +1,191 @@
+//! Resource ceilings: how large a scenario, a map file or a world may be, checked before the
+//! work is done, and what the machine has.
+//!
+//! Every count a scenario file can hold has a ceiling here (documented next to its key in
+//! `docs/SCENARIOS.md` and gathered in `docs/RELIABILITY.md`); files are read through a bounded
+//! reader, so a huge or endless input (`/dev/zero`) is an error after at most the ceiling's
+//! bytes; [`Scenario::memory_estimate`](crate::scenario::Scenario::memory_estimate) is compared
+//! with [`available_memory`] before a world is built.
+
+use std::io::Read;
+use std::path::Path;
+
+use crate::error::{Error, Result};
+
+/// The largest scenario file, bytes (16 MiB).
+pub const MAX_SCENARIO_BYTES: u64 = 16 << 20;
+/// The largest ASCII map file, bytes: a map of [`MAX_CELLS`] cells with its line ends fits.
+pub const MAX_MAP_BYTES: u64 = 300_000_000;
+/// The most cells a field grid may have (2^28, a 16384 x 16384 map).
+pub const MAX_CELLS: u64 = 1 << 28;
+/// The most random circles (`obstacles.random_circles.count`).
+pub const MAX_RANDOM_CIRCLES: usize = 1_000_000;
+/// The most gravity points (`gravity.points` and `gravity.random.count` together).
+pub const MAX_GRAVITY_POINTS: usize = 100_000;
+/// The most goal channels of a field.
+pub const MAX_CHANNELS: usize = 64;
+/// The most goals a channel may draw at random (`{ random = n }`, `shuffle_goals`).
+pub const MAX_RANDOM_GOALS: usize = 1_000_000;
+/// The smallest time step, seconds: with cells and speeds at their ceilings a step's velocity
+/// (distance over `dt`) stays finite.
+pub const MIN_DT: f32 = 1e-6;
+/// The largest magnitude of any number in a scenario file other than `seed` (coordinates,
+/// sizes, masses, weights, strengths): offsets between two such values have finite squares.
+pub const MAX_NUMBER: f64 = 1e18;
+/// The largest world side that `density` or `agents_per_area` may derive: at 1e6 an `f32`
+/// position still resolves 1/16 of a unit, so agents do not silently stand still.
+pub const MAX_DERIVED_SIDE: f32 = 1e6;
+/// Bytes of state per agent assumed by the memory estimate (agent buffers, the neighbour
+/// index, cell-ordered copies and steering outputs; 160 bytes measured for a flock).
+pub const BYTES_PER_AGENT: u64 = 200;
+/// Bytes of a field cell and of each of its goal channels assumed by the memory estimate.
+pub const BYTES_PER_CELL: u64 = 16;
+/// Bytes per cell and channel (potential, step counts and flow).
+pub const BYTES_PER_CHANNEL_CELL: u64 = 16;
+/// Memory a run needs besides its world (program, thread stacks, output buffers).
+pub const BASE_BYTES: u64 = 32 << 20;
+
+/// Reads a UTF-8 text file of at most `limit` bytes. A regular file larger than that is
+/// refused before anything is read; other files (pipes, devices) are read up to the limit.
+///
+/// # Errors
+/// [`Error::Io`] naming the file when it cannot be read, is not UTF-8, is a folder, or is
+/// larger than `limit` (`what` names the ceiling).
+pub fn read_text(path: &Path, limit: u64, what: &str) -> Result<String> {
+    let shown = path.display().to_string();
+    let err = |source: std::io::Error| Error::Io {
+        path: shown.clone(),
+        source,
+    };
+    let too_big = || {
+        err(std::io::Error::new(
+            std::io::ErrorKind::FileTooLarge,
+            format!("larger than {limit} bytes, the ceiling of {what}"),
+        ))
+    };
+    let file = std::fs::File::open(path).map_err(err)?;
+    let meta = file.metadata().map_err(err)?;
+    if meta.is_dir() {
+        return Err(err(std::io::Error::new(
+            std::io::ErrorKind::IsADirectory,
+            "is a folder",
+        )));
+    }
+    if meta.is_file() && meta.len() > limit {
+        return Err(too_big());
+    }
+    let mut bytes = Vec::new();
+    file.take(limit + 1).read_to_end(&mut bytes).map_err(err)?;
+    if bytes.len() as u64 > limit {
+        return Err(too_big());
+    }
+    String::from_utf8(bytes).map_err(|e| {
+        err(std::io::Error::new(
+            std::io::ErrorKind::InvalidData,
+            format!("not UTF-8 text (byte {})", e.utf8_error().valid_up_to()),
+        ))
+    })
+}
+
+/// The memory the machine can give without swapping (`MemAvailable` of `/proc/meminfo`),
+/// bytes; `None` where that is unknown.
+#[must_use]
+pub fn available_memory() -> Option<u64> {
+    let text = std::fs::read_to_string("/proc/meminfo").ok()?;
+    let line = text.lines().find(|l| l.starts_with("MemAvailable:"))?;
+    let kb: u64 = line.split_whitespace().nth(1)?.parse().ok()?;
+    kb.checked_mul(1024)
+}
+
+/// Parses a memory size: bytes, or a number with a `K`, `M`, `G` or `T` suffix (powers of
+/// 1024; an optional `B` or `iB` after it), like `512M` or `4GiB`.
+///
+/// # Errors
+/// [`Error::Invalid`] for anything else, or a size beyond `u64`.
+pub fn parse_size(text: &str) -> Result<u64> {
+    let bad = || Error::Invalid {
+        name: "max-memory".into(),
+        reason: format!(
+            "{}: expected bytes or a size like 512M or 4G",
+            crate::error::escaped(text)
+        ),
+    };
+    let t = text.trim();
+    let t = t
+        .strip_suffix("iB")
+        .or_else(|| t.strip_suffix('B'))
+        .unwrap_or(t);
+    let (digits, shift) = match t.chars().last().map(|c| c.to_ascii_uppercase()) {
+        Some('K') => (&t[..t.len() - 1], 10),
+        Some('M') => (&t[..t.len() - 1], 20),
+        Some('G') => (&t[..t.len() - 1], 30),
+        Some('T') => (&t[..t.len() - 1], 40),
+        _ => (t, 0),
+    };
+    let value: f64 = digits.trim().parse().map_err(|_| bad())?;
+    let bytes = value * f64::from(1u32 << (shift / 2)) * f64::from(1u32 << (shift - shift / 2));
+    if !(bytes.is_finite() && bytes >= 1.0 && bytes < u64::MAX as f64) {
+        return Err(bad());
+    }
+    Ok(bytes as u64)
+}
+
+/// Checks that `needed` bytes fit in `limit`.
+///
+/// # Errors
+/// [`Error::OutOfMemory`] naming `what` and both sizes.
+pub fn check_memory(what: &str, needed: u64, limit: u64) -> Result<()> {
+    if needed > limit {
+        return Err(Error::OutOfMemory {
+            what: what.to_string(),
+            reason: format!(
+                "it needs about {} but {} may be used (the machine's available memory, or --max-memory)",
+                human(needed),
+                human(limit)
+            ),
+        });
+    }
+    Ok(())
+}
+
+/// Bytes in binary units, one decimal.
+#[must_use]
+pub fn human(bytes: u64) -> String {
+    let units = ["B", "KiB", "MiB", "GiB", "TiB", "PiB", "EiB"];
+    let mut v = bytes as f64;
+    let mut u = 0;
+    while v >= 1024.0 && u + 1 < units.len() {
+        v /= 1024.0;
+        u += 1;
+    }
+    if u == 0 {
+        format!("{bytes} B")
+    } else {
+        format!("{v:.1} {}", units[u])
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn sizes_parse_with_binary_suffixes() {
+        assert_eq!(parse_size("1024").unwrap(), 1024);
+        assert_eq!(parse_size("512M").unwrap(), 512 << 20);
+        assert_eq!(parse_size("4GiB").unwrap(), 4 << 30);
+        assert_eq!(parse_size("1.5k").unwrap(), 1536);
+        for bad in ["", "G", "-1G", "1X", "nan", "0"] {
+            assert!(parse_size(bad).is_err(), "{bad:?}");
+        }
+    }
+
+    #[test]
+    fn memory_beyond_the_limit_is_an_error_naming_both() {
+        let e = check_memory("flock", 3 << 30, 1 << 30)
+            .unwrap_err()
+            .to_string();
+        assert!(e.contains("3.0 GiB") && e.contains("1.0 GiB"), "{e}");
+        assert!(check_memory("flock", 1, 1).is_ok());
+    }
+}

@@ -1,0 +1,166 @@
+//! Scaling by tiles (`world.scale = "tiles"`): `--agents N` lays copies of the whole scenario
+//! side by side instead of crowding one copy, so density, squad sizes and neighbour counts stay
+//! as in the file, the way `density` keeps a flock's.
+//!
+//! Invariants: copy `c` is the scenario with its agent share, shifted by its tile's corner;
+//! every reference is rebased (group indices by `c x groups`, path indices by `c x paths`,
+//! target slots by `c x targets` (each copy has its own slots, shifted with it),
+//! agent ids by the agents of the copies before it); random obstacles and gravity points are
+//! drawn per copy (from the seed and the copy's index) and written out as explicit ones; the
+//! tiled scenario has the size of the tile grid and scales by counts from then on.
+
+use glam::Vec2;
+
+use super::group::Members;
+use super::spec::{Scenario, Spawn, WorldScale};
+use crate::agents::AgentId;
+use crate::error::{Error, Result};
+use crate::gravity::Motion;
+use crate::group::PathId;
+use crate::steering::{Behaviour, Target};
+
+/// How one copy's references move.
+struct Shift {
+    offset: Vec2,
+    groups: usize,
+    paths: u32,
+    targets: u32,
+    agents: u32,
+}
+
+impl Shift {
+    fn target(&self, t: &mut Target) {
+        match t {
+            Target::Point(p) => *p += self.offset,
+            Target::Agent(id) => id.0 += self.agents,
+            Target::Nearest { group, .. } => *group += self.groups,
+            Target::Slot(s) => s.0 += self.targets,
+            Target::Own => {}
+        }
+    }
+
+    fn behaviour(&self, b: &mut Behaviour) {
+        if let Some(t) = b.target_mut() {
+            self.target(t);
+        }
+        match b {
+            Behaviour::FollowPath { path, .. } => *path = PathId(path.0 + self.paths),
+            Behaviour::Jump {
+                launch, landing, ..
+            } => {
+                *launch += self.offset;
+                *landing += self.offset;
+            }
+            _ => {}
+        }
+    }
+}
+
+impl Scenario {
+    /// `total` agents as copies of this scenario on a grid of tiles (see the module docs).
+    pub(crate) fn tiled(&self, total: usize) -> Result<Scenario> {
+        let base = self.agent_count().max(1);
+        let copies = ((total as f64 / base as f64).round() as usize).max(1);
+        let mut plain = self.clone();
+        plain.world.scale = WorldScale::Counts;
+        if copies == 1 {
+            return plain.with_agents(total);
+        }
+        let size = self.world.size.ok_or_else(|| Error::Invalid {
+            name: "world.scale".into(),
+            reason: "scaling by tiles needs a `size`".into(),
+        })?;
+        if self.field.is_some() {
+            return Err(Error::Invalid {
+                name: "world.scale".into(),
+                reason: "a scenario with a `[field]` cannot scale by tiles".into(),
+            });
+        }
+        let cols = (copies as f64).sqrt().ceil() as usize;
+        let rows = copies.div_ceil(cols);
+        let mut out = plain.clone();
+        out.world.size = Some(size * Vec2::new(cols as f32, rows as f32));
+        out.groups.clear();
+        out.paths.clear();
+        out.targets.clear();
+        out.formations.clear();
+        out.obstacles = Default::default();
+        out.gravity = Default::default();
+        let mut agents = 0u32;
+        for c in 0..copies {
+            let share = total / copies + usize::from(c < total % copies);
+            let mut copy = plain.clone().with_agents(share)?;
+            let shift = Shift {
+                offset: size * Vec2::new((c % cols) as f32, (c / cols) as f32),
+                groups: c * plain.groups.len(),
+                paths: (c * plain.paths.len()) as u32,
+                targets: (c * plain.targets.len()) as u32,
+                agents,
+            };
+            let seed = self.seed ^ (c as u64).wrapping_mul(0x9e37_79b9_7f4a_7c15);
+            copy.obstacles.materialise(seed)?;
+            copy.gravity.materialise(seed)?;
+            for g in &mut copy.groups {
+                match &mut g.spawn {
+                    Spawn::Rect { min, max } => {
+                        *min += shift.offset;
+                        *max += shift.offset;
+                    }
+                    Spawn::Disc { center, .. } => *center += shift.offset,
+                    Spawn::Points { points } => points.iter_mut().for_each(|p| *p += shift.offset),
+                    Spawn::Uniform => {
+                        g.spawn = Spawn::Rect {
+                            min: shift.offset,
+                            max: shift.offset + size,
+                        };
+                    }
+                    Spawn::FreeCells => {}
+                }
+                for w in &mut g.params.steering.behaviours {
+                    shift.behaviour(&mut w.behaviour);
+                }
+            }
+            for p in &copy.paths {
+                let points = p.points().iter().map(|&q| q + shift.offset).collect();
+                out.paths
+                    .push(crate::group::Path::new(points, p.radius(), p.is_looped())?);
+            }
+            out.targets.extend(copy.targets.iter().map(|t| crate::targets::TargetPoint {
+                position: t.position + shift.offset,
+                ..*t
+            }));
+            for f in &mut copy.formations {
+                f.anchor.agent = AgentId(f.anchor.agent.0 + agents);
+                match &mut f.members {
+                    Members::Group(g) => *g += shift.groups,
+                    Members::Agents(ids) => ids.iter_mut().for_each(|id| id.0 += agents),
+                }
+            }
+            let o = &mut copy.obstacles;
+            o.circles.iter_mut().for_each(|k| k.center += shift.offset);
+            for w in &mut o.walls {
+                w.a += shift.offset;
+                w.b += shift.offset;
+            }
+            for p in &mut o.polygons {
+                p.points.iter_mut().for_each(|q| *q += shift.offset);
+            }
+            for p in &mut copy.gravity.points {
+                p.position += shift.offset;
+                match &mut p.motion {
+                    Motion::Orbit { center, .. } => *center += shift.offset,
+                    Motion::Agent { agent } => agent.0 += agents,
+                    _ => {}
+                }
+            }
+            agents += copy.agent_count() as u32;
+            out.groups.append(&mut copy.groups);
+            out.formations.append(&mut copy.formations);
+            out.obstacles.circles.append(&mut copy.obstacles.circles);
+            out.obstacles.walls.append(&mut copy.obstacles.walls);
+            out.obstacles.polygons.append(&mut copy.obstacles.polygons);
+            out.gravity.points.append(&mut copy.gravity.points);
+        }
+        Ok(out)
+    }
+}
