@@ -136,6 +136,10 @@ pub enum Error {
         /// Why it cannot be done.
         reason: String,
     },
+    /// A checkpoint could not be read: not a checkpoint, another format version, damaged, or
+    /// holding a value that fails the world's validation.
+    #[error("checkpoint: {0}")]
+    Checkpoint(#[from] crate::checkpoint::CheckpointError),
     /// An input or output operation failed.
     #[error("{path}: {source}")]
     Io {

@@ -41,6 +41,7 @@
 //! - [`world`]: [`World`], [`WorldBuilder`], [`GroupParams`], the step pipeline and [`StepStats`].
 //! - [`scenario`]: scenario files and the built-in scenarios.
 //! - `render` (feature `render`): PNG and animated GIF output.
+//! - [`checkpoint`]: saving a world's whole state and loading it to resume bit for bit.
 //! - [`bounds`]: open, walled and wrap-around worlds and their metric.
 //! - [`rng`]: the counter-based random stream keyed by (seed, agent, frame).
 //! - [`timing`]: step timings, run summaries and the benchmark report.
@@ -52,6 +53,7 @@
 
 pub mod agents;
 pub mod bounds;
+pub mod checkpoint;
 pub mod error;
 pub mod field;
 pub mod gravity;
