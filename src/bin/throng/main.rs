@@ -295,6 +295,9 @@ fn period(name: &'static str, value: Option<u64>, default: u64) -> Result<u64> {
 struct Checkpointing {
     path: PathBuf,
     run: RunInfo,
+    /// Write one before the first step (not when resuming into the file resumed from, which
+    /// holds that state already).
+    at_start: bool,
 }
 
 impl Checkpointing {
@@ -328,6 +331,7 @@ fn run_scenario(s: Scenario, args: &RunArgs) -> Result<()> {
         (None, None) => None,
         (Some(path), k) => Some(Checkpointing {
             path: path.clone(),
+            at_start: true,
             run: RunInfo {
                 scenario: s.name.clone(),
                 dt: s.dt,
@@ -404,6 +408,7 @@ fn resume(file: &Path, args: &ResumeArgs) -> Result<()> {
         .map_or_else(|| "checkpoint".to_string(), |r| r.scenario.clone());
     let saved_every = run.as_ref().map_or(0, |r| r.checkpoint_every);
     let checkpoint = Checkpointing {
+        at_start: args.checkpoint != file,
         path: args.checkpoint.clone(),
         run: RunInfo {
             scenario: name.clone(),
@@ -457,7 +462,9 @@ fn run_steps(
             world.seed()
         ));
     }
-    if let Some(c) = checkpoint {
+    if let Some(c) = checkpoint
+        && c.at_start
+    {
         c.write(world)?;
     }
     outputs.frame(world)?;
