@@ -153,6 +153,10 @@ pub enum Error {
         /// How much was needed against what is available, in words.
         reason: String,
     },
+    /// A checkpoint could not be read: not a checkpoint, another format version, damaged, or
+    /// holding a value that fails the world's validation.
+    #[error("checkpoint: {0}")]
+    Checkpoint(#[from] crate::checkpoint::CheckpointError),
     /// An input or output operation failed.
     #[error("{}: {source}", escaped(path))]
     Io {

@@ -44,6 +44,7 @@
 //! - [`spawn`]: seeded placements in rectangles, discs, rings, grids, Poisson-disc layouts and
 //!   free cells, clear of obstacles when asked.
 //! - [`targets`]: shared target slots that behaviours refer to and a program moves every frame.
+//! - [`checkpoint`]: saving a world's whole state and loading it to resume bit for bit.
 //! - [`bounds`]: open, walled and wrap-around worlds and their metric.
 //! - [`rng`]: the counter-based random stream keyed by (seed, agent, frame).
 //! - [`timing`]: step timings, run summaries and the benchmark report.
@@ -57,6 +58,7 @@
 
 pub mod agents;
 pub mod bounds;
+pub mod checkpoint;
 pub mod error;
 pub mod field;
 pub mod gravity;

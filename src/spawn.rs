@@ -21,7 +21,7 @@
 //! Invariants: every point returned is finite and inside its shape (closed rectangle, disc or
 //! annulus); Poisson-disc points are at least `spacing` apart; with obstacles to avoid, no point
 //! lies within `clearance` of a circle's edge or inside it. Counts are capped at
-//! [`MAX_AGENTS`](crate::error::MAX_AGENTS), and a shape too crowded to fill is an error, not a
+//! [`MAX_AGENTS`], and a shape too crowded to fill is an error, not a
 //! hang.
 
 use std::f32::consts::TAU;

@@ -7,8 +7,8 @@
 //! step. A slot may carry a velocity, which pursuit and evasion use to predict where it will be.
 //!
 //! Invariants: every slot's position is finite with coordinates within
-//! [`MAX_COORDINATE`](crate::error::MAX_COORDINATE), and its velocity finite with a magnitude of
-//! at most [`MAX_SPEED`](crate::error::MAX_SPEED); slots are never removed, so a
+//! [`MAX_COORDINATE`], and its velocity finite with a magnitude of
+//! at most [`MAX_SPEED`]; slots are never removed, so a
 //! [`TargetSlot`] handed out stays valid for the world's life.
 
 use glam::Vec2;

@@ -187,19 +187,13 @@ impl Timings {
     /// The closing summary line of a run that took `wall` in all.
     #[must_use]
     pub fn summary(&self, wall: Duration) -> String {
-        let ms = self.step_ms();
-        format!(
-            "summary: {} steps in {:.2} s | ms/step mean {:.3} median {:.3} p95 {:.3} p99 {:.3} max {:.3} | {:.3e} agent-steps/s | mean neighbours {:.2} | polarisation {:.4}",
-            self.len(),
-            wall.as_secs_f64(),
-            ms.mean,
-            ms.median,
-            ms.p95,
-            ms.p99,
-            ms.max,
+        summary_line(
+            self.len() as u64,
+            wall,
+            self.step_ms(),
             self.agent_steps_per_sec(),
             mean(&self.neighbours),
-            mean(&self.polarisation)
+            mean(&self.polarisation),
         )
     }
 
@@ -229,6 +223,154 @@ impl Timings {
             steps,
             threads,
         }
+    }
+}
+
+/// The summary line of [`Timings::summary`] and [`RunningTimings::summary`].
+fn summary_line(
+    steps: u64,
+    wall: Duration,
+    ms: StepMs,
+    agent_steps_per_sec: f64,
+    neighbours: f64,
+    polarisation: f64,
+) -> String {
+    format!(
+        "summary: {steps} steps in {:.2} s | ms/step mean {:.3} median {:.3} p95 {:.3} p99 {:.3} max {:.3} | {:.3e} agent-steps/s | mean neighbours {:.2} | polarisation {:.4}",
+        wall.as_secs_f64(),
+        ms.mean,
+        ms.median,
+        ms.p95,
+        ms.p99,
+        ms.max,
+        agent_steps_per_sec,
+        neighbours,
+        polarisation
+    )
+}
+
+/// Histogram buckets per factor of ten of [`RunningTimings`] (each about 1.2% wide).
+const BUCKETS_PER_DECADE: f64 = 200.0;
+/// The lower edge of the first bucket, ms; everything below counts in it.
+const HISTOGRAM_MIN_MS: f64 = 1e-4;
+/// Buckets: ten decades, from 0.1 us to 1000 s per step (slower steps count in the last).
+const HISTOGRAM_BUCKETS: usize = 2000;
+
+/// Running statistics of a run's steps in constant memory (a long `run` or `demo` keeps these,
+/// not one sample per step): exact count, mean, minimum, maximum and means of the neighbours
+/// and the polarisation; median and quantiles from a histogram of logarithmic buckets, each
+/// reported as its bucket's upper edge (within 1.2% of the nearest-rank value, and never
+/// outside the exact minimum and maximum).
+#[derive(Clone, Debug)]
+pub struct RunningTimings {
+    steps: u64,
+    sum_ms: f64,
+    min_ms: f64,
+    max_ms: f64,
+    histogram: Vec<u64>,
+    neighbours: f64,
+    polarisation: f64,
+    agent_steps: u64,
+}
+
+impl Default for RunningTimings {
+    fn default() -> Self {
+        RunningTimings {
+            steps: 0,
+            sum_ms: 0.0,
+            min_ms: f64::INFINITY,
+            max_ms: 0.0,
+            histogram: vec![0; HISTOGRAM_BUCKETS],
+            neighbours: 0.0,
+            polarisation: 0.0,
+            agent_steps: 0,
+        }
+    }
+}
+
+impl RunningTimings {
+    /// Records one step and the world's polarisation after it.
+    pub fn push_world(&mut self, s: &StepStats, world: &crate::World) {
+        let ms = s.total_ms();
+        self.steps += 1;
+        self.sum_ms += ms;
+        self.min_ms = self.min_ms.min(ms);
+        self.max_ms = self.max_ms.max(ms);
+        let k = if ms > HISTOGRAM_MIN_MS {
+            ((ms / HISTOGRAM_MIN_MS).log10() * BUCKETS_PER_DECADE) as usize
+        } else {
+            0
+        };
+        self.histogram[k.min(HISTOGRAM_BUCKETS - 1)] += 1;
+        self.neighbours += s.mean_neighbours;
+        self.polarisation += f64::from(world.polarisation());
+        self.agent_steps += s.agents as u64;
+    }
+
+    /// Steps recorded.
+    #[must_use]
+    pub fn len(&self) -> u64 {
+        self.steps
+    }
+
+    /// Whether no step was recorded.
+    #[must_use]
+    pub fn is_empty(&self) -> bool {
+        self.steps == 0
+    }
+
+    /// The `q` quantile (0..=1), nearest rank, as the upper edge of its bucket clamped to the
+    /// exact extremes.
+    fn quantile(&self, q: f64) -> f64 {
+        if self.steps == 0 {
+            return 0.0;
+        }
+        let rank = ((q * self.steps as f64).ceil() as u64).clamp(1, self.steps);
+        let mut seen = 0;
+        for (k, &c) in self.histogram.iter().enumerate() {
+            seen += c;
+            if seen >= rank {
+                let edge = HISTOGRAM_MIN_MS * 10f64.powf((k + 1) as f64 / BUCKETS_PER_DECADE);
+                return edge.clamp(self.min_ms, self.max_ms);
+            }
+        }
+        self.max_ms
+    }
+
+    /// Milliseconds per step (see the type's docs for the precision of the quantiles).
+    #[must_use]
+    pub fn step_ms(&self) -> StepMs {
+        if self.steps == 0 {
+            return StepMs::default();
+        }
+        StepMs {
+            max: self.max_ms,
+            mean: self.sum_ms / self.steps as f64,
+            median: self.quantile(0.5),
+            min: self.min_ms,
+            p95: self.quantile(0.95),
+            p99: self.quantile(0.99),
+        }
+    }
+
+    /// The closing summary line of a run that took `wall` in all (as [`Timings::summary`]).
+    #[must_use]
+    pub fn summary(&self, wall: Duration) -> String {
+        let n = self.steps.max(1) as f64;
+        let secs = self.sum_ms / 1e3;
+        let rate = if secs > 0.0 {
+            self.agent_steps as f64 / secs
+        } else {
+            0.0
+        };
+        summary_line(
+            self.steps,
+            wall,
+            self.step_ms(),
+            rate,
+            self.neighbours / n,
+            self.polarisation / n,
+        )
     }
 }
 
@@ -279,6 +421,29 @@ mod tests {
         assert_eq!(r.mean_neighbours, 2.0);
         assert_eq!(r.phases_ms.len(), PhaseTimes::COUNT);
         assert_eq!(r.polarisation, 0.0, "not recorded by push");
+    }
+
+    #[test]
+    fn running_quantiles_stay_within_a_bucket_of_the_exact_ones() {
+        let world = crate::World::builder().build().unwrap();
+        let mut exact = Timings::default();
+        let mut running = RunningTimings::default();
+        for k in 0..1000u64 {
+            let s = StepStats {
+                total: Duration::from_micros(50 + (k * 7919) % 20_000),
+                ..stats(0, 3)
+            };
+            exact.push_world(&s, &world);
+            running.push_world(&s, &world);
+        }
+        let (e, r) = (exact.step_ms(), running.step_ms());
+        assert_eq!((r.min, r.max), (e.min, e.max));
+        assert!((r.mean - e.mean).abs() < 1e-9 * e.mean);
+        for (a, b) in [(r.median, e.median), (r.p95, e.p95), (r.p99, e.p99)] {
+            assert!((a - b).abs() <= 0.012 * b, "{a} vs {b}");
+        }
+        assert_eq!(running.len(), 1000);
+        assert_eq!(RunningTimings::default().step_ms(), StepMs::default());
     }
 
     #[test]

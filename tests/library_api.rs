@@ -472,3 +472,23 @@ steering = { behaviours = [{ kind = "arrive", target = { slot = 0 } }] }
         .to_string();
     assert!(err.contains("no target slot 1"), "{err}");
 }
+
+#[test]
+fn target_slots_survive_a_checkpoint() {
+    let (mut w, s0, _) = slot_world();
+    w.step(DT).unwrap();
+    w.set_target_motion(
+        s0,
+        TargetPoint::at(Vec2::new(15.0, 60.0)).moving(Vec2::new(1.0, 2.0)),
+    )
+    .unwrap();
+    let mut bytes = Vec::new();
+    w.save(&mut bytes).unwrap();
+    let mut loaded = World::load(&mut bytes.as_slice()).unwrap();
+    assert_eq!(loaded.target_slot(s0), w.target_slot(s0));
+    for _ in 0..5 {
+        w.step(DT).unwrap();
+        loaded.step(DT).unwrap();
+    }
+    assert_eq!(state(&w), state(&loaded));
+}

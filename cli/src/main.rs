@@ -11,7 +11,9 @@ use std::process::ExitCode;
 use std::time::Instant;
 
 use clap::{Args, Parser, Subcommand};
+use throng::checkpoint::RunInfo;
 use throng::scenario::{self, Scenario};
+use throng::timing::RunningTimings;
 use throng::{Error, Result, World};
 
 use crate::output::Outputs;
@@ -53,6 +55,32 @@ enum Command {
         /// Print the result as one JSON object (the only output format).
         #[arg(long)]
         json: bool,
+    },
+    /// Go on with a run from a checkpoint written by `run` or `demo` with --checkpoint.
+    Resume {
+        /// The checkpoint file.
+        file: PathBuf,
+        /// Steps to run from the checkpoint (default: on to the frame the run was to end at).
+        #[arg(long)]
+        steps: Option<u64>,
+        /// Worker threads (default: all cores); any count gives the same bits.
+        #[arg(long)]
+        threads: Option<usize>,
+        /// Time step in seconds (default: the run's; needed for a checkpoint without one).
+        #[arg(long, allow_negative_numbers = true)]
+        dt: Option<f32>,
+        /// Print a timing line every K frames.
+        #[arg(long)]
+        every: Option<u64>,
+        /// Where to keep checkpointing (default: the file resumed from).
+        #[arg(long)]
+        checkpoint: Option<PathBuf>,
+        /// Checkpoint every K frames (default: as the run did).
+        #[arg(long)]
+        checkpoint_every: Option<u64>,
+        /// Print only the summary.
+        #[arg(long)]
+        quiet: bool,
     },
     /// List the built-in scenarios.
     List,
@@ -105,6 +133,13 @@ struct RunArgs {
     /// Print only the summary.
     #[arg(long)]
     quiet: bool,
+    /// Keep a checkpoint of the run in FILE (written crash-safe at the start, every
+    /// --checkpoint-every frames and at the end; `throng resume FILE` goes on from it).
+    #[arg(long, value_name = "FILE")]
+    checkpoint: Option<PathBuf>,
+    /// Checkpoint every K frames (needs --checkpoint; default: only at the start and the end).
+    #[arg(long, value_name = "K")]
+    checkpoint_every: Option<u64>,
 }
 
 fn main() -> ExitCode {
@@ -166,6 +201,27 @@ fn dispatch(command: Command) -> Result<()> {
             run_scenario(s, &run, None)
         }
         Command::Run { file, run } => run_scenario(Scenario::load(&file)?, &run, Some(&file)),
+        Command::Resume {
+            file,
+            steps,
+            threads,
+            dt,
+            every,
+            checkpoint,
+            checkpoint_every,
+            quiet,
+        } => {
+            let args = ResumeArgs {
+                steps,
+                threads,
+                dt,
+                every,
+                checkpoint: checkpoint.unwrap_or_else(|| file.clone()),
+                checkpoint_every,
+                quiet,
+            };
+            resume(&file, &args)
+        }
         Command::Bench {
             scenario,
             common,
@@ -216,8 +272,27 @@ fn prepare(mut s: Scenario, c: &CommonArgs) -> Result<(Scenario, World, rayon::T
         }
         s.dt = dt;
     }
+    let (pool, threads) = thread_pool(c.threads)?;
+    let memory = match &c.max_memory {
+        Some(text) => Some(throng::limits::parse_size(text)?),
+        None => throng::limits::available_memory(),
+    };
+    let world = s.build_within(memory).map_err(|e| match e {
+        Error::Scenario { .. } | Error::Io { .. } | Error::OutOfMemory { .. } => e,
+        other => Error::Scenario {
+            source_name: s.name.clone(),
+            location: None,
+            message: other.to_string(),
+        },
+    })?;
+    Ok((s, world, pool, threads))
+}
+
+/// The rayon pool of `threads` workers (default: all cores, at most [`max_threads`]) and its
+/// size.
+fn thread_pool(threads: Option<usize>) -> Result<(rayon::ThreadPool, usize)> {
     let cores = std::thread::available_parallelism().map_or(1, usize::from);
-    let threads = match c.threads {
+    let threads = match threads {
         Some(0) => {
             return Err(Error::NotPositive {
                 name: "threads",
@@ -243,19 +318,43 @@ fn prepare(mut s: Scenario, c: &CommonArgs) -> Result<(Scenario, World, rayon::T
             name: "threads".into(),
             reason: e.to_string(),
         })?;
-    let memory = match &c.max_memory {
-        Some(text) => Some(throng::limits::parse_size(text)?),
-        None => throng::limits::available_memory(),
-    };
-    let world = s.build_within(memory).map_err(|e| match e {
-        Error::Scenario { .. } | Error::Io { .. } | Error::OutOfMemory { .. } => e,
-        other => Error::Scenario {
-            source_name: s.name.clone(),
-            location: None,
-            message: other.to_string(),
-        },
-    })?;
-    Ok((s, world, pool, threads))
+    Ok((pool, threads))
+}
+
+/// A positive period given on the command line, or `default`.
+fn period(name: &'static str, value: Option<u64>, default: u64) -> Result<u64> {
+    match value {
+        Some(0) => Err(Error::NotPositive { name, value: 0.0 }),
+        Some(k) => Ok(k),
+        None => Ok(default),
+    }
+}
+
+/// Where and how often a run keeps its checkpoint.
+struct Checkpointing {
+    path: PathBuf,
+    run: RunInfo,
+    /// Write one before the first step (not when resuming into the file resumed from, which
+    /// holds that state already).
+    at_start: bool,
+}
+
+impl Checkpointing {
+    /// Writes the world's checkpoint (crash-safe).
+    fn write(&self, world: &World) -> Result<()> {
+        world.save_file(&self.path, Some(&self.run))
+    }
+}
+
+/// How `drive` steps and reports.
+struct Drive<'a> {
+    name: &'a str,
+    dt: f32,
+    /// The frame to stop at.
+    end: u64,
+    every: u64,
+    threads: usize,
+    quiet: bool,
 }
 
 /// The most worker threads `--threads` accepts on a machine with `cores` cores: four per core,
@@ -270,34 +369,140 @@ fn run_scenario(s: Scenario, args: &RunArgs, file: Option<&Path>) -> Result<()> 
     let outputs: Vec<(&'static str, &Path)> = [
         ("--render", args.render.as_deref()),
         ("--trajectories", args.trajectories.as_deref()),
+        ("--checkpoint", args.checkpoint.as_deref()),
     ]
     .into_iter()
     .filter_map(|(flag, p)| p.map(|p| (flag, p)))
     .collect();
     files::check_outputs(&outputs, &inputs(&s, file))?;
     let (s, mut world, pool, threads) = prepare(s, &args.common)?;
-    let every = match args.every {
-        Some(0) => {
-            return Err(Error::NotPositive {
-                name: "every",
-                value: 0.0,
+    let every = period("every", args.every, (s.steps / 20).max(1))?;
+    let checkpoint = match (&args.checkpoint, args.checkpoint_every) {
+        (None, Some(_)) => {
+            return Err(Error::Invalid {
+                name: "checkpoint-every".into(),
+                reason: "needs --checkpoint FILE".into(),
             });
         }
-        Some(k) => k,
-        None => (s.steps / 20).max(1),
+        (None, None) => None,
+        (Some(path), k) => Some(Checkpointing {
+            path: path.clone(),
+            at_start: true,
+            run: RunInfo {
+                scenario: s.name.clone(),
+                dt: s.dt,
+                steps: s.steps,
+                checkpoint_every: period("checkpoint-every", k, 0)?,
+            },
+        }),
     };
     let options = output::RenderOptions {
         size: args.size,
         frame_seconds: s.dt * every as f32,
     };
-    let mut outputs = Outputs::open(
+    let outputs = Outputs::open(
         args.render.as_deref(),
         args.trajectories.as_deref(),
         &world,
         options,
     )?;
-    let show_progress = !args.quiet && std::io::stdout().is_terminal() && s.steps >= 200;
-    let progress = show_progress.then(|| indicatif::ProgressBar::new(s.steps));
+    let drive = Drive {
+        name: &s.name,
+        dt: s.dt,
+        end: s.steps,
+        every,
+        threads,
+        quiet: args.quiet,
+    };
+    run_steps(&mut world, &pool, &drive, outputs, checkpoint.as_ref())
+}
+
+/// Options of `resume`.
+struct ResumeArgs {
+    steps: Option<u64>,
+    threads: Option<usize>,
+    dt: Option<f32>,
+    every: Option<u64>,
+    checkpoint: PathBuf,
+    checkpoint_every: Option<u64>,
+    quiet: bool,
+}
+
+/// Loads a checkpoint and goes on with its run, checkpointing as it did.
+fn resume(file: &Path, args: &ResumeArgs) -> Result<()> {
+    let (mut world, run) = World::load_file(file).map_err(|e| match e {
+        Error::Checkpoint(c) => Error::Invalid {
+            name: format!("checkpoint {}", file.display()),
+            reason: c.to_string(),
+        },
+        other => other,
+    })?;
+    let (pool, threads) = thread_pool(args.threads)?;
+    let dt = match (args.dt, &run) {
+        (Some(dt), _) => dt,
+        (None, Some(r)) => r.dt,
+        (None, None) => {
+            return Err(Error::Invalid {
+                name: "dt".into(),
+                reason: format!(
+                    "the checkpoint {} holds no run settings: give --dt and --steps",
+                    file.display()
+                ),
+            });
+        }
+    };
+    if !(dt.is_finite() && dt > 0.0) {
+        return Err(Error::InvalidTimeStep { dt: f64::from(dt) });
+    }
+    let end = match (args.steps, &run) {
+        (Some(s), _) => world.frame().saturating_add(s),
+        (None, Some(r)) => r.steps.max(world.frame()),
+        (None, None) => world.frame(),
+    };
+    let name = run
+        .as_ref()
+        .map_or_else(|| "checkpoint".to_string(), |r| r.scenario.clone());
+    let saved_every = run.as_ref().map_or(0, |r| r.checkpoint_every);
+    let checkpoint = Checkpointing {
+        at_start: args.checkpoint != file,
+        path: args.checkpoint.clone(),
+        run: RunInfo {
+            scenario: name.clone(),
+            dt,
+            steps: end,
+            checkpoint_every: period("checkpoint-every", args.checkpoint_every, saved_every)?,
+        },
+    };
+    let remaining = end - world.frame();
+    let drive = Drive {
+        name: &name,
+        dt,
+        end,
+        every: period("every", args.every, (remaining / 20).max(1))?,
+        threads,
+        quiet: args.quiet,
+    };
+    run_steps(
+        &mut world,
+        &pool,
+        &drive,
+        Outputs::default(),
+        Some(&checkpoint),
+    )
+}
+
+/// Steps the world on to frame `d.end`: frame lines, outputs, checkpoints (at the start, every
+/// `checkpoint_every` frames and at the end), the summary from running statistics.
+fn run_steps(
+    world: &mut World,
+    pool: &rayon::ThreadPool,
+    d: &Drive,
+    mut outputs: Outputs,
+    checkpoint: Option<&Checkpointing>,
+) -> Result<()> {
+    let steps = d.end.saturating_sub(world.frame());
+    let show_progress = !d.quiet && std::io::stdout().is_terminal() && steps >= 200;
+    let progress = show_progress.then(|| indicatif::ProgressBar::new(steps));
     let log = |line: String| -> Result<()> {
         match &progress {
             Some(p) => {
@@ -307,30 +512,43 @@ fn run_scenario(s: Scenario, args: &RunArgs, file: Option<&Path>) -> Result<()> 
             None => files::say(&line),
         }
     };
-    if !args.quiet {
+    if !d.quiet {
         log(format!(
-            "throng: scenario {} | {} agents | {} steps | dt {} | {} threads | seed {}",
-            s.name,
+            "throng: scenario {} | {} agents | {steps} steps from frame {} | dt {} | {} threads | seed {}",
+            d.name,
             world.len(),
-            s.steps,
-            s.dt,
-            threads,
-            s.seed
+            world.frame(),
+            d.dt,
+            d.threads,
+            world.seed()
         ))?;
     }
-    outputs.frame(&world)?;
+    if let Some(c) = checkpoint
+        && c.at_start
+    {
+        c.write(world)?;
+    }
+    outputs.frame(world)?;
     let mut written = world.frame();
-    let mut timings = Timings::default();
+    let ckpt_every = checkpoint.map_or(0, |c| c.run.checkpoint_every);
+    let mut timings = RunningTimings::default();
     let wall = Instant::now();
-    for _ in 0..s.steps {
-        let stats = pool.install(|| world.step(s.dt))?;
-        timings.push_world(&stats, &world);
-        if stats.frame % every == 0 {
-            if !args.quiet {
+    for _ in 0..steps {
+        let stats = pool.install(|| world.step(d.dt))?;
+        timings.push_world(&stats, world);
+        if stats.frame % d.every == 0 {
+            if !d.quiet {
                 log(timing::frame_line(&stats))?;
             }
-            outputs.frame(&world)?;
+            outputs.frame(world)?;
             written = world.frame();
+        }
+        if let Some(c) = checkpoint
+            && ckpt_every > 0
+            && stats.frame % ckpt_every == 0
+            && stats.frame != d.end
+        {
+            c.write(world)?;
         }
         if let Some(p) = &progress {
             p.inc(1);
@@ -339,10 +557,16 @@ fn run_scenario(s: Scenario, args: &RunArgs, file: Option<&Path>) -> Result<()> 
     if let Some(p) = progress {
         p.finish_and_clear();
     }
-    if written != world.frame() {
-        outputs.frame(&world)?;
+    if let Some(c) = checkpoint
+        && steps > 0
+    {
+        c.write(world)?;
     }
-    outputs.finish(&world)?;
+    // The last frame is always written, whatever the period.
+    if written != world.frame() {
+        outputs.frame(world)?;
+    }
+    outputs.finish(world)?;
     files::say(&timings.summary(wall.elapsed()))
 }
 

@@ -11,6 +11,7 @@
 
 mod store;
 
+pub(crate) use store::AgentColumns;
 pub use store::{AgentId, AgentInit, Agents};
 
 /// Flags recording which per-agent overrides are set.

@@ -96,6 +96,25 @@ pub struct Agents {
     scratch_ids: Vec<AgentId>,
 }
 
+/// The state buffers of [`Agents`] as plain columns (a checkpoint's agents), in storage order.
+#[derive(Clone, Debug, Default, PartialEq, Serialize, Deserialize)]
+pub(crate) struct AgentColumns {
+    pub(crate) pos_x: Vec<f32>,
+    pub(crate) pos_y: Vec<f32>,
+    pub(crate) vel_x: Vec<f32>,
+    pub(crate) vel_y: Vec<f32>,
+    pub(crate) orientation: Vec<f32>,
+    pub(crate) rotation: Vec<f32>,
+    pub(crate) wander: Vec<f32>,
+    pub(crate) group: Vec<u32>,
+    pub(crate) max_speed: Vec<f32>,
+    pub(crate) radius: Vec<f32>,
+    pub(crate) overrides: Vec<u8>,
+    pub(crate) target_x: Vec<f32>,
+    pub(crate) target_y: Vec<f32>,
+    pub(crate) ids: Vec<AgentId>,
+}
+
 /// `v[k] = old v[perm[k]]`, gathered in parallel into `scratch`, which then becomes `v`; no
 /// allocation once `scratch` has grown to size.
 fn permute<T: Copy + Send + Sync>(v: &mut Vec<T>, perm: &[u32], scratch: &mut Vec<T>) {
@@ -335,6 +354,76 @@ impl Agents {
         self.scratch_u8 = scratch;
         for (k, id) in self.ids.iter().enumerate() {
             self.index_of[id.0 as usize] = k as u32;
+        }
+    }
+
+    /// A store holding `columns` in their order, with `ids_issued` ids handed out so far.
+    /// The caller has validated every value; ids must be distinct and below `ids_issued`
+    /// (checked here too, returning the first offending id).
+    pub(crate) fn from_columns(
+        columns: AgentColumns,
+        ids_issued: usize,
+    ) -> std::result::Result<Self, AgentId> {
+        let mut index_of = vec![NO_INDEX; ids_issued];
+        for (k, id) in columns.ids.iter().enumerate() {
+            match index_of.get_mut(id.0 as usize) {
+                Some(slot) if *slot == NO_INDEX => *slot = k as u32,
+                _ => return Err(*id),
+            }
+        }
+        let AgentColumns {
+            pos_x,
+            pos_y,
+            vel_x,
+            vel_y,
+            orientation,
+            rotation,
+            wander,
+            group,
+            max_speed,
+            radius,
+            overrides,
+            target_x,
+            target_y,
+            ids,
+        } = columns;
+        Ok(Agents {
+            pos_x,
+            pos_y,
+            vel_x,
+            vel_y,
+            orientation,
+            rotation,
+            wander,
+            group,
+            max_speed,
+            radius,
+            overrides,
+            target_x,
+            target_y,
+            ids,
+            index_of,
+            ..Agents::default()
+        })
+    }
+
+    /// Copies of the state buffers, in storage order.
+    pub(crate) fn to_columns(&self) -> AgentColumns {
+        AgentColumns {
+            pos_x: self.pos_x.clone(),
+            pos_y: self.pos_y.clone(),
+            vel_x: self.vel_x.clone(),
+            vel_y: self.vel_y.clone(),
+            orientation: self.orientation.clone(),
+            rotation: self.rotation.clone(),
+            wander: self.wander.clone(),
+            group: self.group.clone(),
+            max_speed: self.max_speed.clone(),
+            radius: self.radius.clone(),
+            overrides: self.overrides.clone(),
+            target_x: self.target_x.clone(),
+            target_y: self.target_y.clone(),
+            ids: self.ids.clone(),
         }
     }
 

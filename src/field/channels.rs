@@ -159,6 +159,25 @@ impl GoalChannels {
         Ok(())
     }
 
+    /// The fields' decay.
+    #[must_use]
+    pub fn decay(&self) -> f32 {
+        self.decay
+    }
+
+    /// The fields' neighbourhood.
+    #[must_use]
+    pub fn neighbourhood(&self) -> Neighbourhood {
+        self.neighbourhood
+    }
+
+    /// Marks an existing `channel` as waiting for a rebuild (a restored dirty flag).
+    pub(crate) fn mark_dirty(&mut self, channel: usize) {
+        if let Some(c) = self.channels.get_mut(channel) {
+            c.dirty = true;
+        }
+    }
+
     /// Whether `channel` waits for a rebuild (false for a channel that does not exist).
     #[must_use]
     pub fn is_dirty(&self, channel: usize) -> bool {

@@ -73,7 +73,7 @@ pub(crate) fn wall_bits(grid: &OccupancyGrid) -> Vec<u64> {
 pub(crate) struct FieldSet {
     pub(crate) fields: Vec<WorldField>,
     /// Per agent id: reached a goal of its channel since the channel was last rebuilt.
-    arrived: Vec<bool>,
+    pub(crate) arrived: Vec<bool>,
     /// Per group: the `(field, channel)` its first `follow_field` behaviour names.
     follow: Vec<Option<(usize, usize)>>,
     /// Channel rebuilds so far.

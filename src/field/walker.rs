@@ -171,6 +171,62 @@ impl GridWalkers {
         })
     }
 
+    /// Walkers as a checkpoint holds them: walker `i` on `cells[i]` following `channels[i]`,
+    /// arrived (off the grid, on the goal it reached) when `arrived[i]`. The checks of
+    /// [`GridWalkers::with_channels`] apply to the walkers that have not arrived; an arrived
+    /// walker's cell must lie in the grid.
+    pub(crate) fn restore(
+        grid: &OccupancyGrid,
+        cells: &[(u32, u32)],
+        channels: &[u32],
+        arrived: &[bool],
+    ) -> Result<Self> {
+        if arrived.len() != cells.len() {
+            return Err(Error::Invalid {
+                name: "arrived".into(),
+                reason: format!(
+                    "{} arrival flags given for {} walkers",
+                    arrived.len(),
+                    cells.len()
+                ),
+            });
+        }
+        let active: Vec<(u32, u32)> = cells
+            .iter()
+            .zip(arrived)
+            .filter(|(_, a)| !**a)
+            .map(|(c, _)| *c)
+            .collect();
+        let active_channels: Vec<u32> = channels
+            .iter()
+            .zip(arrived)
+            .filter(|(_, a)| !**a)
+            .map(|(c, _)| *c)
+            .collect();
+        // The checks (and the lattice) of the constructor, on the walkers still on the grid.
+        let mut w = Self::with_channels(grid, &active, &active_channels)?;
+        for &(x, y) in cells {
+            grid.check_cell("walker cell", x, y)?;
+        }
+        let lattice = w.lattice;
+        w.cells = cells
+            .iter()
+            .map(|&(x, y)| lattice.index(x, y) as u32)
+            .collect();
+        w.channels = channels.to_vec();
+        w.arrived = arrived.to_vec();
+        w.active.clear();
+        w.occupant.fill(EMPTY);
+        for (i, (&p, &a)) in w.cells.iter().zip(arrived).enumerate() {
+            if !a {
+                w.active.push(i as u32);
+                w.occupant[p as usize] = i as u32;
+            }
+        }
+        w.mark = vec![0; cells.len()];
+        Ok(w)
+    }
+
     /// Number of walkers, arrived or not.
     #[must_use]
     pub fn len(&self) -> usize {

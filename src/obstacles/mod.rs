@@ -72,6 +72,26 @@ pub fn segment_intersection(p0: Vec2, p1: Vec2, q0: Vec2, q1: Vec2) -> Option<(f
     }
 }
 
+/// The checks of [`Obstacles::add_circle`].
+fn check_circle(circle: &Circle) -> Result<()> {
+    finite_vec("circle.center", circle.center)?;
+    positive("circle.radius", circle.radius)?;
+    Ok(())
+}
+
+/// The checks of [`Obstacles::add_wall`].
+fn check_wall(wall: &Wall) -> Result<()> {
+    finite_vec("wall.a", wall.a)?;
+    finite_vec("wall.b", wall.b)?;
+    if wall.a == wall.b {
+        return Err(Error::Invalid {
+            name: "wall".into(),
+            reason: "its two ends are the same point".into(),
+        });
+    }
+    Ok(())
+}
+
 /// The obstacles of a world and their broad-phase grid.
 #[derive(Clone, Debug, Default)]
 pub struct Obstacles {
@@ -85,6 +105,18 @@ impl Obstacles {
     #[must_use]
     pub fn new() -> Self {
         Self::default()
+    }
+
+    /// Obstacles from lists of circles and walls, each checked as [`Obstacles::add_circle`] and
+    /// [`Obstacles::add_wall`] do, with the broad phase built once.
+    pub(crate) fn from_lists(circles: Vec<Circle>, walls: Vec<Wall>) -> Result<Self> {
+        let mut o = Obstacles::new();
+        circles.iter().try_for_each(check_circle)?;
+        walls.iter().try_for_each(check_wall)?;
+        o.circles = circles;
+        o.walls = walls;
+        o.grid.rebuild(&o.circles, &o.walls);
+        Ok(o)
     }
 
     /// Whether there are none.
@@ -116,8 +148,7 @@ impl Obstacles {
     /// # Errors
     /// [`Error::NonFinite`] or [`Error::NotPositive`] for a bad centre or radius.
     pub fn add_circle(&mut self, circle: Circle) -> Result<()> {
-        finite_vec("circle.center", circle.center)?;
-        positive("circle.radius", circle.radius)?;
+        check_circle(&circle)?;
         self.circles.push(circle);
         self.grid.rebuild(&self.circles, &self.walls);
         Ok(())
@@ -144,14 +175,7 @@ impl Obstacles {
     /// # Errors
     /// [`Error::NonFinite`] for a bad end, [`Error::Invalid`] for a wall of length zero.
     pub fn add_wall(&mut self, wall: Wall) -> Result<()> {
-        finite_vec("wall.a", wall.a)?;
-        finite_vec("wall.b", wall.b)?;
-        if wall.a == wall.b {
-            return Err(Error::Invalid {
-                name: "wall".into(),
-                reason: "its two ends are the same point".into(),
-            });
-        }
+        check_wall(&wall)?;
         self.walls.push(wall);
         self.grid.rebuild(&self.circles, &self.walls);
         Ok(())

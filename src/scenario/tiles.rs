@@ -125,10 +125,11 @@ impl Scenario {
                 out.paths
                     .push(crate::group::Path::new(points, p.radius(), p.is_looped())?);
             }
-            out.targets.extend(copy.targets.iter().map(|t| crate::targets::TargetPoint {
-                position: t.position + shift.offset,
-                ..*t
-            }));
+            out.targets
+                .extend(copy.targets.iter().map(|t| crate::targets::TargetPoint {
+                    position: t.position + shift.offset,
+                    ..*t
+                }));
             for f in &mut copy.formations {
                 f.anchor.agent = AgentId(f.anchor.agent.0 + agents);
                 match &mut f.members {

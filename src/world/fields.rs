@@ -10,6 +10,18 @@ use crate::field::{
     GoalChannels, GridWalkers, WalkPolicy, WalkerGroup, WorldField, cell_of, in_wall, wall_bits,
 };
 
+/// The checks of [`World::shuffle_field_goals_every`]: `count` goals fit the grid's free cells.
+pub(crate) fn check_shuffle(channels: &GoalChannels, every: u64, count: usize) -> Result<()> {
+    let free = channels.grid().free_count();
+    if every > 0 && (count == 0 || count > free) {
+        return Err(Error::Invalid {
+            name: "goal count".into(),
+            reason: format!("{count} goals requested; the grid has {free} free cells"),
+        });
+    }
+    Ok(())
+}
+
 impl World {
     /// Adds a field (an occupancy grid with its goal channels) and returns its number, which
     /// `follow_field` behaviours name. Dirty channels are built at the start of the next step.
@@ -122,15 +134,7 @@ impl World {
         count: usize,
     ) -> Result<()> {
         let f = self.fields.get_mut(field)?;
-        if every > 0 && (count == 0 || count > f.channels.grid().free_count()) {
-            return Err(Error::Invalid {
-                name: "goal count".into(),
-                reason: format!(
-                    "{count} goals requested; the grid has {} free cells",
-                    f.channels.grid().free_count()
-                ),
-            });
-        }
+        check_shuffle(&f.channels, every, count)?;
         f.shuffle_every = every;
         f.shuffle_count = count;
         Ok(())

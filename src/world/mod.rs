@@ -15,7 +15,7 @@
 //! parallel step is tested against bit for bit.
 
 mod builder;
-mod fields;
+pub(crate) mod fields;
 mod formation;
 mod state;
 mod stats;
@@ -28,5 +28,6 @@ pub use builder::{DEFAULT_SEED, WorldBuilder};
 
 /// The former name of [`Profile`]: a group's movement model, limits and behaviours.
 pub type GroupParams = Profile;
+pub(crate) use state::check_max_speed;
 pub use state::{AgentState, World};
 pub use stats::{PhaseTimes, StepStats};

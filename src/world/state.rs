@@ -14,6 +14,18 @@ use crate::spatial::{IndexKind, SpatialIndex};
 /// Default reordering period, frames.
 pub const DEFAULT_REORDER_EVERY: u32 = 4;
 
+/// Checks an agent's own maximum speed: finite, greater than zero, at most
+/// [`crate::error::MAX_SPEED`].
+pub(crate) fn check_max_speed(s: f32) -> Result<f32> {
+    crate::error::in_range(
+        "max_speed",
+        positive("max_speed", s)?,
+        0.0,
+        crate::error::MAX_SPEED,
+        "(0, 1e12]",
+    )
+}
+
 /// A snapshot of one agent's state.
 #[derive(Clone, Copy, Debug, PartialEq)]
 pub struct AgentState {
@@ -343,13 +355,7 @@ impl World {
         finite("rotation", init.rotation)?;
         let g = &self.groups[init.group];
         let max_speed = match init.max_speed {
-            Some(s) => crate::error::in_range(
-                "max_speed",
-                positive("max_speed", s)?,
-                0.0,
-                crate::error::MAX_SPEED,
-                "(0, 1e12]",
-            )?,
+            Some(s) => check_max_speed(s)?,
             None => g.max_speed,
         };
         let radius = match init.radius {
@@ -426,14 +432,7 @@ impl World {
     /// # Errors
     /// [`Error::UnknownAgent`], [`Error::NotPositive`], [`Error::NonFinite`].
     pub fn set_max_speed(&mut self, id: AgentId, max_speed: f32) -> Result<()> {
-        positive("max_speed", max_speed)?;
-        crate::error::in_range(
-            "max_speed",
-            max_speed,
-            0.0,
-            crate::error::MAX_SPEED,
-            "(0, 1e12]",
-        )?;
+        check_max_speed(max_speed)?;
         let i = self.index(id)?;
         self.agents.max_speed[i] = max_speed;
         self.agents.overrides[i] |= crate::agents::store_flags::OVERRIDE_SPEED;

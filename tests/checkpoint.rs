@@ -1,0 +1,497 @@
+//! Checkpoints: a world saved after N steps and loaded again (the command-line round trip is in
+//! `cli/tests/checkpoint_cli.rs`) steps to the same bits as the world that never stopped, for every built-in
+//! scenario and on 1 and 2 threads; a damaged checkpoint (cut at any byte, any byte changed) is
+//! rejected with an error; a crafted one cannot put bad values into the world; files are
+//! replaced whole or not at all.
+
+use std::io::Write;
+use std::path::PathBuf;
+
+use throng::checkpoint::{CheckpointError, FORMAT_VERSION, HEADER_LEN, RunInfo, write_atomic};
+use throng::field::{GoalChannels, OccupancyGrid, WalkPolicy};
+use throng::gravity::{GravityPoint, Motion};
+use throng::group::{FormationParams, Path, PathFollowParams, PathId};
+use throng::obstacles::{Circle, Wall};
+use throng::prelude::*;
+use throng::scenario;
+
+const N: u64 = 21;
+const AGENTS: usize = 120;
+
+#[path = "support/checkpoint.rs"]
+mod support;
+use support::{bits, saved};
+
+fn pool(threads: usize) -> rayon::ThreadPool {
+    rayon::ThreadPoolBuilder::new()
+        .num_threads(threads)
+        .build()
+        .unwrap()
+}
+
+fn steps(w: &mut World, n: u64, dt: f32) {
+    for _ in 0..n {
+        w.step(dt).unwrap();
+    }
+}
+
+/// Runs 2N steps, and N steps + save + load + N steps, on `threads`; asserts the same bits and
+/// the same saved state.
+fn assert_resumes(name: &str, mut world: World, dt: f32, threads: usize) {
+    let pool = pool(threads);
+    let mut resumed = pool.install(|| {
+        steps(&mut world, N, dt);
+        World::load(&saved(&world)[..]).unwrap()
+    });
+    assert_eq!(
+        saved(&resumed),
+        saved(&world),
+        "{name}: what is loaded saves the same"
+    );
+    assert_eq!(resumed.arrived_count(), world.arrived_count(), "{name}");
+    pool.install(|| {
+        steps(&mut world, N, dt);
+        steps(&mut resumed, N, dt);
+    });
+    assert_eq!(world.frame(), 2 * N);
+    assert_eq!(resumed.frame(), 2 * N, "{name}");
+    assert_eq!(bits(&world), bits(&resumed), "{name} on {threads} threads");
+    assert_eq!(
+        saved(&world),
+        saved(&resumed),
+        "{name} on {threads} threads: the whole state"
+    );
+}
+
+#[test]
+fn every_builtin_scenario_resumes_bit_for_bit_on_one_and_two_threads() {
+    for name in scenario::builtin_names() {
+        let s = scenario::builtin(name)
+            .unwrap()
+            .with_agents(AGENTS)
+            .unwrap();
+        for threads in [1, 2] {
+            assert_resumes(name, s.build().unwrap(), s.dt, threads);
+        }
+    }
+}
+
+/// A small world with one of everything a checkpoint holds: groups of both models with wander
+/// and paths, a formation, removed agents (so ids and storage order differ), obstacles, moving
+/// gravity points (one riding on an agent), a field with a dirty channel, goal shuffles, walkers
+/// and arrivals.
+fn everything_world(agents: usize) -> (World, f32) {
+    let wander = GroupParams::dynamic(
+        SteeringProfile::single(Behaviour::Wander {
+            params: WanderParams::default(),
+        })
+        .with(
+            Behaviour::FollowPath {
+                path: PathId(0),
+                params: PathFollowParams::default(),
+            },
+            1.0,
+        ),
+    );
+    let flock = GroupParams::dynamic(
+        SteeringProfile::single(Behaviour::Separation {
+            hood: Neighbourhood::radius(3.0),
+        })
+        .with(
+            Behaviour::Cohesion {
+                hood: Neighbourhood::radius(6.0),
+            },
+            0.5,
+        )
+        .with(
+            Behaviour::Wander {
+                params: WanderParams::default(),
+            },
+            0.5,
+        ),
+    );
+    let follow = GroupParams {
+        max_speed: 3.0,
+        ..GroupParams::kinematic(SteeringProfile::single(Behaviour::FollowField {
+            field: 0,
+            channel: 0,
+        }))
+    };
+    let keep = GroupParams::dynamic(SteeringProfile::single(Behaviour::KeepFormation {
+        params: Default::default(),
+    }));
+    let walk = GroupParams::kinematic(SteeringProfile::single(Behaviour::FollowField {
+        field: 0,
+        channel: 1,
+    }));
+    let mut b = World::builder()
+        .bounds(Bounds::torus(32.0, 32.0).unwrap())
+        .seed(99)
+        .path(
+            Path::new(
+                vec![
+                    Vec2::new(2.0, 2.0),
+                    Vec2::new(28.0, 4.0),
+                    Vec2::new(20.0, 28.0),
+                ],
+                1.5,
+                true,
+            )
+            .unwrap(),
+        )
+        .group(wander)
+        .group(flock)
+        .group(follow)
+        .group(keep)
+        .group(walk);
+    for i in 0..agents {
+        let f = i as f32;
+        let g = i % 5;
+        b = b.agent(AgentInit {
+            position: Vec2::new((f * 7.31 + 0.5) % 32.0, (f * 3.17 + 0.5) % 32.0),
+            velocity: Vec2::new((f * 0.37).sin(), (f * 0.91).cos()),
+            orientation: f * 0.1,
+            max_speed: (i % 7 == 0).then_some(2.5),
+            ..AgentInit::at(Vec2::ZERO, g)
+        });
+    }
+    let mut w = b.build().unwrap();
+    let keepers: Vec<AgentId> = (0..agents)
+        .filter(|i| i % 5 == 3)
+        .map(|i| AgentId(i as u32))
+        .collect();
+    w.add_formation(AgentId(0), FormationParams::default(), &keepers)
+        .unwrap();
+    for i in (0..agents).step_by(11).skip(1) {
+        let _ = w.remove_agent(AgentId(i as u32));
+    }
+    w.add_circle(Circle {
+        center: Vec2::new(16.2, 16.3),
+        radius: 0.4,
+    })
+    .unwrap_or(());
+    w.add_wall(Wall {
+        a: Vec2::new(5.1, 20.2),
+        b: Vec2::new(9.3, 24.4),
+    })
+    .unwrap();
+    w.add_gravity_point(GravityPoint {
+        motion: Motion::Orbit {
+            center: Vec2::new(16.0, 16.0),
+            orbit_radius: 6.0,
+            angular_speed: 0.7,
+        },
+        ..GravityPoint::fixed(Vec2::new(16.0, 16.0), 5.0, 2.0, 4.0)
+    })
+    .unwrap();
+    w.add_gravity_point(GravityPoint {
+        motion: Motion::Agent { agent: AgentId(1) },
+        ..GravityPoint::fixed(Vec2::ZERO, -3.0, 1.0, 5.0)
+    })
+    .unwrap();
+    let grid = OccupancyGrid::new(16, 16)
+        .unwrap()
+        .with_geometry(2.0, Vec2::ZERO)
+        .unwrap();
+    let mut channels = GoalChannels::new(grid, 0.9, throng::field::Neighbourhood::Eight).unwrap();
+    channels.add_channel(&[(3, 3)]).unwrap();
+    channels.add_channel(&[(12, 12), (2, 13)]).unwrap();
+    w.add_field(channels).unwrap();
+    w.set_reorder_every(3);
+    w.set_index(throng::IndexKind::Grid);
+    w.shuffle_field_goals_every(0, 25, 2).unwrap();
+    // Followers on their goal: arrived from the first step on.
+    for p in [Vec2::new(7.0, 7.0), Vec2::new(6.5, 7.5)] {
+        w.add_agent(AgentInit::at(p, 2)).unwrap();
+    }
+    w.add_walkers(0, 4, 1, WalkPolicy::Queue).unwrap();
+    w.set_field_blocked(0, 8, 1, true).unwrap();
+    (w, 0.05)
+}
+
+#[test]
+fn a_world_with_everything_resumes_bit_for_bit() {
+    for threads in [1, 2] {
+        let (w, dt) = everything_world(60);
+        assert_resumes("everything", w, dt, threads);
+    }
+    let (mut w, dt) = everything_world(60);
+    steps(&mut w, N, dt);
+    assert!(w.arrived_count() >= 2, "arrivals are part of the test");
+}
+
+#[test]
+fn a_checkpoint_taken_before_the_first_step_resumes_too() {
+    let (mut w, dt) = everything_world(40);
+    let mut r = World::load(&saved(&w)[..]).unwrap();
+    steps(&mut w, 13, dt);
+    steps(&mut r, 13, dt);
+    assert_eq!(saved(&w), saved(&r));
+}
+
+#[test]
+fn run_settings_round_trip() {
+    let (w, _) = everything_world(10);
+    let run = RunInfo {
+        scenario: "everything".into(),
+        dt: 0.05,
+        steps: 1000,
+        checkpoint_every: 100,
+    };
+    let mut bytes = Vec::new();
+    w.save_run(&run, &mut bytes).unwrap();
+    let (_, back) = World::load_run(&bytes[..]).unwrap();
+    assert_eq!(back, Some(run));
+    assert_eq!(World::load_run(&saved(&w)[..]).unwrap().1, None);
+}
+
+fn checkpoint_error(bytes: &[u8]) -> CheckpointError {
+    match World::load(bytes) {
+        Err(Error::Checkpoint(e)) => e,
+        Err(other) => panic!("not a checkpoint error: {other}"),
+        Ok(_) => panic!("accepted"),
+    }
+}
+
+/// The small world of the corruption tests (every byte of it is tried).
+fn tiny() -> Vec<u8> {
+    let (mut w, dt) = everything_world(12);
+    steps(&mut w, 3, dt);
+    saved(&w)
+}
+
+#[test]
+fn a_checkpoint_cut_at_any_byte_is_rejected() {
+    let bytes = tiny();
+    assert!(World::load(&bytes[..]).is_ok());
+    for cut in 0..bytes.len() {
+        let e = checkpoint_error(&bytes[..cut]);
+        assert!(
+            matches!(e, CheckpointError::Truncated { .. }),
+            "cut at {cut} of {}: {e}",
+            bytes.len()
+        );
+    }
+}
+
+#[test]
+fn a_checkpoint_with_any_byte_changed_is_rejected() {
+    let bytes = tiny();
+    for i in 0..bytes.len() {
+        for flip in [0x01u8, 0x80, 0xff] {
+            let mut b = bytes.clone();
+            b[i] ^= flip;
+            let e = checkpoint_error(&b);
+            assert!(
+                !matches!(
+                    e,
+                    CheckpointError::Invalid { .. } | CheckpointError::Decode(_)
+                ),
+                "byte {i} ^ {flip:#x} got past the checksum: {e}"
+            );
+        }
+    }
+}
+
+#[test]
+fn trailing_bytes_another_version_and_other_files_are_named() {
+    let mut bytes = tiny();
+    let mut longer = bytes.clone();
+    longer.push(0);
+    assert!(matches!(
+        checkpoint_error(&longer),
+        CheckpointError::TrailingBytes { extra: 1 }
+    ));
+    bytes[8..12].copy_from_slice(&(FORMAT_VERSION - 1).to_le_bytes());
+    let e = checkpoint_error(&bytes);
+    assert!(
+        matches!(e, CheckpointError::UnsupportedVersion { found, .. } if found == FORMAT_VERSION - 1),
+        "{e}"
+    );
+    assert!(e.to_string().contains("version 0"), "{e}");
+    let e = checkpoint_error(b"[world]\nsize = [10, 10]\n");
+    assert!(matches!(e, CheckpointError::NotACheckpoint), "{e}");
+    assert!(matches!(
+        checkpoint_error(b""),
+        CheckpointError::Truncated { .. }
+    ));
+}
+
+/// Re-encodes a checkpoint's payload after `edit`, with a correct checksum: what a hostile file
+/// looks like once it is past the integrity check.
+fn crafted(bytes: &[u8], edit: impl FnOnce(&mut ciborium::Value)) -> Vec<u8> {
+    let mut v: ciborium::Value = ciborium::from_reader(&bytes[HEADER_LEN..]).unwrap();
+    edit(&mut v);
+    let mut payload = Vec::new();
+    ciborium::into_writer(&v, &mut payload).unwrap();
+    let mut out = bytes[..HEADER_LEN].to_vec();
+    out[12..20].copy_from_slice(&(payload.len() as u64).to_le_bytes());
+    let mut c = crc32fast::Hasher::new();
+    c.update(&out[..20]);
+    c.update(&payload);
+    out[20..24].copy_from_slice(&c.finalize().to_le_bytes());
+    out.extend_from_slice(&payload);
+    out
+}
+
+/// The value under `path` (map keys) of a decoded payload.
+fn entry<'a>(v: &'a mut ciborium::Value, path: &[&str]) -> &'a mut ciborium::Value {
+    let mut v = v;
+    for key in path {
+        let map = v.as_map_mut().expect("a map");
+        v = &mut map
+            .iter_mut()
+            .find(|(k, _)| k.as_text() == Some(key))
+            .unwrap_or_else(|| panic!("no key {key}"))
+            .1;
+    }
+    v
+}
+
+#[test]
+fn crafted_values_are_rejected_by_the_worlds_validation() {
+    let bytes = tiny();
+    assert!(World::load(&crafted(&bytes, |_| {}) as &[u8]).is_ok());
+    type Edit = fn(&mut ciborium::Value);
+    let cases: [(&str, Edit); 8] = [
+        ("position", |v| {
+            entry(v, &["world", "agents", "pos_x"])
+                .as_array_mut()
+                .unwrap()[0] = ciborium::Value::Float(f64::NAN);
+        }),
+        ("position", |v| {
+            entry(v, &["world", "agents", "pos_y"])
+                .as_array_mut()
+                .unwrap()[1] = ciborium::Value::Float(1e9);
+        }),
+        ("max_speed", |v| {
+            entry(v, &["world", "agents", "max_speed"])
+                .as_array_mut()
+                .unwrap()[2] = ciborium::Value::Float(-1.0);
+        }),
+        ("group", |v| {
+            entry(v, &["world", "agents", "group"])
+                .as_array_mut()
+                .unwrap()[0] = ciborium::Value::Integer(77.into());
+        }),
+        ("listed twice", |v| {
+            let ids = entry(v, &["world", "agents", "ids"])
+                .as_array_mut()
+                .unwrap();
+            ids[1] = ids[0].clone();
+        }),
+        ("buffer", |v| {
+            entry(v, &["world", "agents", "wander"])
+                .as_array_mut()
+                .unwrap()
+                .pop();
+        }),
+        ("ids_issued", |v| {
+            *entry(v, &["world", "ids_issued"]) = ciborium::Value::Integer(u32::MAX.into());
+        }),
+        ("decay", |v| {
+            let f = &mut entry(v, &["world", "fields"]).as_array_mut().unwrap()[0];
+            *entry(f, &["decay"]) = ciborium::Value::Float(1.5);
+        }),
+    ];
+    for (needle, edit) in cases {
+        let e = checkpoint_error(&crafted(&bytes, edit));
+        assert!(
+            matches!(
+                e,
+                CheckpointError::Invalid { .. } | CheckpointError::Decode(_)
+            ),
+            "{e}"
+        );
+        assert!(e.to_string().contains(needle), "{needle}: {e}");
+    }
+}
+
+/// Every single-byte change of the payload, re-sealed with a valid checksum: loading gives an
+/// error or a world whose buffers are finite and that steps without trouble.
+#[test]
+fn resealed_corruptions_never_panic_nor_load_bad_values() {
+    let bytes = tiny();
+    for i in HEADER_LEN..bytes.len() {
+        let mut b = bytes.clone();
+        b[i] ^= 0x5a;
+        let b = crafted_raw(&b);
+        if let Ok(mut w) = World::load(&b[..]) {
+            let a = w.agents();
+            let all = [a.pos_x(), a.pos_y(), a.vel_x(), a.vel_y(), a.orientations()];
+            assert!(
+                all.iter().all(|s| s.iter().all(|x| x.is_finite())),
+                "byte {i}"
+            );
+            for _ in 0..2 {
+                let _ = w.step(0.05);
+            }
+        }
+    }
+}
+
+/// `bytes` with the header's length and checksum made to match its payload.
+fn crafted_raw(bytes: &[u8]) -> Vec<u8> {
+    let mut out = bytes.to_vec();
+    let len = (out.len() - HEADER_LEN) as u64;
+    out[12..20].copy_from_slice(&len.to_le_bytes());
+    let mut c = crc32fast::Hasher::new();
+    c.update(&out[..20]);
+    c.update(&out[HEADER_LEN..]);
+    out[20..24].copy_from_slice(&c.finalize().to_le_bytes());
+    out
+}
+
+fn tmp_dir(name: &str) -> PathBuf {
+    let d = std::env::temp_dir().join(format!("throng-ckpt-{}-{name}", std::process::id()));
+    let _ = std::fs::remove_dir_all(&d);
+    std::fs::create_dir_all(&d).unwrap();
+    d
+}
+
+/// A writer that fails after `left` bytes, as a full disk does.
+struct FailingWriter<'a> {
+    inner: &'a mut dyn Write,
+    left: usize,
+}
+
+impl Write for FailingWriter<'_> {
+    fn write(&mut self, buf: &[u8]) -> std::io::Result<usize> {
+        if self.left == 0 {
+            return Err(std::io::Error::other("disk full"));
+        }
+        let n = buf.len().min(self.left);
+        self.left -= n;
+        self.inner.write(&buf[..n])
+    }
+    fn flush(&mut self) -> std::io::Result<()> {
+        self.inner.flush()
+    }
+}
+
+#[test]
+fn a_failed_write_leaves_the_previous_checkpoint_intact() {
+    let dir = tmp_dir("atomic");
+    let path = dir.join("run.ckpt");
+    let (mut w, dt) = everything_world(30);
+    w.save_file(&path, None).unwrap();
+    let before = std::fs::read(&path).unwrap();
+    steps(&mut w, 5, dt);
+    let size = saved(&w).len();
+    for left in [0, 1, HEADER_LEN, size / 2, size - 1] {
+        let r = write_atomic(&path, |out| w.save(FailingWriter { inner: out, left }));
+        assert!(r.is_err(), "{left}");
+        assert_eq!(
+            std::fs::read(&path).unwrap(),
+            before,
+            "cut after {left} bytes"
+        );
+        let names: Vec<_> = std::fs::read_dir(&dir).unwrap().collect();
+        assert_eq!(names.len(), 1, "the temporary file is removed");
+    }
+    // The one that succeeds replaces it whole.
+    w.save_file(&path, None).unwrap();
+    let (r, _) = World::load_file(&path).unwrap();
+    assert_eq!(bits(&r), bits(&w));
+    let _ = std::fs::remove_dir_all(&dir);
+}
