@@ -127,7 +127,7 @@ struct RunArgs {
     /// Longest side of the picture written by --render, pixels.
     #[arg(long, default_value_t = 800)]
     size: u32,
-    /// Write trajectories as long-format CSV: frame,t,id,x,y,vx,vy,heading.
+    /// Write trajectories as long-format CSV: frame,t,id,x,y,vx,vy,heading,group.
     #[arg(long)]
     trajectories: Option<PathBuf>,
     /// Print only the summary.

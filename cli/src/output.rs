@@ -60,7 +60,7 @@ impl Outputs {
         if let Some(p) = trajectories {
             let (file, f) = AtomicOutput::create(p)?;
             let mut w = BufWriter::new(f);
-            writeln!(w, "frame,t,id,x,y,vx,vy,heading").map_err(|e| file.io(e))?;
+            writeln!(w, "frame,t,id,x,y,vx,vy,heading,group").map_err(|e| file.io(e))?;
             out.csv = Some((w, file));
         }
         Ok(out)
@@ -141,13 +141,14 @@ impl Outputs {
             for i in 0..a.len() {
                 writeln!(
                     w,
-                    "{frame},{t:.6},{},{},{},{},{},{}",
+                    "{frame},{t:.6},{},{},{},{},{},{},{}",
                     a.id(i).0,
                     a.pos_x()[i],
                     a.pos_y()[i],
                     a.vel_x()[i],
                     a.vel_y()[i],
-                    a.orientations()[i]
+                    a.orientations()[i],
+                    a.groups()[i]
                 )
                 .map_err(|e| file.io(e))?;
             }

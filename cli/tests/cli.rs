@@ -136,7 +136,7 @@ fn trajectories_have_one_row_per_agent_per_written_frame() {
     let csv = tmp("traj.csv");
     let o = throng(&[
         "demo",
-        "wander",
+        "pursuit",
         "--agents",
         "50",
         "--steps",
@@ -150,12 +150,13 @@ fn trajectories_have_one_row_per_agent_per_written_frame() {
     assert!(o.status.success(), "{}", stderr(&o));
     let text = std::fs::read_to_string(&csv).unwrap();
     let mut lines = text.lines();
-    assert_eq!(lines.next(), Some("frame,t,id,x,y,vx,vy,heading"));
+    // The old columns first and unchanged, the group appended last.
+    assert_eq!(lines.next(), Some("frame,t,id,x,y,vx,vy,heading,group"));
     let rows: Vec<Vec<&str>> = lines.map(|l| l.split(',').collect()).collect();
     // Frames 0, 5 and 10.
     assert_eq!(rows.len(), 50 * 3);
     for r in &rows {
-        assert_eq!(r.len(), 8);
+        assert_eq!(r.len(), 9);
         for f in r {
             assert!(f.parse::<f64>().is_ok_and(f64::is_finite), "{r:?}");
         }
@@ -164,6 +165,9 @@ fn trajectories_have_one_row_per_agent_per_written_frame() {
     assert_eq!(frames.into_iter().collect::<Vec<_>>(), ["0", "10", "5"]);
     let ids: std::collections::BTreeSet<&str> = rows.iter().map(|r| r[2]).collect();
     assert_eq!(ids.len(), 50, "stable ids");
+    // Prey and predators told apart by the group column.
+    let groups: std::collections::BTreeSet<&str> = rows.iter().map(|r| r[8]).collect();
+    assert_eq!(groups.into_iter().collect::<Vec<_>>(), ["0", "1"]);
 }
 
 fn assert_one_line_failure(args: &[&str], needle: &str) {

@@ -906,7 +906,7 @@ impl PyWorld {
     /// Runs `steps` steps (GIL released) and returns a pandas DataFrame in the long format of
     /// the CLI's `--trajectories` CSV: one row per agent for the current frame and for every
     /// `every`-th frame after it, columns frame (int64), t (float64 seconds), id (uint32),
-    /// x, y, vx, vy, heading (float32, bit-identical to the CSV's values).
+    /// x, y, vx, vy, heading (float32, bit-identical to the CSV's values), group (uint32).
     #[pyo3(signature = (steps, every=1, *, dt=None))]
     fn trajectories<'py>(
         &mut self,
@@ -947,6 +947,7 @@ struct Trajectory {
     vx: Vec<f32>,
     vy: Vec<f32>,
     heading: Vec<f32>,
+    group: Vec<u32>,
 }
 
 impl Trajectory {
@@ -962,6 +963,7 @@ impl Trajectory {
         self.vx.extend_from_slice(a.vel_x());
         self.vy.extend_from_slice(a.vel_y());
         self.heading.extend_from_slice(a.orientations());
+        self.group.extend_from_slice(a.groups());
     }
 
     /// The table as a pandas DataFrame.
@@ -979,6 +981,7 @@ impl Trajectory {
         ] {
             d.set_item(name, Array1::from_vec(col).into_pyarray(py))?;
         }
+        d.set_item("group", Array1::from_vec(self.group).into_pyarray(py))?;
         let pandas = py.import("pandas")?;
         pandas.getattr("DataFrame")?.call1((d,))
     }

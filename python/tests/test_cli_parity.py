@@ -36,11 +36,12 @@ def bits(column):
 
 def assert_same_trajectories(ours, theirs):
     assert list(ours.columns) == list(theirs.columns) == [
-        "frame", "t", "id", "x", "y", "vx", "vy", "heading",
+        "frame", "t", "id", "x", "y", "vx", "vy", "heading", "group",
     ]
     assert len(ours) == len(theirs)
     np.testing.assert_array_equal(ours["frame"].to_numpy(), theirs["frame"].to_numpy())
     np.testing.assert_array_equal(ours["id"].to_numpy(), theirs["id"].to_numpy())
+    np.testing.assert_array_equal(ours["group"].to_numpy(), theirs["group"].to_numpy())
     # The CSV rounds t to 6 decimals.
     np.testing.assert_allclose(ours["t"].to_numpy(), theirs["t"].to_numpy(), atol=5e-7, rtol=0)
     for c in FLOAT_COLUMNS:
