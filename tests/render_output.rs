@@ -368,3 +368,33 @@ proptest! {
         prop_assert!(canvas.pixels().iter().all(|&p| p == Palette::BACKGROUND));
     }
 }
+
+#[test]
+fn pictures_of_several_groups_carry_a_legend() {
+    use throng::prelude::*;
+    use throng::render::WorldPainter;
+    let world = |groups: usize| {
+        let mut b = World::builder().bounds(Bounds::bounded(100.0, 100.0).unwrap());
+        for g in 0..groups {
+            b = b
+                .group(GroupParams::kinematic(SteeringProfile::default()))
+                .agent(AgentInit::at(Vec2::new(80.0, 20.0 + 10.0 * g as f32), g));
+        }
+        b.build().unwrap()
+    };
+    let two = world(2);
+    let mut painter = WorldPainter::new(&two, 200, 200).unwrap();
+    let canvas = painter.draw(&two).unwrap();
+    assert_eq!(canvas.pixel(7, 7), Some(Palette::group(0)));
+    assert_eq!(canvas.pixel(7, 17), Some(Palette::group(1)));
+    // The index "1" beside the second swatch: its stem is the middle column of the glyph.
+    assert_eq!(canvas.pixel(15, 17), Some(Palette::WHITE));
+    let one = world(1);
+    let mut painter = WorldPainter::new(&one, 200, 200).unwrap();
+    let canvas = painter.draw(&one).unwrap();
+    assert_eq!(
+        canvas.pixel(7, 7),
+        Some(Palette::BACKGROUND),
+        "one group, no legend"
+    );
+}

@@ -2,7 +2,7 @@
 
 use glam::Vec2;
 
-use super::{Canvas, HeatMap, Scene, Viewport, draw_scene};
+use super::{Canvas, HeatMap, Palette, Scene, Viewport, draw_scene};
 use crate::error::Result;
 use crate::world::World;
 
@@ -140,6 +140,7 @@ impl WorldPainter {
             ..Scene::default()
         };
         draw_scene(&mut self.canvas, &self.viewport, &scene)?;
+        draw_legend(&mut self.canvas, world.groups().len());
         Ok(&self.canvas)
     }
 
@@ -185,5 +186,49 @@ impl WorldPainter {
         }
         self.heat_geometry = Some((w as usize, h as usize, grid.origin(), grid.cell_size()));
         self.heat_version = Some(version);
+    }
+}
+
+/// Pixels of the digits 0 to 9 in a 3 x 5 font, one row of three bits per entry, top first.
+const DIGITS: [[u8; 5]; 10] = [
+    [0b111, 0b101, 0b101, 0b101, 0b111],
+    [0b010, 0b110, 0b010, 0b010, 0b111],
+    [0b111, 0b001, 0b111, 0b100, 0b111],
+    [0b111, 0b001, 0b111, 0b001, 0b111],
+    [0b101, 0b101, 0b111, 0b001, 0b001],
+    [0b111, 0b100, 0b111, 0b001, 0b111],
+    [0b111, 0b100, 0b111, 0b101, 0b111],
+    [0b111, 0b001, 0b010, 0b010, 0b010],
+    [0b111, 0b101, 0b111, 0b101, 0b111],
+    [0b111, 0b101, 0b111, 0b001, 0b111],
+];
+
+/// The group legend in the top-left corner when a world has several groups: per group a swatch
+/// of its colour and its index (groups beyond the palette's colours share theirs, so at most
+/// [`Palette::GROUP_COUNT`] rows), drawn only where the picture has room for it.
+fn draw_legend(canvas: &mut Canvas, groups: usize) {
+    let rows = groups.min(usize::from(Palette::GROUP_COUNT));
+    let (row_h, x0, y0) = (10_i32, 4_i32, 4_i32);
+    if groups < 2 || (canvas.height() as i32) < y0 + row_h * rows as i32 || canvas.width() < 48 {
+        return;
+    }
+    for g in 0..rows {
+        let top = y0 + row_h * g as i32;
+        for dy in 0..7 {
+            for dx in 0..7 {
+                canvas.set_pixel(x0 + dx, top + dy, Palette::group(g as u32));
+            }
+        }
+        let mut x = x0 + 10;
+        for digit in g.to_string().bytes().map(|b| usize::from(b - b'0')) {
+            for (dy, bits) in DIGITS[digit].iter().enumerate() {
+                for dx in 0..3 {
+                    if bits & (0b100 >> dx) != 0 {
+                        canvas.set_pixel(x + dx, top + 1 + dy as i32, Palette::WHITE);
+                    }
+                }
+            }
+            x += 4;
+        }
     }
 }
