@@ -11,16 +11,10 @@ use throng::prelude::*;
 use throng::spawn::{Spawner, agents};
 
 fn main() -> throng::Result<()> {
-    let (centre, orbit) = (Vec2::splat(100.0), 60.0);
+    let (centre, orbit, dt) = (Vec2::splat(100.0), 60.0, 1.0 / 30.0);
     let rocks = [
-        Circle {
-            center: Vec2::new(70.0, 100.0),
-            radius: 12.0,
-        },
-        Circle {
-            center: Vec2::new(135.0, 110.0),
-            radius: 9.0,
-        },
+        Circle::new(Vec2::new(70.0, 100.0), 12.0),
+        Circle::new(Vec2::new(135.0, 110.0), 9.0),
     ];
     let mut world = World::builder()
         .bounds(Bounds::bounded(200.0, 200.0)?)
@@ -43,30 +37,24 @@ fn main() -> throng::Result<()> {
     for a in agents(&start, crowd, 0.0, 1) {
         world.add_agent(a)?;
     }
-
-    let dt = 1.0 / 30.0;
     for frame in 0..600u32 {
         // The script: once around the circle in twenty seconds, at 18.8 units per second.
-        let angle = frame as f32 * dt * std::f32::consts::TAU / 20.0;
-        let heading = Vec2::from_angle(angle);
-        let speed = orbit * std::f32::consts::TAU / 20.0;
-        world.set_target_motion(
-            player,
-            TargetPoint::at(centre + heading * orbit).moving(heading.perp() * speed),
-        )?;
+        let heading = Vec2::from_angle(frame as f32 * dt * std::f32::consts::TAU / 20.0);
+        let target = centre + heading * orbit;
+        let velocity = heading.perp() * orbit * std::f32::consts::TAU / 20.0;
+        world.set_target_motion(player, TargetPoint::at(target).moving(velocity))?;
         let stats = world.step(dt)?;
         if frame % 60 == 0 {
-            let target = centre + heading * orbit;
             let a = world.agents();
             let mean = (0..a.len())
                 .map(|i| a.position(i).distance(target))
-                .sum::<f32>()
-                / a.len() as f32;
+                .sum::<f32>();
             println!(
-                "frame {:>3}: {:.3} ms ({:.3} steer), mean distance to the target {mean:.1}",
+                "frame {:>3}: {:.3} ms ({:.3} steer), mean distance to the target {:.1}",
                 stats.frame,
                 stats.total_ms(),
                 stats.phases.steer.as_secs_f64() * 1e3,
+                mean / a.len() as f32,
             );
         }
     }

@@ -12,9 +12,11 @@
 //!   rotation clamped to the maximum rotation. Optional drag scales the new velocity by
 //!   `max(0, 1 - drag * dt)`.
 //!
-//! [`integrate`] runs the linear part in 8-wide SIMD lanes (`wide::f32x8`) over contiguous `f32`
-//! slices, in parallel chunks; [`integrate_scalar`] is the plain reference it is tested against
-//! bit for bit (both use the same operations in the same order, without fused multiply-add).
+//! [`integrate`] runs each agent's step, one branch-free function, over blocks of 8 agents
+//! loaded from contiguous `f32` slices, in parallel chunks and under runtime dispatch (AVX2 +
+//! FMA where the processor has it); [`integrate_scalar`] calls the same function one agent at a
+//! time, the reference the lanes are tested against bit for bit (the compiler's vectorisation
+//! keeps the operations and their order; no fused multiply-add is formed).
 
 mod integrate;
 

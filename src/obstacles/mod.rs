@@ -26,6 +26,14 @@ pub struct Circle {
     pub radius: f32,
 }
 
+impl Circle {
+    /// The circle of `radius` around `center` (checked when it is added to a world).
+    #[must_use]
+    pub fn new(center: Vec2, radius: f32) -> Self {
+        Circle { center, radius }
+    }
+}
+
 /// A wall: a line segment agents may not cross.
 #[derive(Clone, Copy, Debug, PartialEq, Serialize, Deserialize)]
 #[serde(deny_unknown_fields)]
