@@ -36,6 +36,7 @@
 //! - [`spatial`]: the neighbour-index contract and its grid, k-d tree and brute-force backends.
 //! - [`field`]: occupancy grids, BFS potential, Dijkstra integration and flow fields, walkers.
 //! - [`obstacles`]: circles and walls, their avoidance and non-penetration.
+//! - [`orca`]: optimal reciprocal collision avoidance, a velocity filter for crowds.
 //! - [`gravity`]: anti-gravity points and the force they exert.
 //! - [`group`]: group movement: path following, leader following, formations, jumps.
 //! - [`world`]: [`World`], [`WorldBuilder`], [`GroupParams`], the step pipeline and [`StepStats`].
@@ -66,6 +67,7 @@ pub mod group;
 pub mod limits;
 pub mod movement;
 pub mod obstacles;
+pub mod orca;
 pub mod profile;
 #[cfg(feature = "render")]
 pub mod render;

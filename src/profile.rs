@@ -43,6 +43,13 @@ pub struct Profile {
     /// Neighbour cap (in the manner of RVO2's `maxNeighbors`): flocking and repulsion consider
     /// only the nearest this many neighbours. Default: none (every neighbour in range).
     pub max_neighbours: Option<u32>,
+    /// Collision avoidance by ORCA: the behaviours give the preferred velocity, ORCA the
+    /// collision-free velocity closest to it ([`crate::orca`]). Default: none.
+    pub orca: Option<crate::orca::Orca>,
+    /// Agents of this group count as arrived when they are within this distance (>= 0) of
+    /// their own target ([`crate::steering::Target::Own`], set with `World::set_target`);
+    /// [`crate::world::StepStats::arrived`] counts them. Default: none (not counted).
+    pub arrival_radius: Option<f32>,
 }
 
 impl Default for Profile {
@@ -60,6 +67,8 @@ impl Default for Profile {
             radius: 0.5,
             steering: SteeringProfile::default(),
             max_neighbours: None,
+            orca: None,
+            arrival_radius: None,
         }
     }
 }
@@ -137,6 +146,13 @@ impl Profile {
                 name: "max_neighbours",
                 value: 0.0,
             });
+        }
+        if let Some(o) = &self.orca {
+            o.validate()?;
+        }
+        if let Some(r) = self.arrival_radius {
+            non_negative("arrival_radius", r)?;
+            crate::error::in_range("arrival_radius", r, 0.0, 1e18, "[0, 1e18]")?;
         }
         self.steering.validate()
     }

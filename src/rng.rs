@@ -17,6 +17,8 @@ pub enum Stream {
     Spawn = 1,
     /// A follower's fixed spread around its slot behind the leader (frame 0).
     Spread = 0x6772_0001,
+    /// The perturbation of an ORCA agent's preferred velocity (per frame).
+    Orca = 0x6f72_0001,
 }
 
 /// The random numbers of one agent in one frame.

@@ -24,6 +24,55 @@ pub struct Timings {
     neighbours: Vec<f64>,
     polarisation: Vec<f64>,
     agent_steps: u64,
+    arrivals: Arrivals,
+}
+
+/// Arrivals over a run: the latest counts and the first frame at which every agent with a
+/// goal had arrived.
+#[derive(Clone, Copy, Debug, Default, PartialEq)]
+pub struct Arrivals {
+    /// Agents at their goal after the latest step.
+    pub arrived: usize,
+    /// Agents with a goal (in groups with an arrival radius) after the latest step.
+    pub with_goal: usize,
+    /// The first frame after which every agent with a goal was at it.
+    pub all_arrived_frame: Option<u64>,
+}
+
+impl Arrivals {
+    /// Records one step.
+    pub fn push(&mut self, s: &StepStats) {
+        self.arrived = s.arrived;
+        self.with_goal = s.with_goal;
+        if self.all_arrived_frame.is_none() && s.with_goal > 0 && s.arrived == s.with_goal {
+            self.all_arrived_frame = Some(s.frame);
+        }
+    }
+
+    /// Whether every agent with a goal has arrived (false when none has a goal).
+    #[must_use]
+    pub fn all(&self) -> bool {
+        self.with_goal > 0 && self.arrived == self.with_goal
+    }
+
+    /// The summary's arrival part, empty when no agent has a goal.
+    fn describe(&self) -> String {
+        if self.with_goal == 0 {
+            return String::new();
+        }
+        match self.all_arrived_frame {
+            Some(f) => format!(
+                " | arrived {}/{} (all at frame {f})",
+                self.arrived, self.with_goal
+            ),
+            None => format!(
+                " | arrived {}/{} ({} left)",
+                self.arrived,
+                self.with_goal,
+                self.with_goal - self.arrived
+            ),
+        }
+    }
 }
 
 /// Milliseconds per step over a run.
@@ -50,6 +99,11 @@ pub struct BenchReport {
     pub agent_steps_per_sec: f64,
     /// Agents in the world at the end.
     pub agents: usize,
+    /// The first frame at which every agent with a goal had arrived (`null` when not all
+    /// arrived, or no agent has a goal).
+    pub all_arrived_step: Option<u64>,
+    /// Agents at their goal at the end (0 when no group has an arrival radius).
+    pub arrived: usize,
     /// The neighbour-index backend.
     pub index: String,
     /// Mean over the timed steps of the mean neighbours per agent.
@@ -125,6 +179,13 @@ impl Timings {
         self.phase_ms.push(s.phases.as_ms());
         self.neighbours.push(s.mean_neighbours);
         self.agent_steps += s.agents as u64;
+        self.arrivals.push(s);
+    }
+
+    /// Arrivals over the recorded steps.
+    #[must_use]
+    pub fn arrivals(&self) -> Arrivals {
+        self.arrivals
     }
 
     /// Records one step and the world's polarisation after it (measured outside the step's
@@ -194,7 +255,7 @@ impl Timings {
             self.agent_steps_per_sec(),
             mean(&self.neighbours),
             mean(&self.polarisation),
-        )
+        ) + &self.arrivals.describe()
     }
 
     /// The benchmark report of the recorded steps.
@@ -210,6 +271,8 @@ impl Timings {
         BenchReport {
             agent_steps_per_sec: self.agent_steps_per_sec(),
             agents,
+            all_arrived_step: self.arrivals.all_arrived_frame,
+            arrived: self.arrivals.arrived,
             index: index.to_string(),
             mean_neighbours: mean(&self.neighbours),
             ms_per_step: self.step_ms(),
@@ -271,6 +334,7 @@ pub struct RunningTimings {
     neighbours: f64,
     polarisation: f64,
     agent_steps: u64,
+    arrivals: Arrivals,
 }
 
 impl Default for RunningTimings {
@@ -284,6 +348,7 @@ impl Default for RunningTimings {
             neighbours: 0.0,
             polarisation: 0.0,
             agent_steps: 0,
+            arrivals: Arrivals::default(),
         }
     }
 }
@@ -305,6 +370,13 @@ impl RunningTimings {
         self.neighbours += s.mean_neighbours;
         self.polarisation += f64::from(world.polarisation());
         self.agent_steps += s.agents as u64;
+        self.arrivals.push(s);
+    }
+
+    /// Arrivals over the recorded steps.
+    #[must_use]
+    pub fn arrivals(&self) -> Arrivals {
+        self.arrivals
     }
 
     /// Steps recorded.
@@ -370,7 +442,7 @@ impl RunningTimings {
             rate,
             self.neighbours / n,
             self.polarisation / n,
-        )
+        ) + &self.arrivals.describe()
     }
 }
 
@@ -403,6 +475,7 @@ mod tests {
                 ..PhaseTimes::default()
             },
             mean_neighbours: 2.0,
+            ..StepStats::default()
         }
     }
 

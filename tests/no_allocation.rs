@@ -60,6 +60,8 @@ fn warm_steps_do_not_allocate() {
         "fields",
         "fields-large",
         "fields-walkers",
+        "circle",
+        "blocks",
     ] {
         // Scenarios whose agents are tied to a map keep their own count.
         let s = scenario::builtin(name).unwrap();

@@ -133,6 +133,10 @@ struct RunArgs {
     /// Print only the summary.
     #[arg(long)]
     quiet: bool,
+    /// Stop at the first frame at which every agent with a goal has arrived (--steps stays
+    /// the ceiling).
+    #[arg(long)]
+    until_arrived: bool,
     /// Keep a checkpoint of the run in FILE (written crash-safe at the start, every
     /// --checkpoint-every frames and at the end; `throng resume FILE` goes on from it).
     #[arg(long, value_name = "FILE")]
@@ -355,6 +359,8 @@ struct Drive<'a> {
     every: u64,
     threads: usize,
     quiet: bool,
+    /// Stop once every agent with a goal has arrived.
+    until_arrived: bool,
 }
 
 /// The most worker threads `--threads` accepts on a machine with `cores` cores: four per core,
@@ -413,6 +419,7 @@ fn run_scenario(s: Scenario, args: &RunArgs, file: Option<&Path>) -> Result<()> 
         every,
         threads,
         quiet: args.quiet,
+        until_arrived: args.until_arrived,
     };
     run_steps(&mut world, &pool, &drive, outputs, checkpoint.as_ref())
 }
@@ -481,6 +488,7 @@ fn resume(file: &Path, args: &ResumeArgs) -> Result<()> {
         every: period("every", args.every, (remaining / 20).max(1))?,
         threads,
         quiet: args.quiet,
+        until_arrived: false,
     };
     run_steps(
         &mut world,
@@ -552,6 +560,9 @@ fn run_steps(
         }
         if let Some(p) = &progress {
             p.inc(1);
+        }
+        if d.until_arrived && timings.arrivals().all() {
+            break;
         }
     }
     if let Some(p) = progress {

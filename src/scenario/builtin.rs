@@ -26,6 +26,8 @@ pub const BUILTIN: &[(&str, &str)] = &[
         "fields-walkers",
         include_str!("../../scenarios/fields-walkers.toml"),
     ),
+    ("circle", include_str!("../../scenarios/circle.toml")),
+    ("blocks", include_str!("../../scenarios/blocks.toml")),
 ];
 
 /// The names of the built-in scenarios.

@@ -21,4 +21,4 @@ pub use builtin::{BUILTIN, builtin, builtin_names};
 pub use fields::{FieldSpec, GoalSpec, MapSource, WalkerSpec};
 pub use group::{AgentRef, FormationSpec, Members};
 pub use obstacles::{GravitySpec, ObstacleSpec, PolygonSpec, RandomCircles, RandomGravity};
-pub use spec::{DensitySpec, GroupSpec, Scenario, Spawn, WorldScale, WorldSpec};
+pub use spec::{AgentGoal, DensitySpec, GroupSpec, Scenario, Spawn, WorldScale, WorldSpec};

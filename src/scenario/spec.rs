@@ -8,7 +8,7 @@ use serde::{Deserialize, Serialize};
 
 use crate::agents::AgentInit;
 use crate::bounds::Bounds;
-use crate::error::{Error, Result, finite, non_negative, positive};
+use crate::error::{Error, Result, finite, finite_vec, non_negative, positive};
 use crate::spatial::IndexKind;
 use crate::world::{GroupParams, World};
 
@@ -152,6 +152,82 @@ pub enum Spawn {
     },
     /// Uniformly over the free cells of the scenario's `[field]`.
     FreeCells,
+    /// On a lattice: agent `k` at `origin + (k mod columns, k div columns) * spacing`, so the
+    /// block grows by rows with the count.
+    Grid {
+        /// The first agent's position.
+        origin: Vec2,
+        /// The step along a row (x) and between rows (y); negative steps grow the other way.
+        spacing: Vec2,
+        /// Agents per row (> 0).
+        columns: usize,
+    },
+    /// Evenly on a circle, agent `k` of `n` at the angle `k * 2 pi / n` from +x (RVO2's Circle
+    /// example). With `per`, the radius grows with the count: `radius * n / per`, so the
+    /// spacing stays that of `per` agents on a circle of `radius`.
+    Circle {
+        /// Centre.
+        center: Vec2,
+        /// Radius (>= 0).
+        radius: f32,
+        /// The count at which the radius is `radius` (> 0). Default: none (fixed radius).
+        #[serde(default)]
+        per: Option<usize>,
+    },
+}
+
+/// Each agent's own target point (`goal` in a group's table), which `target = "own"` seeks
+/// and an `arrival_radius` counts arrivals at.
+#[derive(Clone, Copy, Debug, PartialEq, Serialize, Deserialize)]
+#[serde(tag = "kind", rename_all = "snake_case", deny_unknown_fields)]
+pub enum AgentGoal {
+    /// The start position mirrored through `center` (default the origin): crossing a circle.
+    Antipode {
+        /// The centre of the mirror.
+        #[serde(default)]
+        center: Vec2,
+    },
+    /// One point for every agent of the group.
+    Point {
+        /// The point.
+        point: Vec2,
+    },
+    /// The start position moved by `by`: a stream crossing the world.
+    Offset {
+        /// The displacement.
+        by: Vec2,
+    },
+}
+
+impl AgentGoal {
+    /// The goal of an agent that starts at `start`.
+    #[must_use]
+    pub fn of(&self, start: Vec2) -> Vec2 {
+        match *self {
+            AgentGoal::Antipode { center } => center * 2.0 - start,
+            AgentGoal::Point { point } => point,
+            AgentGoal::Offset { by } => start + by,
+        }
+    }
+
+    /// Moves the goal with a scenario tile.
+    pub(crate) fn shift(&mut self, offset: Vec2) {
+        match self {
+            AgentGoal::Antipode { center } => *center += offset,
+            AgentGoal::Point { point } => *point += offset,
+            AgentGoal::Offset { .. } => {}
+        }
+    }
+}
+
+/// Agent `k` of `n` evenly on a circle, as [`Spawn::Circle`] places it.
+fn circle_point(center: Vec2, radius: f32, per: Option<usize>, k: usize, n: usize) -> Vec2 {
+    let r = match per {
+        Some(per) => radius * n as f32 / per as f32,
+        None => radius,
+    };
+    let angle = k as f32 * std::f32::consts::TAU * (1.0 / n as f32);
+    center + Vec2::new(angle.cos(), angle.sin()) * r
 }
 
 /// One group: its count, spawn region and profile. The profile's keys (`model`, `max_speed`,
@@ -170,6 +246,9 @@ pub struct GroupSpec {
     /// Initial speed, in a random direction (>= 0). Default: 0.
     #[serde(default)]
     pub initial_speed: f32,
+    /// Each agent's own target point. Default: none (the start position).
+    #[serde(default)]
+    pub goal: Option<AgentGoal>,
     /// The profile.
     #[serde(flatten)]
     pub params: GroupParams,
@@ -191,6 +270,8 @@ struct GroupPlacement {
     spawn: Spawn,
     #[serde(default)]
     initial_speed: f32,
+    #[serde(default)]
+    goal: Option<AgentGoal>,
 }
 
 impl<'de> Deserialize<'de> for GroupSpec {
@@ -200,7 +281,7 @@ impl<'de> Deserialize<'de> for GroupSpec {
         use serde::de::Error as _;
         let mut table = toml::Table::deserialize(d)?;
         let mut placement = toml::Table::new();
-        for key in ["count", "fixed", "spawn", "initial_speed"] {
+        for key in ["count", "fixed", "spawn", "initial_speed", "goal"] {
             if let Some(v) = table.remove(key) {
                 placement.insert(key.to_string(), v);
             }
@@ -214,6 +295,7 @@ impl<'de> Deserialize<'de> for GroupSpec {
             fixed: p.fixed,
             spawn: p.spawn,
             initial_speed: p.initial_speed,
+            goal: p.goal,
             params,
         })
     }
@@ -400,6 +482,35 @@ impl Scenario {
                         finite("spawn.points", p.y)?;
                     }
                 }
+                Spawn::Grid {
+                    origin,
+                    spacing,
+                    columns,
+                } => {
+                    finite_vec("spawn.origin", *origin)?;
+                    finite_vec("spawn.spacing", *spacing)?;
+                    if *columns == 0 {
+                        return Err(Error::NotPositive {
+                            name: "spawn.columns",
+                            value: 0.0,
+                        });
+                    }
+                }
+                Spawn::Circle {
+                    center,
+                    radius,
+                    per,
+                } => {
+                    finite("spawn.center", center.x)?;
+                    finite("spawn.center", center.y)?;
+                    non_negative("spawn.radius", *radius)?;
+                    if *per == Some(0) {
+                        return Err(Error::NotPositive {
+                            name: "spawn.per",
+                            value: 0.0,
+                        });
+                    }
+                }
                 Spawn::Uniform => {}
                 Spawn::FreeCells if self.field.is_none() => {
                     return Err(Error::Invalid {
@@ -409,6 +520,14 @@ impl Scenario {
                 }
                 Spawn::FreeCells => {}
             }
+        }
+        for g in &self.groups {
+            match g.goal {
+                Some(AgentGoal::Antipode { center }) => finite_vec("goal.center", center)?,
+                Some(AgentGoal::Point { point }) => finite_vec("goal.point", point)?,
+                Some(AgentGoal::Offset { by }) => finite_vec("goal.by", by)?,
+                None => Vec2::ZERO,
+            };
         }
         for f in &self.formations {
             f.validate(self.groups.len())?;
@@ -623,12 +742,28 @@ impl Scenario {
             for k in 0..n {
                 let position = match &g.spawn {
                     Spawn::Points { points } => points[k],
+                    &Spawn::Circle {
+                        center,
+                        radius,
+                        per,
+                    } => circle_point(center, radius, per, k, n),
+                    &Spawn::Grid {
+                        origin,
+                        spacing,
+                        columns,
+                    } => {
+                        let cell = Vec2::new((k % columns) as f32, (k / columns) as f32);
+                        origin + cell * spacing
+                    }
                     _ => g.spawn_point(&mut rng, bounds, &world)?,
                 };
                 // A walled world has no room outside it, and explicit points must be in the world;
                 // random regions on a torus wrap around.
-                let strict = matches!(bounds, Bounds::Bounded { .. })
-                    || matches!(g.spawn, Spawn::Points { .. });
+                let placed = matches!(
+                    g.spawn,
+                    Spawn::Points { .. } | Spawn::Circle { .. } | Spawn::Grid { .. }
+                );
+                let strict = matches!(bounds, Bounds::Bounded { .. }) || placed;
                 if strict && !bounds.contains(position) {
                     return Err(Error::Invalid {
                         name: format!("groups[{gi}].spawn"),
@@ -641,9 +776,7 @@ impl Scenario {
                 let mut position = bounds.wrap(position);
                 // Random spawns that land inside an obstacle are drawn again.
                 let mut tries = 0;
-                while !matches!(g.spawn, Spawn::Points { .. })
-                    && world.obstacles().inside_circle(position)
-                {
+                while !placed && world.obstacles().inside_circle(position) {
                     tries += 1;
                     if tries > 1000 {
                         return Err(Error::Invalid {
@@ -655,13 +788,16 @@ impl Scenario {
                 }
                 let heading = rng.random::<f32>() * 2.0 * PI;
                 let velocity = Vec2::from_angle(heading) * g.initial_speed.min(g.params.max_speed);
-                world.add_agent(AgentInit {
+                let id = world.add_agent(AgentInit {
                     position,
                     velocity,
                     orientation: heading,
                     group: gi,
                     ..AgentInit::default()
                 })?;
+                if let Some(goal) = &g.goal {
+                    world.set_target(id, goal.of(position))?;
+                }
             }
         }
         self.gravity.apply(&mut world, self.seed)?;
@@ -702,6 +838,12 @@ impl GroupSpec {
             Spawn::Rect { min, max } => crate::spawn::sample_rect(rng, *min, *max),
             Spawn::Disc { center, radius } => crate::spawn::sample_ring(rng, *center, 0.0, *radius),
             Spawn::Points { points } => points.first().copied().unwrap_or(Vec2::ZERO),
+            &Spawn::Circle {
+                center,
+                radius,
+                per,
+            } => circle_point(center, radius, per, 0, self.count.max(1)),
+            Spawn::Grid { origin, .. } => *origin,
         })
     }
 

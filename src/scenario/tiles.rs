@@ -106,7 +106,10 @@ impl Scenario {
                         *min += shift.offset;
                         *max += shift.offset;
                     }
-                    Spawn::Disc { center, .. } => *center += shift.offset,
+                    Spawn::Disc { center, .. } | Spawn::Circle { center, .. } => {
+                        *center += shift.offset;
+                    }
+                    Spawn::Grid { origin, .. } => *origin += shift.offset,
                     Spawn::Points { points } => points.iter_mut().for_each(|p| *p += shift.offset),
                     Spawn::Uniform => {
                         g.spawn = Spawn::Rect {
@@ -115,6 +118,9 @@ impl Scenario {
                         };
                     }
                     Spawn::FreeCells => {}
+                }
+                if let Some(goal) = &mut g.goal {
+                    goal.shift(shift.offset);
                 }
                 for w in &mut g.params.steering.behaviours {
                     shift.behaviour(&mut w.behaviour);

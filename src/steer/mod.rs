@@ -14,7 +14,9 @@
 //! - [`adapter`]: the model adapter (force and desired velocity, clamps, the overflow guard);
 //! - [`neighbours`]: the fused neighbour traversal (scalar reference and per-agent grid kernel);
 //! - [`cells`]: flocking evaluated in cell batches by a SIMD kernel;
-//! - [`pass`]: the steering pass that runs each agent by its plan into SoA outputs.
+//! - [`pass`]: the steering pass that runs each agent by its plan into SoA outputs;
+//! - [`orca`]: the ORCA filter, which replaces the requests of ORCA groups by collision-free
+//!   velocities.
 //!
 //! Invariants: the pass reads frame-t state only and writes only each agent's own outputs, so
 //! the result does not depend on the thread count; plans are current whenever a step runs.
@@ -23,6 +25,7 @@ pub(crate) mod adapter;
 pub(crate) mod cells;
 pub(crate) mod eval;
 pub(crate) mod neighbours;
+pub(crate) mod orca;
 pub(crate) mod pass;
 pub(crate) mod plan;
 pub(crate) mod view;

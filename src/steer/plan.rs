@@ -124,6 +124,8 @@ pub(crate) struct Plan {
     pub follow: Option<(usize, usize)>,
     /// The largest `within` radius of a nearest-agent target per group it looks for.
     pub nearest: Vec<(usize, f32)>,
+    /// The group's ORCA filter.
+    pub orca: Option<crate::orca::Orca>,
 }
 
 impl Plan {
@@ -218,6 +220,7 @@ impl Plan {
             kind,
             follow,
             nearest,
+            orca: profile.orca,
         })
     }
 }

@@ -63,6 +63,10 @@ pub struct StepStats {
     /// Mean number of neighbours found per agent within the largest query radius (0 when no
     /// behaviour queries neighbours).
     pub mean_neighbours: f64,
+    /// Agents within their group's arrival radius of their own target after the step.
+    pub arrived: usize,
+    /// Agents of groups with an arrival radius (0 when no group has one).
+    pub with_goal: usize,
 }
 
 impl StepStats {

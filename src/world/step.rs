@@ -38,6 +38,13 @@ pub(crate) struct Scratch {
     prev_y: Vec<f32>,
     /// The reordering permutation.
     perm: Vec<u32>,
+    /// The walls as ORCA edge chains, built for `orca_walls_of` walls.
+    orca_walls: crate::orca::WallChains,
+    orca_walls_of: usize,
+    /// Contact resolution: its buffers, which agents move, their ids.
+    contact: crate::orca::contact::ContactScratch,
+    moves: Vec<bool>,
+    ids: Vec<u32>,
 }
 
 /// How a step runs: on the rayon pool, or on the calling thread alone.
@@ -125,8 +132,9 @@ impl World {
         self.integrate(dt, exec);
         phases.integrate = t.elapsed();
 
-        // bounds: the world's edges, then obstacle non-penetration
+        // bounds: contact between agents, the world's edges, then obstacle non-penetration
         let t = Instant::now();
+        self.resolve_contacts(exec);
         apply_bounds(&mut self.agents, self.bounds, exec == Execution::Parallel);
         if !self.obstacles.is_empty() {
             self.resolve_obstacles(exec);
@@ -157,12 +165,15 @@ impl World {
                 .sum::<f64>()
                 / n as f64
         };
+        let (arrived, with_goal) = self.arrivals();
         Ok(StepStats {
             frame: self.frame,
             agents: n,
             total: start.elapsed(),
             phases,
             mean_neighbours,
+            arrived,
+            with_goal,
         })
     }
 
@@ -225,6 +236,76 @@ impl World {
             &mut self.scratch.pass,
             exec == Execution::Parallel,
         );
+        if steer::orca::any(&view) {
+            let walls = self.obstacles.walls();
+            if self.scratch.orca_walls_of != walls.len() {
+                self.scratch.orca_walls = crate::orca::WallChains::new(walls);
+                self.scratch.orca_walls_of = walls.len();
+            }
+            steer::orca::run(
+                &view,
+                &self.scratch.orca_walls,
+                &mut self.scratch.out,
+                exec == Execution::Parallel,
+            );
+        }
+    }
+
+    /// Hard contact resolution among the agents of ORCA groups with `contact` on.
+    fn resolve_contacts(&mut self, exec: Execution) {
+        let iterations = self
+            .groups
+            .iter()
+            .filter_map(|g| g.orca.filter(|o| o.contact).map(|o| o.contact_iterations))
+            .max();
+        let Some(iterations) = iterations else {
+            return;
+        };
+        let a = &mut self.agents;
+        let groups = &self.groups;
+        self.scratch.moves.clear();
+        self.scratch.moves.extend(
+            a.group
+                .iter()
+                .map(|&g| groups[g as usize].orca.is_some_and(|o| o.contact)),
+        );
+        self.scratch.ids.clear();
+        self.scratch.ids.extend(a.ids.iter().map(|id| id.0));
+        let input = crate::orca::contact::ContactInput {
+            bounds: self.bounds,
+            radius: &a.radius,
+            ids: &self.scratch.ids,
+            moves: &self.scratch.moves,
+            iterations,
+            tolerance: 0.03,
+        };
+        crate::orca::contact::resolve(
+            &input,
+            &mut a.pos_x,
+            &mut a.pos_y,
+            &mut self.scratch.contact,
+            exec == Execution::Parallel,
+        );
+    }
+
+    /// `(arrived, with_goal)`: agents of groups with an arrival radius, and those of them within
+    /// it of their own target.
+    fn arrivals(&self) -> (usize, usize) {
+        if self.groups.iter().all(|g| g.arrival_radius.is_none()) {
+            return (0, 0);
+        }
+        let a = &self.agents;
+        let (mut arrived, mut with_goal) = (0, 0);
+        for i in 0..a.len() {
+            if let Some(r) = self.groups[a.group[i] as usize].arrival_radius {
+                with_goal += 1;
+                let to = self
+                    .bounds
+                    .offset(a.position(i), glam::Vec2::new(a.target_x[i], a.target_y[i]));
+                arrived += usize::from(to.length_squared() <= r * r);
+            }
+        }
+        (arrived, with_goal)
     }
 
     /// The integrator over all agents: the SIMD pass, or its scalar reference sequentially.
@@ -341,8 +422,10 @@ impl World {
         let query_r = self
             .plans
             .iter()
-            .filter(|p| p.spec.active)
-            .map(|p| p.spec.query_r)
+            .map(|p| {
+                let flock = if p.spec.active { p.spec.query_r } else { 0.0 };
+                flock.max(p.orca.map_or(0.0, |o| o.neighbour_dist))
+            })
             .fold(0.0_f32, f32::max);
         if query_r <= 0.0 || self.agents.is_empty() {
             return false;

@@ -1,0 +1,215 @@
+//! The ORCA filter of the steering layer: after the steering pass, every agent of a group with
+//! [`Orca`] parameters has its request replaced by the collision-free velocity closest to its
+//! preferred one ([`crate::orca`]).
+//!
+//! Per agent: the preferred velocity from the pass's output (kinematic: the desired velocity;
+//! dynamic: `velocity + acceleration * dt`), truncated to `pref_speed` and perturbed when the
+//! group asks; the hard lines of the walls (nearest edge first) and circles within
+//! `time_horizon_obst * max_speed + radius`; the lines of the nearest `max_neighbours` agents
+//! within `neighbour_dist`, sorted by `(distance, id)`; the linear program. The result is
+//! written back as the desired velocity (kinematic) or as the acceleration towards it, clamped
+//! to the group's maximum (dynamic).
+//!
+//! Invariants: reads frame-t positions and velocities and the agent's own request only, writes
+//! only the agent's own request, so the result does not depend on the order or the thread in
+//! which agents are filtered; per-worker buffers are reused, so a warm step allocates nothing.
+
+use std::cell::RefCell;
+
+use glam::Vec2;
+use rayon::prelude::*;
+
+use super::pass::{STEER_CHUNK, SteerOut};
+use super::view::SteerView;
+use crate::orca::{Line, Orca, WallChains, agent_line, solve};
+use crate::rng::{AgentRng, Stream};
+use crate::spatial::{Neighbour, NeighbourIndex};
+
+/// One worker's buffers.
+#[derive(Default)]
+struct Buffers {
+    found: Vec<Neighbour>,
+    /// `(dist_sq, id, index)` of the candidates.
+    near: Vec<(f32, u32, u32)>,
+    lines: Vec<Line>,
+    projected: Vec<Line>,
+    walls: Vec<u32>,
+    circles: Vec<u32>,
+    edges: Vec<(f32, u32)>,
+    inside: Vec<(u32, bool)>,
+}
+
+thread_local! {
+    static BUFFERS: RefCell<Buffers> = RefCell::new(Buffers::default());
+}
+
+/// Whether some plan filters its agents through ORCA.
+pub(crate) fn any(view: &SteerView) -> bool {
+    view.plans.iter().any(|p| p.orca.is_some())
+}
+
+/// Filters the requests in `out` of every agent whose group uses ORCA.
+pub(crate) fn run(view: &SteerView, walls: &WallChains, out: &mut SteerOut, parallel: bool) {
+    let n = view.agents.len();
+    let chunk = |base: usize, lx: &mut [f32], ly: &mut [f32]| {
+        BUFFERS.with_borrow_mut(|b| {
+            for k in 0..lx.len() {
+                let i = base + k;
+                let g = view.agents.group[i] as usize;
+                if let Some(orca) = view.plans[g].orca {
+                    let (x, y) = filter(view, walls, &orca, i, (lx[k], ly[k]), b);
+                    lx[k] = x;
+                    ly[k] = y;
+                }
+            }
+        });
+    };
+    let (lx, ly) = (&mut out.lin_x[..n], &mut out.lin_y[..n]);
+    if parallel {
+        lx.par_chunks_mut(STEER_CHUNK)
+            .zip(ly.par_chunks_mut(STEER_CHUNK))
+            .enumerate()
+            .for_each(|(c, (x, y))| chunk(c * STEER_CHUNK, x, y));
+    } else {
+        chunk(0, lx, ly);
+    }
+}
+
+/// One agent's filtered request.
+fn filter(
+    view: &SteerView,
+    walls: &WallChains,
+    orca: &Orca,
+    i: usize,
+    request: (f32, f32),
+    b: &mut Buffers,
+) -> (f32, f32) {
+    let a = view.agents;
+    let g = a.group[i] as usize;
+    let plan = &view.plans[g];
+    let dt = view.dt;
+    let pos = a.position(i);
+    let vel = a.velocity(i);
+    let radius = a.radius[i];
+    let max_speed = a.max_speed[i];
+    let id = a.ids[i].0;
+    let request = Vec2::new(request.0, request.1);
+    let mut pref = if plan.adapter.kinematic {
+        request
+    } else {
+        vel + request * dt
+    };
+    if let Some(s) = orca.pref_speed {
+        pref = crate::steering::truncate(pref, s);
+    }
+    if orca.perturbation > 0.0 {
+        let mut rng = AgentRng::new(view.seed, id, view.frame, Stream::Orca as u32);
+        let angle = rng.unit() * std::f32::consts::TAU;
+        pref += Vec2::from_angle(angle) * (orca.perturbation * rng.unit());
+    }
+    b.lines.clear();
+
+    // Hard lines: walls nearest edge first, then circles.
+    let inv_tau_obst = 1.0 / orca.time_horizon_obst;
+    let range = orca.time_horizon_obst * max_speed + radius;
+    if !view.obstacles.is_empty() {
+        b.walls.clear();
+        b.circles.clear();
+        view.obstacles
+            .broadphase()
+            .visit(pos, range, |c| b.circles.push(c), |w| b.walls.push(w));
+        b.walls.sort_unstable();
+        b.walls.dedup();
+        b.circles.sort_unstable();
+        b.circles.dedup();
+        if !walls.is_empty() {
+            b.edges.clear();
+            b.inside.clear();
+            for &w in &b.walls {
+                walls.edges_near(w as usize, pos, range * range, &mut b.inside, &mut b.edges);
+            }
+            b.edges
+                .sort_unstable_by(|x, y| x.0.total_cmp(&y.0).then(x.1.cmp(&y.1)));
+            walls.lines(&b.edges, pos, vel, radius, inv_tau_obst, &mut b.lines);
+        }
+        for &c in &b.circles {
+            let circle = view.obstacles.circles()[c as usize];
+            let rel = view.bounds.offset(pos, circle.center);
+            let reach = range + circle.radius;
+            if rel.length_squared() < reach * reach {
+                b.lines.push(agent_line(
+                    vel,
+                    rel,
+                    vel,
+                    circle.radius + radius,
+                    inv_tau_obst,
+                    1.0 / dt,
+                    1.0,
+                    1.0,
+                ));
+            }
+        }
+    }
+    let hard = b.lines.len();
+
+    // Agent lines, nearest first (ties by id).
+    let r = orca.neighbour_dist;
+    view.index.neighbours_at(pos, r, &mut b.found);
+    b.near.clear();
+    b.near.extend(
+        b.found
+            .iter()
+            .filter(|nb| nb.index as usize != i)
+            .map(|nb| (nb.dist_sq, a.ids[nb.index as usize].0, nb.index)),
+    );
+    let k = orca.max_neighbours as usize;
+    let by_distance =
+        |x: &(f32, u32, u32), y: &(f32, u32, u32)| x.0.total_cmp(&y.0).then(x.1.cmp(&y.1));
+    if b.near.len() > k {
+        b.near.select_nth_unstable_by(k - 1, by_distance);
+        b.near.truncate(k);
+    }
+    b.near.sort_unstable_by(by_distance);
+    let inv_tau = 1.0 / orca.time_horizon;
+    let inv_dt = 1.0 / dt;
+    for &(_, other_id, j) in &b.near {
+        let j = j as usize;
+        let rel = view.bounds.offset(pos, a.position(j));
+        let other_vel = a.velocity(j);
+        let share = match view.plans[a.group[j] as usize].orca {
+            Some(o) => {
+                let sum = orca.responsibility + o.responsibility;
+                if sum > 0.0 {
+                    orca.responsibility / sum
+                } else {
+                    0.5
+                }
+            }
+            None => 1.0,
+        };
+        let tie = if id < other_id { 1.0 } else { -1.0 };
+        b.lines.push(agent_line(
+            vel,
+            rel,
+            vel - other_vel,
+            radius + a.radius[j],
+            inv_tau,
+            inv_dt,
+            share,
+            tie,
+        ));
+    }
+
+    let chosen = solve(&b.lines, hard, max_speed, pref, &mut b.projected);
+    let chosen = if chosen.is_finite() {
+        chosen
+    } else {
+        Vec2::ZERO
+    };
+    let out = if plan.adapter.kinematic {
+        chosen
+    } else {
+        crate::steering::truncate((chosen - vel) / dt, plan.adapter.max_acceleration)
+    };
+    (out.x, out.y)
+}
