@@ -309,3 +309,77 @@ fn bad_orca_keys_in_a_scenario_are_errors_naming_the_key() {
         assert!(err.contains(key), "{bad}: {err}");
     }
 }
+
+#[test]
+fn everyone_leaves_the_evacuation_room_and_no_centre_enters_a_pillar() {
+    let s = scenario::builtin("evacuation").unwrap();
+    let mut w = s.build().unwrap();
+    let pillars: Vec<_> = w.obstacles().circles().to_vec();
+    let start = w.len();
+    let mut left = 0;
+    for _ in 0..3000 {
+        let stats = w.step(s.dt).unwrap();
+        left += stats.left;
+        for i in 0..w.len() {
+            let p = w.agents().position(i);
+            for c in &pillars {
+                assert!(
+                    p.distance(c.center) >= c.radius,
+                    "agent at {p} inside a pillar"
+                );
+            }
+        }
+        if w.is_empty() {
+            break;
+        }
+    }
+    assert!(w.is_empty(), "{} agents still inside", w.len());
+    assert_eq!(left, start, "every agent left through an exit");
+}
+
+#[test]
+fn the_evacuation_is_bit_identical_on_1_2_and_4_threads() {
+    let s = scenario::builtin("evacuation").unwrap();
+    let runs: Vec<_> = [1, 2, 4]
+        .into_iter()
+        .map(|t| {
+            let pool = rayon::ThreadPoolBuilder::new()
+                .num_threads(t)
+                .build()
+                .unwrap();
+            let mut w = s.build().unwrap();
+            pool.install(|| {
+                for _ in 0..150 {
+                    w.step(s.dt).unwrap();
+                }
+            });
+            state(&w)
+        })
+        .collect();
+    assert!(!runs[0].is_empty());
+    assert_eq!(runs[0], runs[1]);
+    assert_eq!(runs[0], runs[2]);
+}
+
+#[test]
+fn crossing_streams_pass_through_each_other() {
+    let s = scenario::builtin("crossing")
+        .unwrap()
+        .with_agents(600)
+        .unwrap();
+    let mut w = s.build().unwrap();
+    let mut closest = closest_pair(&w);
+    let mut last = StepStats::default();
+    for _ in 0..1500 {
+        last = w.step(s.dt).unwrap();
+        closest = closest.min(closest_pair(&w));
+    }
+    // 300 units at speed 1.5 take 800 steps; the last few squeeze into their places later.
+    assert!(
+        last.arrived * 100 >= last.with_goal * 95,
+        "{} of {} arrived",
+        last.arrived,
+        last.with_goal
+    );
+    assert!(closest >= 0.88, "closest pair at {closest}");
+}

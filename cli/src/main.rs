@@ -561,7 +561,8 @@ fn run_steps(
         if let Some(p) = &progress {
             p.inc(1);
         }
-        if d.until_arrived && timings.arrivals().all() {
+        // Done when every agent with a goal is at it, or every agent has left through an exit.
+        if d.until_arrived && (timings.arrivals().all() || world.is_empty()) {
             break;
         }
     }

@@ -43,6 +43,9 @@ pub(super) struct WorldState {
     /// Target slots (absent from files written before slots existed: none).
     #[serde(default)]
     targets: Vec<crate::targets::TargetPoint>,
+    /// Exits (absent from files written before exits existed: none).
+    #[serde(default)]
+    exits: Vec<crate::world::Exit>,
     circles: Vec<Circle>,
     walls: Vec<Wall>,
     gravity: Vec<GravityPoint>,
@@ -112,6 +115,7 @@ impl WorldState {
             groups: w.groups.clone(),
             paths: gm.paths.clone(),
             targets: w.targets.as_slice().to_vec(),
+            exits: w.exits.clone(),
             circles: w.obstacles.circles().to_vec(),
             walls: w.obstacles.walls().to_vec(),
             gravity: w.gravity.points().to_vec(),
@@ -162,6 +166,9 @@ impl WorldState {
         }
         for (g, p) in self.groups.into_iter().enumerate() {
             at(|| format!("groups[{g}]"), w.add_group(p))?;
+        }
+        for (k, e) in self.exits.into_iter().enumerate() {
+            at(|| format!("exits[{k}]"), w.add_exit(e))?;
         }
         w.obstacles = at(
             || "obstacles".into(),

@@ -2,8 +2,8 @@
 //!
 //! ORCA guarantees collision-free velocities only while its linear program is feasible; in a
 //! dense crowd it is not, and the 3D program lets pairs overlap. This pass takes the positions
-//! after the move, lists the pairs near contact (within 1.5 times their summed radii, found in
-//! parallel through a grid and concatenated in index order), and then sweeps the list in that
+//! after the move, lists the pairs near contact (within 1.5 times their summed radii, searched
+//! in parallel through a grid from the agents flagged as near, sorted), and then sweeps the list in that
 //! order, Gauss-Seidel fashion: each overlapping pair is moved apart along the line between its
 //! centres to exactly touching, each agent by its share (half when both take part, all of it
 //! when the other does not move). Sweeps stop when no pair overlaps by more than `tolerance` of
@@ -40,6 +40,9 @@ pub(crate) struct ContactInput<'a> {
     pub ids: &'a [u32],
     /// Whether each agent takes part (its group has contact on).
     pub moves: &'a [bool],
+    /// Whether each agent may be near contact after the move (pairs are searched from these;
+    /// every agent that may touch another must have it set).
+    pub near: &'a [bool],
     pub iterations: u32,
     /// Overlaps below this fraction of `ri + rj` end the sweeps early.
     pub tolerance: f32,
@@ -58,7 +61,7 @@ pub(crate) fn resolve(
     parallel: bool,
 ) -> u32 {
     let n = xs.len();
-    if n < 2 || !input.moves.iter().any(|&m| m) {
+    if n < 2 || !input.moves.iter().zip(input.near).any(|(&m, &c)| m && c) {
         return 0;
     }
     let max_r = input.radius.iter().copied().fold(0.0_f32, f32::max);
@@ -75,13 +78,16 @@ pub(crate) fn resolve(
         out.clear();
         FOUND.with_borrow_mut(|found| {
             for i in c * CHUNK..((c + 1) * CHUNK).min(n) {
+                if !(input.moves[i] && input.near[i]) {
+                    continue;
+                }
                 let ri = input.radius[i];
                 grid.neighbours_of(i, NEAR * (ri + max_r), found);
                 for nb in found.iter() {
                     let j = nb.index as usize;
                     let near = NEAR * (ri + input.radius[j]);
-                    if j > i && (input.moves[i] || input.moves[j]) && nb.dist_sq < near * near {
-                        out.push((i as u32, j as u32));
+                    if nb.dist_sq < near * near {
+                        out.push((i.min(j) as u32, i.max(j) as u32));
                     }
                 }
             }
@@ -102,6 +108,9 @@ pub(crate) fn resolve(
     for c in &scratch.chunks {
         scratch.pairs.extend_from_slice(c);
     }
+    // A pair of two searching agents is found from both.
+    scratch.pairs.sort_unstable();
+    scratch.pairs.dedup();
     if scratch.pairs.is_empty() {
         return 0;
     }
@@ -174,6 +183,7 @@ mod tests {
             radius: &radius,
             ids: &ids,
             moves: &moves,
+            near: &moves,
             iterations: 64,
             tolerance: 0.01,
         };
@@ -208,6 +218,7 @@ mod tests {
             radius: &[0.5, 0.5, 0.5],
             ids: &[0, 1, 2],
             moves: &[true, true, false],
+            near: &[true, true, true],
             iterations: 4,
             tolerance: 0.0,
         };

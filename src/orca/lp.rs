@@ -144,7 +144,8 @@ fn program_3d(
         // Lines of equal violation of `li` and each earlier soft line; hard lines stay.
         projected.clear();
         projected.extend_from_slice(&lines[..hard]);
-        for lj in &lines[hard..i] {
+        // When a hard line itself failed (`i < hard`) there are no soft lines to project.
+        for lj in &lines[hard.min(i)..i] {
             let denom = li.dir.perp_dot(lj.dir);
             let point = if denom.abs() <= EPSILON {
                 if li.dir.dot(lj.dir) > 0.0 {
@@ -252,7 +253,13 @@ mod tests {
         fn the_3d_program_minimises_the_largest_violation(
             lines in prop::collection::vec(line_strategy(), 2..7),
             px in -2.0f32..2.0, py in -2.0f32..2.0,
+            hard in 0usize..4,
         ) {
+            // Any number of hard lines, even infeasible ones, gives an answer in the circle.
+            let mut scratch = Vec::new();
+            let hard = hard.min(lines.len());
+            let v = solve(&lines, hard, 1.0, Vec2::new(px, py), &mut scratch);
+            prop_assert!(v.is_finite() && v.length() <= 1.0 + 1e-4);
             let r = 1.0;
             let pref = Vec2::new(px, py);
             let (failed, _) = program_2d(&lines, r, pref, false);

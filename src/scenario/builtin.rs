@@ -28,6 +28,11 @@ pub const BUILTIN: &[(&str, &str)] = &[
     ),
     ("circle", include_str!("../../scenarios/circle.toml")),
     ("blocks", include_str!("../../scenarios/blocks.toml")),
+    ("crossing", include_str!("../../scenarios/crossing.toml")),
+    (
+        "evacuation",
+        include_str!("../../scenarios/evacuation.toml"),
+    ),
 ];
 
 /// The names of the built-in scenarios.

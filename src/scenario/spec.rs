@@ -54,6 +54,10 @@ pub struct Scenario {
     /// A grid field (goal channels, walls, walkers). Default: none.
     #[serde(default, skip_serializing_if = "Option::is_none")]
     pub field: Option<super::fields::FieldSpec>,
+    /// Exits: `{ min = [x, y], max = [x, y] }` rectangles through which agents leave the
+    /// world. Default: none.
+    #[serde(default, skip_serializing_if = "Vec::is_empty")]
+    pub exits: Vec<crate::world::Exit>,
 }
 
 fn default_seed() -> u64 {
@@ -152,15 +156,18 @@ pub enum Spawn {
     },
     /// Uniformly over the free cells of the scenario's `[field]`.
     FreeCells,
-    /// On a lattice: agent `k` at `origin + (k mod columns, k div columns) * spacing`, so the
-    /// block grows by rows with the count.
+    /// On a lattice: agent `k` at `origin + (k mod columns, k div columns) * spacing` (with
+    /// `transpose`, `(k div columns, k mod columns)`), so the block grows by rows with the count.
     Grid {
         /// The first agent's position.
         origin: Vec2,
-        /// The step along a row (x) and between rows (y); negative steps grow the other way.
+        /// The step along x and along y; negative steps grow the other way.
         spacing: Vec2,
-        /// Agents per row (> 0).
+        /// Agents per row (> 0): along x, or along y with `transpose`.
         columns: usize,
+        /// Rows run along y and grow along x. Default: false.
+        #[serde(default)]
+        transpose: bool,
     },
     /// Evenly on a circle, agent `k` of `n` at the angle `k * 2 pi / n` from +x (RVO2's Circle
     /// example). With `per`, the radius grows with the count: `radius * n / per`, so the
@@ -486,6 +493,7 @@ impl Scenario {
                     origin,
                     spacing,
                     columns,
+                    ..
                 } => {
                     finite_vec("spawn.origin", *origin)?;
                     finite_vec("spawn.spacing", *spacing)?;
@@ -531,6 +539,9 @@ impl Scenario {
         }
         for f in &self.formations {
             f.validate(self.groups.len())?;
+        }
+        for e in &self.exits {
+            e.validate()?;
         }
         Ok(())
     }
@@ -723,6 +734,9 @@ impl Scenario {
             world.add_path(p.clone())?;
         }
         self.obstacles.apply(&mut world, self.seed)?;
+        for e in &self.exits {
+            world.add_exit(*e)?;
+        }
         for g in &self.groups {
             world.add_group(g.params.clone())?;
         }
@@ -751,8 +765,14 @@ impl Scenario {
                         origin,
                         spacing,
                         columns,
+                        transpose,
                     } => {
-                        let cell = Vec2::new((k % columns) as f32, (k / columns) as f32);
+                        let (along, across) = ((k % columns) as f32, (k / columns) as f32);
+                        let cell = if transpose {
+                            Vec2::new(across, along)
+                        } else {
+                            Vec2::new(along, across)
+                        };
                         origin + cell * spacing
                     }
                     _ => g.spawn_point(&mut rng, bounds, &world)?,

@@ -86,6 +86,7 @@ impl Scenario {
         out.formations.clear();
         out.obstacles = Default::default();
         out.gravity = Default::default();
+        out.exits.clear();
         let mut agents = 0u32;
         for c in 0..copies {
             let share = total / copies + usize::from(c < total % copies);
@@ -152,6 +153,10 @@ impl Scenario {
             for p in &mut o.polygons {
                 p.points.iter_mut().for_each(|q| *q += shift.offset);
             }
+            for e in &mut copy.exits {
+                e.min += shift.offset;
+                e.max += shift.offset;
+            }
             for p in &mut copy.gravity.points {
                 p.position += shift.offset;
                 match &mut p.motion {
@@ -167,6 +172,7 @@ impl Scenario {
             out.obstacles.walls.append(&mut copy.obstacles.walls);
             out.obstacles.polygons.append(&mut copy.obstacles.polygons);
             out.gravity.points.append(&mut copy.gravity.points);
+            out.exits.append(&mut copy.exits);
         }
         Ok(out)
     }

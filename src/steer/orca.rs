@@ -23,7 +23,7 @@ use super::pass::{STEER_CHUNK, SteerOut};
 use super::view::SteerView;
 use crate::orca::{Line, Orca, WallChains, agent_line, solve};
 use crate::rng::{AgentRng, Stream};
-use crate::spatial::{Neighbour, NeighbourIndex};
+use crate::spatial::{GridIndex, Neighbour, NeighbourIndex, SpatialIndex};
 
 /// One worker's buffers.
 #[derive(Default)]
@@ -48,42 +48,130 @@ pub(crate) fn any(view: &SteerView) -> bool {
     view.plans.iter().any(|p| p.orca.is_some())
 }
 
+/// The ORCA pass's own state, reused across steps.
+#[derive(Debug, Default)]
+pub(crate) struct OrcaScratch {
+    /// Per agent: whether it may touch another agent after this step's move (read by the
+    /// contact pass).
+    pub near: Vec<bool>,
+}
+
+/// What the filter needs besides the view.
+struct Context<'a> {
+    walls: &'a WallChains,
+    /// The world's grid, when candidates are read from its cell-ordered copies (open and
+    /// walled worlds, where the offset to a neighbour is the plain difference).
+    grid: Option<&'a GridIndex>,
+    /// The largest radius and speed of any agent: what bounds a pair's approach in one step.
+    r_max: f32,
+    v_max: f32,
+}
+
 /// Filters the requests in `out` of every agent whose group uses ORCA.
-pub(crate) fn run(view: &SteerView, walls: &WallChains, out: &mut SteerOut, parallel: bool) {
-    let n = view.agents.len();
-    let chunk = |base: usize, lx: &mut [f32], ly: &mut [f32]| {
+pub(crate) fn run(
+    view: &SteerView,
+    walls: &WallChains,
+    scratch: &mut OrcaScratch,
+    out: &mut SteerOut,
+    parallel: bool,
+) {
+    let a = view.agents;
+    let n = a.len();
+    let grid = match view.index {
+        SpatialIndex::Grid(g) if !view.bounds.is_torus() && g.len() == n => Some(g),
+        _ => None,
+    };
+    let ctx = Context {
+        walls,
+        grid,
+        r_max: a.radius.iter().copied().fold(0.0, f32::max),
+        v_max: a.max_speed.iter().copied().fold(0.0, f32::max),
+    };
+    scratch.near.clear();
+    scratch.near.resize(n, false);
+    let chunk = |base: usize, lx: &mut [f32], ly: &mut [f32], near: &mut [bool]| {
         BUFFERS.with_borrow_mut(|b| {
             for k in 0..lx.len() {
                 let i = base + k;
-                let g = view.agents.group[i] as usize;
+                let g = a.group[i] as usize;
                 if let Some(orca) = view.plans[g].orca {
-                    let (x, y) = filter(view, walls, &orca, i, (lx[k], ly[k]), b);
+                    let (x, y, close) = filter(view, &ctx, &orca, i, (lx[k], ly[k]), b);
                     lx[k] = x;
                     ly[k] = y;
+                    near[k] = close;
                 }
             }
         });
     };
     let (lx, ly) = (&mut out.lin_x[..n], &mut out.lin_y[..n]);
+    let near = &mut scratch.near[..];
     if parallel {
         lx.par_chunks_mut(STEER_CHUNK)
             .zip(ly.par_chunks_mut(STEER_CHUNK))
+            .zip(near.par_chunks_mut(STEER_CHUNK))
             .enumerate()
-            .for_each(|(c, (x, y))| chunk(c * STEER_CHUNK, x, y));
+            .for_each(|(c, ((x, y), f))| chunk(c * STEER_CHUNK, x, y, f));
     } else {
-        chunk(0, lx, ly);
+        chunk(0, lx, ly, near);
     }
 }
 
-/// One agent's filtered request.
+/// The agents within `r` of agent `i` at `pos` (itself left out) as `(dist_sq, id, index)`.
+fn candidates(view: &SteerView, ctx: &Context, i: usize, pos: Vec2, r: f32, b: &mut Buffers) {
+    let a = view.agents;
+    b.near.clear();
+    let r_sq = r * r;
+    match ctx.grid {
+        Some(grid) => {
+            let (sx, sy, order) = (grid.sorted_x(), grid.sorted_y(), grid.order());
+            let near = &mut b.near;
+            grid.for_each_run(pos, r, |run| {
+                let (xs, ys, ids) = (&sx[run.clone()], &sy[run.clone()], &order[run]);
+                // Eight candidates at a time: the distances in lanes, then the hits.
+                let mut k = 0;
+                while k < xs.len() {
+                    let len = (xs.len() - k).min(8);
+                    let mut hits = 0u32;
+                    let mut d = [0.0f32; 8];
+                    for l in 0..len {
+                        let (dx, dy) = (xs[k + l] - pos.x, ys[k + l] - pos.y);
+                        d[l] = dx * dx + dy * dy;
+                        hits |= u32::from(d[l] <= r_sq) << l;
+                    }
+                    while hits != 0 {
+                        let l = hits.trailing_zeros() as usize;
+                        hits &= hits - 1;
+                        let j = ids[k + l];
+                        if j as usize != i {
+                            near.push((d[l], a.ids[j as usize].0, j));
+                        }
+                    }
+                    k += len;
+                }
+            });
+        }
+        None => {
+            view.index.neighbours_at(pos, r, &mut b.found);
+            b.near.extend(
+                b.found
+                    .iter()
+                    .filter(|nb| nb.index as usize != i)
+                    .map(|nb| (nb.dist_sq, a.ids[nb.index as usize].0, nb.index)),
+            );
+        }
+    }
+}
+
+/// One agent's filtered request, and whether it may touch another agent after the move.
 fn filter(
     view: &SteerView,
-    walls: &WallChains,
+    ctx: &Context,
     orca: &Orca,
     i: usize,
     request: (f32, f32),
     b: &mut Buffers,
-) -> (f32, f32) {
+) -> (f32, f32, bool) {
+    let walls = ctx.walls;
     let a = view.agents;
     let g = a.group[i] as usize;
     let plan = &view.plans[g];
@@ -154,14 +242,7 @@ fn filter(
 
     // Agent lines, nearest first (ties by id).
     let r = orca.neighbour_dist;
-    view.index.neighbours_at(pos, r, &mut b.found);
-    b.near.clear();
-    b.near.extend(
-        b.found
-            .iter()
-            .filter(|nb| nb.index as usize != i)
-            .map(|nb| (nb.dist_sq, a.ids[nb.index as usize].0, nb.index)),
-    );
+    candidates(view, ctx, i, pos, r, b);
     let k = orca.max_neighbours as usize;
     let by_distance =
         |x: &(f32, u32, u32), y: &(f32, u32, u32)| x.0.total_cmp(&y.0).then(x.1.cmp(&y.1));
@@ -172,6 +253,15 @@ fn filter(
     b.near.sort_unstable_by(by_distance);
     let inv_tau = 1.0 / orca.time_horizon;
     let inv_dt = 1.0 / dt;
+    // Whether the agent may touch another after the move: its nearest neighbour is closer than
+    // the most both can close in one step, with a margin for the contact pass's pushes (and
+    // neighbours out of sight could be that close when the neighbourhood is tiny).
+    let reach = |other_r: f32| (max_speed + ctx.v_max) * dt + 1.25 * (radius + other_r);
+    let mut close = r < reach(ctx.r_max);
+    if let Some(&(d_sq, _, j)) = b.near.first() {
+        let limit = reach(a.radius[j as usize]);
+        close |= d_sq < limit * limit;
+    }
     for &(_, other_id, j) in &b.near {
         let j = j as usize;
         let rel = view.bounds.offset(pos, a.position(j));
@@ -211,5 +301,5 @@ fn filter(
     } else {
         crate::steering::truncate((chosen - vel) / dt, plan.adapter.max_acceleration)
     };
-    (out.x, out.y)
+    (out.x, out.y, close)
 }

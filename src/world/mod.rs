@@ -5,8 +5,8 @@
 //! plans compiled when stale; **index** (gravity points, the neighbour index and reordering, the
 //! nearest-agent indices); the subsystems' prepare hooks (**fields**, **formations**);
 //! **steer** (the steering layer's pass); **integrate** (the vectorised integrator of
-//! [`crate::movement`]); **bounds** (torus wrap or wall clamp, obstacle non-penetration); the
-//! fields' constrain hook. No per-agent logic lives here.
+//! [`crate::movement`]); **bounds** (contact between ORCA agents, torus wrap or wall clamp, obstacle
+//! non-penetration); the fields' constrain hook; arrivals counted and agents in exits removed. No per-agent logic lives here.
 //!
 //! Determinism: per-agent randomness is keyed by (seed, [`crate::AgentId`], frame), steering has
 //! no cross-agent writes and the integrator is element-wise, so the state after any number of
@@ -15,6 +15,7 @@
 //! parallel step is tested against bit for bit.
 
 mod builder;
+mod exits;
 pub(crate) mod fields;
 mod formation;
 mod state;
@@ -25,6 +26,7 @@ mod targets;
 pub use crate::group::Formation;
 pub use crate::profile::Profile;
 pub use builder::{DEFAULT_SEED, WorldBuilder};
+pub use exits::Exit;
 
 /// The former name of [`Profile`]: a group's movement model, limits and behaviours.
 pub type GroupParams = Profile;

@@ -68,6 +68,8 @@ pub struct World {
     pub(crate) plans_stale: bool,
     /// Shared target slots behaviours refer to.
     pub(crate) targets: crate::targets::TargetSlots,
+    /// Rectangles through which agents leave the world.
+    pub(crate) exits: Vec<super::Exit>,
 }
 
 impl World {
@@ -95,6 +97,7 @@ impl World {
             plans: Vec::new(),
             plans_stale: true,
             targets: Default::default(),
+            exits: Vec::new(),
         }
     }
 

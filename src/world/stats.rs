@@ -67,6 +67,8 @@ pub struct StepStats {
     pub arrived: usize,
     /// Agents of groups with an arrival radius (0 when no group has one).
     pub with_goal: usize,
+    /// Agents that left the world through an exit in this step (they are not in `agents`).
+    pub left: usize,
 }
 
 impl StepStats {

@@ -41,6 +41,8 @@ pub(crate) struct Scratch {
     /// The walls as ORCA edge chains, built for `orca_walls_of` walls.
     orca_walls: crate::orca::WallChains,
     orca_walls_of: usize,
+    /// The ORCA pass's state (its neighbour grid, the near-contact flags).
+    orca: steer::orca::OrcaScratch,
     /// Contact resolution: its buffers, which agents move, their ids.
     contact: crate::orca::contact::ContactScratch,
     moves: Vec<bool>,
@@ -165,10 +167,12 @@ impl World {
                 .sum::<f64>()
                 / n as f64
         };
+        let left = self.leave_through_exits();
         let (arrived, with_goal) = self.arrivals();
         Ok(StepStats {
             frame: self.frame,
-            agents: n,
+            agents: self.agents.len(),
+            left,
             total: start.elapsed(),
             phases,
             mean_neighbours,
@@ -245,6 +249,7 @@ impl World {
             steer::orca::run(
                 &view,
                 &self.scratch.orca_walls,
+                &mut self.scratch.orca,
                 &mut self.scratch.out,
                 exec == Execution::Parallel,
             );
@@ -276,6 +281,7 @@ impl World {
             radius: &a.radius,
             ids: &self.scratch.ids,
             moves: &self.scratch.moves,
+            near: &self.scratch.orca.near,
             iterations,
             tolerance: 0.03,
         };
