@@ -4,7 +4,7 @@
 // Pause button stops the frame number, and an error from the server is shown on the page.
 //
 //   node tests/browser/e2e.mjs [--bin target/release/throng] [--modules DIR/node_modules]
-//                              [--screenshot FILE.png] [--perf [--agents N] [--seconds S]]
+//                              [--screenshot FILE.png] [--perf [--agents N] [--seconds S] [--threads T]]
 //
 // --screenshot writes the page (after the goal click) to FILE.png; --perf instead streams a
 // flock of N agents (default 100,000) to the tab and prints the frames per second it drew.
@@ -226,7 +226,13 @@ async function endToEnd() {
 
 async function perf() {
   const agents = opt("--agents", "100000"), seconds = Number(opt("--seconds", "10"));
-  const { url } = await serve(["flock", "--agents", agents]);
+  const threads = opt("--threads", null);
+  const { url } = await serve(["flock", "--agents", agents, ...(threads ? ["--threads", threads] : [])]);
+  // The same run without a browser first: how fast it steps on this machine right now.
+  await sleep(2000);
+  const b0 = await getJson(url + "state"), t0 = performance.now();
+  await sleep(seconds * 1000);
+  const b1 = await getJson(url + "state"), alone = (b1.frame - b0.frame) / ((performance.now() - t0) / 1000);
   const context = await launch();
   const page = context.pages()[0] || (await context.newPage());
   await page.goto(url);
@@ -243,8 +249,11 @@ async function perf() {
     frames_drawn_per_sec: Number(((b.drawn - a.drawn) / dt).toFixed(1)),
     frames_received_per_sec: Number(((b.received - a.received) / dt).toFixed(1)),
     sim_steps_per_sec: Number(((s1.frame - s0.frame) / dt).toFixed(1)),
+    sim_steps_per_sec_without_browser: Number(alone.toFixed(1)),
     ms_per_step: Number(s1.timings.ms_per_step.toFixed(2)),
     mbytes_per_sec: Number(((b.bytes - a.bytes) / dt / 1e6).toFixed(1)),
+    page_draw_ms_per_frame: Number(((b.drawMs - a.drawMs) / Math.max(1, b.drawn - a.drawn)).toFixed(2)),
+    page_read_ms_per_frame: Number(((b.readMs - a.readMs) / Math.max(1, b.received - a.received)).toFixed(2)),
   };
   console.log(JSON.stringify(result));
   passed++;
