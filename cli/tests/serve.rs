@@ -359,7 +359,14 @@ fn obstacles_and_gravity_points_join_the_world_and_the_frames() {
 
 #[test]
 fn bad_requests_get_4xx_with_a_message_and_the_server_goes_on() {
-    let s = Server::start(&["fields", "--agents", "300", "--fast"]);
+    let s = Server::start(&[
+        "fields",
+        "--agents",
+        "300",
+        "--fast",
+        "--max-memory",
+        "256M",
+    ]);
     for (body, needle) in [
         ("{not json", "not JSON"),
         (r#"{"cmd":"fly"}"#, "unknown cmd"),
@@ -379,6 +386,7 @@ fn bad_requests_get_4xx_with_a_message_and_the_server_goes_on() {
         ),
         (r#"{"cmd":"reset","agents":0}"#, "agents"),
         (r#"{"cmd":"steps_per_frame","n":5000}"#, "1000"),
+        (r#"{"cmd":"reset","agents":50000000}"#, "memory"),
     ] {
         let (status, v) = s.json("POST", "/control", Some(body));
         assert_eq!(status, 400, "{body} -> {v}");
@@ -431,14 +439,18 @@ fn clients_that_never_read_do_not_hold_the_simulation_back() {
     eventually("the frame to advance by 20", || {
         frame_of(&s.state()) >= start + 20
     });
-    // A reader at the same time still sees fresh frames.
+    // Two readers at the same time both see fresh frames.
     let mut frames = s.frames();
-    let a = frames.next().frame;
-    let b = frames.next().frame;
-    assert!(b > a);
+    let mut other = s.frames();
+    for stream in [&mut frames, &mut other] {
+        let a = stream.next().frame;
+        let b = stream.next().frame;
+        assert!(b > a, "{b} after {a}");
+    }
     // A client that goes is forgotten.
     drop(stuck);
     drop(frames);
+    drop(other);
     eventually("the gone clients to be forgotten", || {
         s.state()["clients"].as_u64() == Some(0)
     });
