@@ -11,7 +11,7 @@
 // scripts/e2e-setup installs Chromium and playwright-core; scripts/test-all runs this file.
 
 import { spawn } from "node:child_process";
-import { mkdtempSync, rmSync } from "node:fs";
+import { mkdtempSync, readFileSync, readdirSync, rmSync } from "node:fs";
 import { tmpdir } from "node:os";
 import { join, resolve } from "node:path";
 import { pathToFileURL } from "node:url";
@@ -84,8 +84,23 @@ async function getJson(url) {
   return r.json();
 }
 
+let profile = null;
+
+/** CPU seconds (user + system) of every Chromium process of this test's profile, on Linux. */
+function chromiumCpuSeconds() {
+  let ticks = 0;
+  for (const pid of readdirSync("/proc").filter((d) => /^\d+$/.test(d))) {
+    try {
+      if (!readFileSync(`/proc/${pid}/cmdline`, "utf8").includes(profile)) continue;
+      const stat = readFileSync(`/proc/${pid}/stat`, "utf8"), fields = stat.slice(stat.lastIndexOf(")") + 2).split(" ");
+      ticks += Number(fields[11]) + Number(fields[12]);
+    } catch { /* the process ended */ }
+  }
+  return ticks / 100; // USER_HZ
+}
+
 async function launch() {
-  const profile = mkdtempSync(join(tmpdir(), "throng-e2e-"));
+  profile = mkdtempSync(join(tmpdir(), "throng-e2e-"));
   cleanups.push(() => rmSync(profile, { recursive: true, force: true }));
   const context = await chromium.launchPersistentContext(profile, {
     executablePath: CHROMIUM,
@@ -239,9 +254,9 @@ async function perf() {
   await until("frames", () => page.evaluate(() => window.throng && window.throng.stats.drawn > 5), 60000);
   await sleep(3000);
   const read = () => page.evaluate(() => ({ ...window.throng.stats, t: performance.now() }));
-  const s0 = await getJson(url + "state"), a = await read();
+  const s0 = await getJson(url + "state"), a = await read(), cpu0 = chromiumCpuSeconds();
   await sleep(seconds * 1000);
-  const s1 = await getJson(url + "state"), b = await read();
+  const s1 = await getJson(url + "state"), b = await read(), cpu1 = chromiumCpuSeconds();
   const dt = (b.t - a.t) / 1000;
   const result = {
     agents: Number(agents),
@@ -253,6 +268,7 @@ async function perf() {
     ms_per_step: Number(s1.timings.ms_per_step.toFixed(2)),
     mbytes_per_sec: Number(((b.bytes - a.bytes) / dt / 1e6).toFixed(1)),
     page_draw_ms_per_frame: Number(((b.drawMs - a.drawMs) / Math.max(1, b.drawn - a.drawn)).toFixed(2)),
+    chromium_cpu_ms_per_frame: Number(((cpu1 - cpu0) * 1000 / Math.max(1, b.drawn - a.drawn)).toFixed(1)),
     page_read_ms_per_frame: Number(((b.readMs - a.readMs) / Math.max(1, b.received - a.received)).toFixed(2)),
   };
   console.log(JSON.stringify(result));
