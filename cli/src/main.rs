@@ -3,6 +3,7 @@
 
 mod files;
 mod output;
+mod serve;
 mod timing;
 
 use std::io::IsTerminal;
@@ -82,6 +83,13 @@ enum Command {
         #[arg(long)]
         quiet: bool,
     },
+    /// Serve a live view of a scenario in the browser: watch it run, pause, step and steer it.
+    Serve {
+        /// Built-in scenario name or scenario file.
+        scenario: String,
+        #[command(flatten)]
+        serve: serve::ServeArgs,
+    },
     /// List the built-in scenarios.
     List,
 }
@@ -89,12 +97,19 @@ enum Command {
 /// Options shared by every command that steps a world.
 #[derive(Debug, Args)]
 struct CommonArgs {
-    /// Number of agents (shared among the scenario's groups).
-    #[arg(long)]
-    agents: Option<usize>,
+    #[command(flatten)]
+    world: WorldArgs,
     /// Number of steps.
     #[arg(long)]
     steps: Option<u64>,
+}
+
+/// Options that set up a world: its size, seed, time step, index, threads and memory ceiling.
+#[derive(Clone, Debug, Default, Args)]
+struct WorldArgs {
+    /// Number of agents (shared among the scenario's groups).
+    #[arg(long)]
+    agents: Option<usize>,
     /// Worker threads (default: all cores).
     #[arg(long)]
     threads: Option<usize>,
@@ -226,6 +241,7 @@ fn dispatch(command: Command) -> Result<()> {
             };
             resume(&file, &args)
         }
+        Command::Serve { scenario, serve } => serve::serve(load_any(&scenario)?, &serve),
         Command::Bench {
             scenario,
             common,
@@ -257,12 +273,20 @@ fn inputs(s: &Scenario, file: Option<&Path>) -> Vec<PathBuf> {
 }
 
 /// Applies the command-line overrides and builds the world.
-fn prepare(mut s: Scenario, c: &CommonArgs) -> Result<(Scenario, World, rayon::ThreadPool, usize)> {
-    if let Some(n) = c.agents {
-        s = s.with_agents(n)?;
-    }
+fn prepare(s: Scenario, c: &CommonArgs) -> Result<(Scenario, World, rayon::ThreadPool, usize)> {
+    let mut s = with_overrides(s, &c.world)?;
     if let Some(steps) = c.steps {
         s.steps = steps;
+    }
+    let (pool, threads) = thread_pool(c.world.threads)?;
+    let world = build_world(&s, memory_limit(&c.world)?)?;
+    Ok((s, world, pool, threads))
+}
+
+/// The scenario with the command line's agent count, seed, index and time step.
+fn with_overrides(mut s: Scenario, c: &WorldArgs) -> Result<Scenario> {
+    if let Some(n) = c.agents {
+        s = s.with_agents(n)?;
     }
     if let Some(seed) = c.seed {
         s.seed = seed;
@@ -276,20 +300,27 @@ fn prepare(mut s: Scenario, c: &CommonArgs) -> Result<(Scenario, World, rayon::T
         }
         s.dt = dt;
     }
-    let (pool, threads) = thread_pool(c.threads)?;
-    let memory = match &c.max_memory {
-        Some(text) => Some(throng::limits::parse_size(text)?),
-        None => throng::limits::available_memory(),
-    };
-    let world = s.build_within(memory).map_err(|e| match e {
+    Ok(s)
+}
+
+/// The memory a world may take: `--max-memory`, or the machine's available memory.
+fn memory_limit(c: &WorldArgs) -> Result<Option<u64>> {
+    match &c.max_memory {
+        Some(text) => Ok(Some(throng::limits::parse_size(text)?)),
+        None => Ok(throng::limits::available_memory()),
+    }
+}
+
+/// Builds the world of `s` within `memory` bytes; errors of the build name the scenario.
+fn build_world(s: &Scenario, memory: Option<u64>) -> Result<World> {
+    s.build_within(memory).map_err(|e| match e {
         Error::Scenario { .. } | Error::Io { .. } | Error::OutOfMemory { .. } => e,
         other => Error::Scenario {
             source_name: s.name.clone(),
             location: None,
             message: other.to_string(),
         },
-    })?;
-    Ok((s, world, pool, threads))
+    })
 }
 
 /// The rayon pool of `threads` workers (default: all cores, at most [`max_threads`]) and its
