@@ -535,3 +535,35 @@ fn thread_counts_beyond_the_ceiling_are_refused() {
         assert_one_line_failure(&["demo", "flock", "--threads", t], "threads");
     }
 }
+
+#[test]
+fn orca_runs_report_arrivals_and_stop_when_everyone_arrived() {
+    // Not all of a 40-agent circle arrives in 20 steps: `all_arrived_step` is null.
+    let o = throng(&[
+        "bench", "circle", "--agents", "40", "--steps", "20", "--warmup", "0", "--json",
+    ]);
+    assert!(o.status.success(), "{}", stderr(&o));
+    let v: serde_json::Value = serde_json::from_str(stdout(&o).trim()).expect("one JSON object");
+    assert!(v["all_arrived_step"].is_null(), "{v}");
+    assert!(v["arrived"].as_u64().unwrap() < 40);
+    // Run to completion: the summary names the frame, and the run stops there.
+    let o = throng(&[
+        "demo",
+        "circle",
+        "--agents",
+        "40",
+        "--steps",
+        "5000",
+        "--until-arrived",
+        "--quiet",
+    ]);
+    assert!(o.status.success(), "{}", stderr(&o));
+    let out = stdout(&o);
+    let frame: u64 = out
+        .split("all at frame ")
+        .nth(1)
+        .and_then(|r| r.trim_end_matches([')', '\n']).parse().ok())
+        .unwrap_or_else(|| panic!("no arrival frame in {out}"));
+    assert!(out.contains(&format!("summary: {frame} steps")), "{out}");
+    assert!(out.contains("arrived 40/40"), "{out}");
+}
