@@ -116,10 +116,39 @@ pub(crate) fn run(
     }
 }
 
-/// The agents within `r` of agent `i` at `pos` (itself left out) as `(dist_sq, id, index)`.
-fn candidates(view: &SteerView, ctx: &Context, i: usize, pos: Vec2, r: f32, b: &mut Buffers) {
+/// Keeps `near` the `k` smallest `(dist_sq, id, index)` offered so far, in ascending order.
+#[inline]
+fn offer(near: &mut Vec<(f32, u32, u32)>, k: usize, c: (f32, u32, u32)) {
+    let before = |x: &(f32, u32, u32), y: &(f32, u32, u32)| (x.0, x.1) < (y.0, y.1);
+    if near.len() == k {
+        match near.last() {
+            Some(last) if before(&c, last) => {
+                near.pop();
+            }
+            _ => return,
+        }
+    }
+    let mut at = near.len();
+    while at > 0 && before(&c, &near[at - 1]) {
+        at -= 1;
+    }
+    near.insert(at, c);
+}
+
+/// The `k` nearest agents within `r` of agent `i` at `pos` (itself left out) as
+/// `(dist_sq, id, index)`, sorted by `(dist_sq, id)`.
+fn candidates(
+    view: &SteerView,
+    ctx: &Context,
+    i: usize,
+    pos: Vec2,
+    r: f32,
+    k: usize,
+    b: &mut Buffers,
+) {
     let a = view.agents;
     b.near.clear();
+    b.near.reserve(k);
     let r_sq = r * r;
     match ctx.grid {
         Some(grid) => {
@@ -128,36 +157,37 @@ fn candidates(view: &SteerView, ctx: &Context, i: usize, pos: Vec2, r: f32, b: &
             grid.for_each_run(pos, r, |run| {
                 let (xs, ys, ids) = (&sx[run.clone()], &sy[run.clone()], &order[run]);
                 // Eight candidates at a time: the distances in lanes, then the hits.
-                let mut k = 0;
-                while k < xs.len() {
-                    let len = (xs.len() - k).min(8);
+                let mut s = 0;
+                while s < xs.len() {
+                    let len = (xs.len() - s).min(8);
                     let mut hits = 0u32;
                     let mut d = [0.0f32; 8];
                     for l in 0..len {
-                        let (dx, dy) = (xs[k + l] - pos.x, ys[k + l] - pos.y);
+                        let (dx, dy) = (xs[s + l] - pos.x, ys[s + l] - pos.y);
                         d[l] = dx * dx + dy * dy;
                         hits |= u32::from(d[l] <= r_sq) << l;
                     }
                     while hits != 0 {
                         let l = hits.trailing_zeros() as usize;
                         hits &= hits - 1;
-                        let j = ids[k + l];
+                        let j = ids[s + l];
                         if j as usize != i {
-                            near.push((d[l], a.ids[j as usize].0, j));
+                            offer(near, k, (d[l], a.ids[j as usize].0, j));
                         }
                     }
-                    k += len;
+                    s += len;
                 }
             });
         }
         None => {
             view.index.neighbours_at(pos, r, &mut b.found);
-            b.near.extend(
-                b.found
-                    .iter()
-                    .filter(|nb| nb.index as usize != i)
-                    .map(|nb| (nb.dist_sq, a.ids[nb.index as usize].0, nb.index)),
-            );
+            for nb in b.found.iter().filter(|nb| nb.index as usize != i) {
+                offer(
+                    &mut b.near,
+                    k,
+                    (nb.dist_sq, a.ids[nb.index as usize].0, nb.index),
+                );
+            }
         }
     }
 }
@@ -239,18 +269,15 @@ fn filter(
         }
     }
     let hard = b.lines.len();
+    // Room for every agent line and the 3D program's projections: a warm step allocates
+    // nothing however the neighbour counts change.
+    b.lines.reserve(orca.max_neighbours as usize);
+    b.projected.clear();
+    b.projected.reserve(hard + orca.max_neighbours as usize);
 
     // Agent lines, nearest first (ties by id).
     let r = orca.neighbour_dist;
-    candidates(view, ctx, i, pos, r, b);
-    let k = orca.max_neighbours as usize;
-    let by_distance =
-        |x: &(f32, u32, u32), y: &(f32, u32, u32)| x.0.total_cmp(&y.0).then(x.1.cmp(&y.1));
-    if b.near.len() > k {
-        b.near.select_nth_unstable_by(k - 1, by_distance);
-        b.near.truncate(k);
-    }
-    b.near.sort_unstable_by(by_distance);
+    candidates(view, ctx, i, pos, r, orca.max_neighbours as usize, b);
     let inv_tau = 1.0 / orca.time_horizon;
     let inv_dt = 1.0 / dt;
     // Whether the agent may touch another after the move: its nearest neighbour is closer than
