@@ -14,8 +14,8 @@ use crate::world::{build, changes, pool};
 /// (`warmup` untimed steps, then `steps` timed ones, GIL released) and returns the same
 /// object: {"scenario", "agents", "threads", "index", "steps", "ms_per_step": {"median",
 /// "mean", "p95", "p99", "min", "max"}, "phases_ms", "agent_steps_per_sec",
-/// "mean_neighbours", "peak_rss_mb"}. `threads` defaults to all cores; the other keywords
-/// are those of `World.from_scenario`.
+/// "mean_neighbours", "peak_rss_mb", "polarisation", "arrived", "all_arrived_step"}.
+/// `threads` defaults to all cores; the other keywords are those of `World.from_scenario`.
 #[pyfunction]
 #[pyo3(signature = (scenario, *, agents=None, steps=100, warmup=10, threads=None, seed=None, dt=None, index=None, **overrides))]
 #[expect(
@@ -83,5 +83,11 @@ pub(crate) fn bench<'py>(
         &world.index_kind().to_string(),
         steps,
     );
-    convert::serialize_to_py(py, &report, false)
+    let dict = convert::serialize_to_py(py, &report, false)?;
+    // The conversion goes through TOML, which has no null: restore the CLI's `null`.
+    if report.all_arrived_step.is_none() {
+        dict.cast::<PyDict>()?
+            .set_item("all_arrived_step", py.None())?;
+    }
+    Ok(dict)
 }

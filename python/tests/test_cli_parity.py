@@ -84,6 +84,9 @@ def test_bench_returns_the_cli_bench_json_keys_and_values(throng_bin):
     theirs = json.loads(cli(throng_bin, "bench", "flock", *flags, "--json"))
     ours = throng.bench("flock", **args)
     assert keys(ours) == keys(theirs)
+    # No goals in a flock: nobody arrives, and the step at which all did is null in both.
+    assert ours["arrived"] == theirs["arrived"] == 0
+    assert ours["all_arrived_step"] is None and theirs["all_arrived_step"] is None
     for k in ("scenario", "agents", "threads", "index", "steps", "mean_neighbours"):
         assert ours[k] == theirs[k], k
     assert set(ours["phases_ms"]) == {
