@@ -218,26 +218,26 @@ fn state(w: &World) -> Vec<(u32, [u32; 4])> {
     v
 }
 
+/// The state after `steps` steps of scenario `s` on a pool of `threads` workers.
+fn run_on(s: &Scenario, threads: usize, steps: usize) -> Vec<(u32, [u32; 4])> {
+    let pool = rayon::ThreadPoolBuilder::new()
+        .num_threads(threads)
+        .build()
+        .unwrap();
+    let mut w = s.build().unwrap();
+    pool.install(|| {
+        for _ in 0..steps {
+            w.step(s.dt).unwrap();
+        }
+    });
+    state(&w)
+}
+
 #[test]
 fn orca_scenarios_are_bit_identical_on_1_2_and_4_threads() {
     for (name, n, steps) in [("circle", 2000, 300), ("blocks", 100, 600)] {
         let s = scenario::builtin(name).unwrap().with_agents(n).unwrap();
-        let runs: Vec<_> = [1, 2, 4]
-            .into_iter()
-            .map(|t| {
-                let pool = rayon::ThreadPoolBuilder::new()
-                    .num_threads(t)
-                    .build()
-                    .unwrap();
-                let mut w = s.build().unwrap();
-                pool.install(|| {
-                    for _ in 0..steps {
-                        w.step(s.dt).unwrap();
-                    }
-                });
-                state(&w)
-            })
-            .collect();
+        let runs: Vec<_> = [1, 2, 4].map(|t| run_on(&s, t, steps)).into();
         assert_eq!(runs[0], runs[1], "{name}: 1 and 2 threads differ");
         assert_eq!(runs[0], runs[2], "{name}: 1 and 4 threads differ");
         // The sequential reference step gives the same bits.
@@ -341,22 +341,7 @@ fn everyone_leaves_the_evacuation_room_and_no_centre_enters_a_pillar() {
 #[test]
 fn the_evacuation_is_bit_identical_on_1_2_and_4_threads() {
     let s = scenario::builtin("evacuation").unwrap();
-    let runs: Vec<_> = [1, 2, 4]
-        .into_iter()
-        .map(|t| {
-            let pool = rayon::ThreadPoolBuilder::new()
-                .num_threads(t)
-                .build()
-                .unwrap();
-            let mut w = s.build().unwrap();
-            pool.install(|| {
-                for _ in 0..150 {
-                    w.step(s.dt).unwrap();
-                }
-            });
-            state(&w)
-        })
-        .collect();
+    let runs: Vec<_> = [1, 2, 4].map(|t| run_on(&s, t, 150)).into();
     assert!(!runs[0].is_empty());
     assert_eq!(runs[0], runs[1]);
     assert_eq!(runs[0], runs[2]);
