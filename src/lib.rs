@@ -68,6 +68,7 @@ pub mod limits;
 pub mod movement;
 pub mod obstacles;
 pub mod orca;
+pub mod ped;
 pub mod profile;
 #[cfg(feature = "render")]
 pub mod render;

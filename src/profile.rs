@@ -46,6 +46,10 @@ pub struct Profile {
     /// Collision avoidance by ORCA: the behaviours give the preferred velocity, ORCA the
     /// collision-free velocity closest to it ([`crate::orca`]). Default: none.
     pub orca: Option<crate::orca::Orca>,
+    /// A pedestrian model in SI units that replaces the behaviours' request: they give the
+    /// preferred direction, the model the acceleration or velocity ([`crate::ped`]). Default:
+    /// none.
+    pub pedestrian: Option<crate::ped::Pedestrian>,
     /// Agents of this group count as arrived when they are within this distance (>= 0) of
     /// their own target ([`crate::steering::Target::Own`], set with `World::set_target`);
     /// [`crate::world::StepStats::arrived`] counts them. Default: none (not counted).
@@ -68,6 +72,7 @@ impl Default for Profile {
             steering: SteeringProfile::default(),
             max_neighbours: None,
             orca: None,
+            pedestrian: None,
             arrival_radius: None,
         }
     }
@@ -149,6 +154,9 @@ impl Profile {
         }
         if let Some(o) = &self.orca {
             o.validate()?;
+        }
+        if let Some(p) = &self.pedestrian {
+            p.validate()?;
         }
         if let Some(r) = self.arrival_radius {
             non_negative("arrival_radius", r)?;

@@ -19,6 +19,8 @@ pub enum Stream {
     Spread = 0x6772_0001,
     /// The perturbation of an ORCA agent's preferred velocity (per frame).
     Orca = 0x6f72_0001,
+    /// A pedestrian's desired speed (frame 0, drawn once for the agent's life).
+    DesiredSpeed = 0x7065_0001,
 }
 
 /// The random numbers of one agent in one frame.

@@ -126,6 +126,9 @@ struct WorldArgs {
     /// memory); a scenario estimated to need more is refused before it is built.
     #[arg(long, value_name = "SIZE")]
     max_memory: Option<String>,
+    /// Pedestrian model of every group that has one: social_force (also sfm) or cfsm.
+    #[arg(long, value_name = "MODEL", value_parser = ["social_force", "sfm", "cfsm"])]
+    pedestrian_model: Option<String>,
 }
 
 /// Options of `demo` and `run`.
@@ -290,6 +293,25 @@ fn with_overrides(mut s: Scenario, c: &WorldArgs) -> Result<Scenario> {
     }
     if let Some(seed) = c.seed {
         s.seed = seed;
+    }
+    if let Some(name) = &c.pedestrian_model {
+        let model = throng::ped::Model::parse(name).ok_or_else(|| Error::Invalid {
+            name: "--pedestrian-model".into(),
+            reason: format!("unknown model {name}"),
+        })?;
+        let mut any = false;
+        for g in &mut s.groups {
+            if let Some(p) = &mut g.params.pedestrian {
+                p.model = model;
+                any = true;
+            }
+        }
+        if !any {
+            return Err(Error::Invalid {
+                name: "--pedestrian-model".into(),
+                reason: format!("scenario {} has no pedestrian group", s.name),
+            });
+        }
     }
     if let Some(index) = &c.index {
         s.world.index = index.parse()?;

@@ -612,6 +612,7 @@ impl PyWorld {
                 group,
                 max_speed: speeds.as_ref().map(|s| s[k]),
                 radius: radii.as_ref().map(|r| r[k]),
+                desired_speed: None,
             });
             match init.and_then(|i| {
                 self.world

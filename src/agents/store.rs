@@ -32,6 +32,10 @@ pub struct AgentInit {
     pub max_speed: Option<f32>,
     /// Overrides the group's radius for this agent. Default: none.
     pub radius: Option<f32>,
+    /// The agent's desired walking speed under a pedestrian model, m/s ([`crate::ped`]).
+    /// Default: drawn from the group's pedestrian distribution (Weidmann's when the group has
+    /// no pedestrian model) by the agent's id and the world's seed.
+    pub desired_speed: Option<f32>,
 }
 
 impl Default for AgentInit {
@@ -44,6 +48,7 @@ impl Default for AgentInit {
             group: 0,
             max_speed: None,
             radius: None,
+            desired_speed: None,
         }
     }
 }
@@ -83,6 +88,8 @@ pub struct Agents {
     pub(crate) group: Vec<u32>,
     pub(crate) max_speed: Vec<f32>,
     pub(crate) radius: Vec<f32>,
+    /// Desired walking speed (pedestrian models).
+    pub(crate) desired_speed: Vec<f32>,
     pub(crate) overrides: Vec<u8>,
     /// Per-agent target point .
     pub(crate) target_x: Vec<f32>,
@@ -109,6 +116,9 @@ pub(crate) struct AgentColumns {
     pub(crate) group: Vec<u32>,
     pub(crate) max_speed: Vec<f32>,
     pub(crate) radius: Vec<f32>,
+    /// Absent from checkpoints written before pedestrian models: drawn again on load.
+    #[serde(default)]
+    pub(crate) desired_speed: Vec<f32>,
     pub(crate) overrides: Vec<u8>,
     pub(crate) target_x: Vec<f32>,
     pub(crate) target_y: Vec<f32>,
@@ -137,6 +147,7 @@ macro_rules! for_each_buffer {
         $f(&mut $self.wander);
         $f(&mut $self.max_speed);
         $f(&mut $self.radius);
+        $f(&mut $self.desired_speed);
         $f(&mut $self.target_x);
         $f(&mut $self.target_y);
     };
@@ -185,6 +196,7 @@ impl Agents {
         max_speed: f32,
         radius: f32,
         wander: f32,
+        desired_speed: f32,
     ) -> AgentId {
         let id = AgentId(
             u32::try_from(self.index_of.len()).expect("more than 4 billion agents ever added"),
@@ -201,6 +213,7 @@ impl Agents {
         self.group.push(init.group as u32);
         self.max_speed.push(max_speed);
         self.radius.push(radius);
+        self.desired_speed.push(desired_speed);
         let mut flags = 0;
         if init.max_speed.is_some() {
             flags |= OVERRIDE_SPEED;
@@ -311,6 +324,12 @@ impl Agents {
         &self.max_speed
     }
 
+    /// Desired walking speeds of the pedestrian models, m/s, in storage order.
+    #[must_use]
+    pub fn desired_speeds(&self) -> &[f32] {
+        &self.desired_speed
+    }
+
     /// Effective radii (group value or per-agent override) in storage order.
     #[must_use]
     pub fn radii(&self) -> &[f32] {
@@ -382,6 +401,7 @@ impl Agents {
             group,
             max_speed,
             radius,
+            desired_speed,
             overrides,
             target_x,
             target_y,
@@ -398,6 +418,7 @@ impl Agents {
             group,
             max_speed,
             radius,
+            desired_speed,
             overrides,
             target_x,
             target_y,
@@ -420,6 +441,7 @@ impl Agents {
             group: self.group.clone(),
             max_speed: self.max_speed.clone(),
             radius: self.radius.clone(),
+            desired_speed: self.desired_speed.clone(),
             overrides: self.overrides.clone(),
             target_x: self.target_x.clone(),
             target_y: self.target_y.clone(),
@@ -436,7 +458,7 @@ impl Agents {
     /// Heap bytes held by the store (buffers' capacity, scratch included).
     #[must_use]
     pub fn heap_bytes(&self) -> usize {
-        let f32s = self.pos_x.capacity() * 11 + self.scratch_f32.capacity();
+        let f32s = self.pos_x.capacity() * 12 + self.scratch_f32.capacity();
         f32s * 4
             + (self.group.capacity() + self.scratch_u32.capacity()) * 4
             + self.overrides.capacity()
@@ -460,7 +482,13 @@ mod tests {
     fn store(n: usize) -> Agents {
         let mut a = Agents::new();
         for i in 0..n {
-            a.push(&AgentInit::at(Vec2::new(i as f32, 0.0), 0), 1.0, 1.0, 0.0);
+            a.push(
+                &AgentInit::at(Vec2::new(i as f32, 0.0), 0),
+                1.0,
+                1.0,
+                0.0,
+                1.34,
+            );
         }
         a
     }
@@ -481,7 +509,7 @@ mod tests {
             assert_eq!(a.position(i).x, id as f32);
             assert_eq!(a.id(i), AgentId(id));
         }
-        let new = a.push(&AgentInit::default(), 1.0, 1.0, 0.0);
+        let new = a.push(&AgentInit::default(), 1.0, 1.0, 0.0, 1.34);
         assert_eq!(new, AgentId(5), "ids are never reused");
     }
 }

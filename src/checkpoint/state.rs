@@ -220,8 +220,20 @@ impl WorldState {
 }
 
 /// The agents, each value checked as [`World::add_agent`] and the mutators check it.
-fn restore_agents(c: AgentColumns, issued: usize, w: &World) -> Result<Agents> {
+fn restore_agents(mut c: AgentColumns, issued: usize, w: &World) -> Result<Agents> {
     let n = c.ids.len();
+    if c.desired_speed.is_empty() && n > 0 {
+        // Written before pedestrian models: the speeds the agents would have been given.
+        c.desired_speed = (0..n)
+            .map(|i| {
+                let g = c.group.get(i).and_then(|&g| w.groups.get(g as usize));
+                g.and_then(|g| g.pedestrian)
+                    .map(|p| p.desired_speed)
+                    .unwrap_or_default()
+                    .draw(w.seed, c.ids[i].0)
+            })
+            .collect();
+    }
     let lens = [
         c.pos_x.len(),
         c.pos_y.len(),
@@ -233,6 +245,7 @@ fn restore_agents(c: AgentColumns, issued: usize, w: &World) -> Result<Agents> {
         c.group.len(),
         c.max_speed.len(),
         c.radius.len(),
+        c.desired_speed.len(),
         c.overrides.len(),
         c.target_x.len(),
         c.target_y.len(),
@@ -262,6 +275,14 @@ fn restore_agents(c: AgentColumns, issued: usize, w: &World) -> Result<Agents> {
             finite_vec("target", Vec2::new(c.target_x[i], c.target_y[i]))?;
             crate::world::check_max_speed(c.max_speed[i])?;
             non_negative("radius", c.radius[i])?;
+            non_negative("desired_speed", c.desired_speed[i])?;
+            crate::error::in_range(
+                "desired_speed",
+                c.desired_speed[i],
+                0.0,
+                crate::ped::MAX_DESIRED_SPEED,
+                "[0, 100] m/s",
+            )?;
             if c.group[i] as usize >= w.groups.len() {
                 return Err(Error::UnknownGroup {
                     group: c.group[i] as usize,

@@ -97,6 +97,18 @@ impl ObstacleGrid {
         }
     }
 
+    /// The ids of the circles and walls that may lie within `r` of `p`, each once, ascending
+    /// (the buffers are cleared first).
+    pub fn near(&self, p: Vec2, r: f32, circles: &mut Vec<u32>, walls: &mut Vec<u32>) {
+        circles.clear();
+        walls.clear();
+        self.visit(p, r, |c| circles.push(c), |w| walls.push(w));
+        for v in [circles, walls] {
+            v.sort_unstable();
+            v.dedup();
+        }
+    }
+
     /// Calls `circle(id)` / `wall(id)` for every obstacle that may lie within `r` of `p` (an id
     /// may come more than once).
     pub fn visit(&self, p: Vec2, r: f32, mut circle: impl FnMut(u32), mut wall: impl FnMut(u32)) {

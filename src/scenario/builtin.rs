@@ -33,6 +33,11 @@ pub const BUILTIN: &[(&str, &str)] = &[
         "evacuation",
         include_str!("../../scenarios/evacuation.toml"),
     ),
+    ("corridor", include_str!("../../scenarios/corridor.toml")),
+    (
+        "bottleneck",
+        include_str!("../../scenarios/bottleneck.toml"),
+    ),
 ];
 
 /// The names of the built-in scenarios.

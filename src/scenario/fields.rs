@@ -125,6 +125,23 @@ fn map_goals() -> Vec<GoalSpec> {
 }
 
 impl FieldSpec {
+    /// A field over the inline ASCII map `text` with cells of `cell_size`, origin `(0, 0)`,
+    /// one channel with the map's goals and the other keys at their defaults.
+    #[must_use]
+    pub fn inline(text: String, cell_size: f32) -> FieldSpec {
+        FieldSpec {
+            map: MapSource::Ascii(text),
+            cell_size,
+            origin: Vec2::ZERO,
+            decay: default_decay(),
+            neighbourhood: Neighbourhood::Eight,
+            channels: map_goals(),
+            shuffle_every: 0,
+            shuffle_goals: four(),
+            walkers: Vec::new(),
+        }
+    }
+
     /// Makes a relative map path relative to the folder of `source_name` (the scenario file).
     pub(crate) fn resolve_paths(&mut self, source_name: &str) {
         if let MapSource::File(p) = &mut self.map

@@ -13,6 +13,7 @@
 mod builtin;
 mod fields;
 mod group;
+mod layout;
 mod obstacles;
 mod spec;
 mod tiles;
@@ -20,5 +21,6 @@ mod tiles;
 pub use builtin::{BUILTIN, builtin, builtin_names};
 pub use fields::{FieldSpec, GoalSpec, MapSource, WalkerSpec};
 pub use group::{AgentRef, FormationSpec, Members};
+pub use layout::Layout;
 pub use obstacles::{GravitySpec, ObstacleSpec, PolygonSpec, RandomCircles, RandomGravity};
 pub use spec::{AgentGoal, DensitySpec, GroupSpec, Scenario, Spawn, WorldScale, WorldSpec};

@@ -58,6 +58,10 @@ pub struct Scenario {
     /// world. Default: none.
     #[serde(default, skip_serializing_if = "Vec::is_empty")]
     pub exits: Vec<crate::world::Exit>,
+    /// A generated pedestrian geometry (`kind = "corridor"` or `"bottleneck"`), written out as
+    /// walls, exits and a field when the world is built. Default: none.
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub layout: Option<super::layout::Layout>,
 }
 
 fn default_seed() -> u64 {
@@ -169,6 +173,20 @@ pub enum Spawn {
         #[serde(default)]
         transpose: bool,
     },
+    /// Uniformly at random in a rectangle, every agent at least `distance` from the agents
+    /// placed before it by a `spread` spawn of any group (dart throwing, as JuPedSim's
+    /// `distribute_by_number`); an error when no room is found.
+    Spread {
+        /// Lower corner.
+        min: Vec2,
+        /// Upper corner.
+        max: Vec2,
+        /// The smallest distance between centres (>= 0).
+        distance: f32,
+    },
+    /// In the area of the scenario's `[layout]`, as `spread` with 0.45 m between agents and
+    /// 0.25 m from the walls.
+    Layout,
     /// Evenly on a circle, agent `k` of `n` at the angle `k * 2 pi / n` from +x (RVO2's Circle
     /// example). With `per`, the radius grows with the count: `radius * n / per`, so the
     /// spacing stays that of `per` agents on a circle of `radius`.
@@ -519,7 +537,25 @@ impl Scenario {
                         });
                     }
                 }
-                Spawn::Uniform => {}
+                Spawn::Spread { min, max, distance } => {
+                    finite_vec("spawn.min", *min)?;
+                    finite_vec("spawn.max", *max)?;
+                    non_negative("spawn.distance", *distance)?;
+                    crate::error::in_range("spawn.distance", *distance, 0.0, 1e6, "[0, 1e6]")?;
+                    if min.x > max.x || min.y > max.y {
+                        return Err(Error::Invalid {
+                            name: "spawn".into(),
+                            reason: "min must not exceed max".into(),
+                        });
+                    }
+                }
+                Spawn::Layout if self.layout.is_none() => {
+                    return Err(Error::Invalid {
+                        name: "spawn".into(),
+                        reason: "`kind = \"layout\"` needs a [layout] table".into(),
+                    });
+                }
+                Spawn::Uniform | Spawn::Layout => {}
                 Spawn::FreeCells if self.field.is_none() => {
                     return Err(Error::Invalid {
                         name: "spawn".into(),
@@ -542,6 +578,9 @@ impl Scenario {
         }
         for e in &self.exits {
             e.validate()?;
+        }
+        if let Some(l) = &self.layout {
+            l.validate()?;
         }
         Ok(())
     }
@@ -713,6 +752,9 @@ impl Scenario {
     /// # Errors
     /// As [`Scenario::build`].
     pub fn build_within(&self, memory: Option<u64>) -> Result<World> {
+        if self.layout.is_some() {
+            return self.expanded()?.build_within(memory);
+        }
         self.validate()?;
         if let Some(limit) = memory {
             crate::limits::check_memory(
@@ -748,6 +790,7 @@ impl Scenario {
             f.check_walkers(&world, id, &self.groups)?;
         }
         world.try_reserve_agents(self.agent_count())?;
+        let mut spread = Spread::default();
         for (gi, g) in self.groups.iter().enumerate() {
             let mut rng = ChaCha8Rng::seed_from_u64(
                 self.seed ^ (0x5eed_0000_u64 + gi as u64).wrapping_mul(0x9e37_79b9_7f4a_7c15),
@@ -775,13 +818,26 @@ impl Scenario {
                         };
                         origin + cell * spacing
                     }
+                    &Spawn::Spread { min, max, distance } => {
+                        spread.place(&mut rng, min, max, distance, world.obstacles())
+                            .ok_or_else(|| Error::Invalid {
+                                name: format!("groups[{gi}].spawn"),
+                                reason: format!(
+                                    "no room for agent {k} of {n} at {distance} from the others in [{}, {}] x [{}, {}]",
+                                    min.x, max.x, min.y, max.y
+                                ),
+                            })?
+                    }
                     _ => g.spawn_point(&mut rng, bounds, &world)?,
                 };
                 // A walled world has no room outside it, and explicit points must be in the world;
                 // random regions on a torus wrap around.
                 let placed = matches!(
                     g.spawn,
-                    Spawn::Points { .. } | Spawn::Circle { .. } | Spawn::Grid { .. }
+                    Spawn::Points { .. }
+                        | Spawn::Circle { .. }
+                        | Spawn::Grid { .. }
+                        | Spawn::Spread { .. }
                 );
                 let strict = matches!(bounds, Bounds::Bounded { .. }) || placed;
                 if strict && !bounds.contains(position) {
@@ -834,6 +890,66 @@ impl Scenario {
     }
 }
 
+/// The agents placed by `spread` spawns so far, hashed by cell of the largest distance asked.
+#[derive(Default)]
+struct Spread {
+    cell: f32,
+    cells: std::collections::HashMap<(i64, i64), Vec<Vec2>>,
+}
+
+impl Spread {
+    /// Tries random points in `[min, max]` until one lies at least `distance` from every point
+    /// placed before and outside the circle obstacles; `None` after 10,000 tries.
+    fn place(
+        &mut self,
+        rng: &mut ChaCha8Rng,
+        min: Vec2,
+        max: Vec2,
+        distance: f32,
+        obstacles: &crate::obstacles::Obstacles,
+    ) -> Option<Vec2> {
+        if distance > self.cell {
+            // Re-hash at the larger cell so that the 3 x 3 block stays enough.
+            let points: Vec<Vec2> = self.cells.drain().flat_map(|(_, v)| v).collect();
+            self.cell = distance;
+            for p in points {
+                let k = self.key(p);
+                self.cells.entry(k).or_default().push(p);
+            }
+        }
+        let d_sq = distance * distance;
+        for _ in 0..10_000 {
+            let p = crate::spawn::sample_rect(rng, min, max);
+            if obstacles.inside_circle(p) {
+                continue;
+            }
+            let (kx, ky) = self.key(p);
+            let free = (-1..=1).all(|dx| {
+                (-1..=1).all(|dy| {
+                    self.cells
+                        .get(&(kx + dx, ky + dy))
+                        .is_none_or(|v| v.iter().all(|q| q.distance_squared(p) >= d_sq))
+                })
+            });
+            if free {
+                self.cells.entry((kx, ky)).or_default().push(p);
+                return Some(p);
+            }
+        }
+        None
+    }
+
+    fn key(&self, p: Vec2) -> (i64, i64) {
+        if self.cell <= 0.0 {
+            return (0, 0);
+        }
+        (
+            (p.x / self.cell).floor() as i64,
+            (p.y / self.cell).floor() as i64,
+        )
+    }
+}
+
 /// A square world of side `side`, derived from a density key.
 fn derived_side(name: &'static str, side: f64) -> Result<Vec2> {
     let max = crate::limits::MAX_DERIVED_SIDE;
@@ -864,6 +980,8 @@ impl GroupSpec {
                 per,
             } => circle_point(center, radius, per, 0, self.count.max(1)),
             Spawn::Grid { origin, .. } => *origin,
+            Spawn::Spread { min, max, .. } => crate::spawn::sample_rect(rng, *min, *max),
+            Spawn::Layout => Vec2::ZERO,
         })
     }
 

@@ -70,10 +70,10 @@ impl Scenario {
             name: "world.scale".into(),
             reason: "scaling by tiles needs a `size`".into(),
         })?;
-        if self.field.is_some() {
+        if self.field.is_some() || self.layout.is_some() {
             return Err(Error::Invalid {
                 name: "world.scale".into(),
-                reason: "a scenario with a `[field]` cannot scale by tiles".into(),
+                reason: "a scenario with a `[field]` or a `[layout]` cannot scale by tiles".into(),
             });
         }
         let cols = (copies as f64).sqrt().ceil() as usize;
@@ -103,7 +103,7 @@ impl Scenario {
             copy.gravity.materialise(seed)?;
             for g in &mut copy.groups {
                 match &mut g.spawn {
-                    Spawn::Rect { min, max } => {
+                    Spawn::Rect { min, max } | Spawn::Spread { min, max, .. } => {
                         *min += shift.offset;
                         *max += shift.offset;
                     }
@@ -118,7 +118,7 @@ impl Scenario {
                             max: shift.offset + size,
                         };
                     }
-                    Spawn::FreeCells => {}
+                    Spawn::FreeCells | Spawn::Layout => {}
                 }
                 if let Some(goal) = &mut g.goal {
                     goal.shift(shift.offset);

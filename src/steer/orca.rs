@@ -231,15 +231,9 @@ fn filter(
     let inv_tau_obst = 1.0 / orca.time_horizon_obst;
     let range = orca.time_horizon_obst * max_speed + radius;
     if !view.obstacles.is_empty() {
-        b.walls.clear();
-        b.circles.clear();
         view.obstacles
             .broadphase()
-            .visit(pos, range, |c| b.circles.push(c), |w| b.walls.push(w));
-        b.walls.sort_unstable();
-        b.walls.dedup();
-        b.circles.sort_unstable();
-        b.circles.dedup();
+            .near(pos, range, &mut b.circles, &mut b.walls);
         if !walls.is_empty() {
             b.edges.clear();
             b.inside.clear();

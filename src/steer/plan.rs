@@ -126,6 +126,8 @@ pub(crate) struct Plan {
     pub nearest: Vec<(usize, f32)>,
     /// The group's ORCA filter.
     pub orca: Option<crate::orca::Orca>,
+    /// The group's pedestrian model.
+    pub pedestrian: Option<crate::ped::Pedestrian>,
 }
 
 impl Plan {
@@ -221,6 +223,7 @@ impl Plan {
             follow,
             nearest,
             orca: profile.orca,
+            pedestrian: profile.pedestrian,
         })
     }
 }

@@ -373,7 +373,26 @@ impl World {
         let next_id = self.agents.ids_issued() as u32;
         let wander = AgentRng::new(self.seed, next_id, 0, Stream::Spawn as u32).signed()
             * std::f32::consts::PI;
-        Ok(self.agents.push(&init, max_speed, radius, wander))
+        let desired_speed = match init.desired_speed {
+            Some(v) => {
+                crate::error::non_negative("desired_speed", v)?;
+                crate::error::in_range(
+                    "desired_speed",
+                    v,
+                    0.0,
+                    crate::ped::MAX_DESIRED_SPEED,
+                    "[0, 100] m/s",
+                )?
+            }
+            None => g
+                .pedestrian
+                .map(|p| p.desired_speed)
+                .unwrap_or_default()
+                .draw(self.seed, next_id),
+        };
+        Ok(self
+            .agents
+            .push(&init, max_speed, radius, wander, desired_speed))
     }
 
     /// Removes an agent. Other agents keep their ids.

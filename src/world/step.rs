@@ -240,6 +240,9 @@ impl World {
             &mut self.scratch.pass,
             exec == Execution::Parallel,
         );
+        if steer::ped::any(&view) {
+            steer::ped::run(&view, &mut self.scratch.out, exec == Execution::Parallel);
+        }
         if steer::orca::any(&view) {
             let walls = self.obstacles.walls();
             if self.scratch.orca_walls_of != walls.len() {
@@ -430,7 +433,9 @@ impl World {
             .iter()
             .map(|p| {
                 let flock = if p.spec.active { p.spec.query_r } else { 0.0 };
-                flock.max(p.orca.map_or(0.0, |o| o.neighbour_dist))
+                flock
+                    .max(p.orca.map_or(0.0, |o| o.neighbour_dist))
+                    .max(p.pedestrian.map_or(0.0, |m| m.cutoff()))
             })
             .fold(0.0_f32, f32::max);
         if query_r <= 0.0 || self.agents.is_empty() {

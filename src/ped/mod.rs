@@ -1,0 +1,296 @@
+//! Pedestrian models in SI units (metres, seconds, kilograms, newtons): the social force model
+//! ([`social_force`]) and the collision-free speed model ([`cfsm`]).
+//!
+//! A group opts in with [`Pedestrian`] in its profile (`pedestrian = { model = "cfsm" }` in a
+//! scenario file). Its other behaviours (seek, arrive, follow_field, follow_path, ...) give each
+//! agent its *preferred direction*: the direction of a kinematic group's desired velocity, or of
+//! a dynamic group's velocity after one step of the behaviours' acceleration. The agent's
+//! *desired speed* `v0` is drawn once per agent from [`DesiredSpeed`] (Weidmann's normal
+//! distribution, truncated) by its id and the world's seed, so it survives checkpoints and does
+//! not depend on spawn order; it is scaled down when the behaviours ask for less than the
+//! group's maximum speed (an `arrive` slowing near its target). The model then replaces the
+//! behaviours' request:
+//!
+//! - the **social force model** computes an acceleration from the driving term, the agents
+//!   within `cutoff` and the walls and circles within `cutoff`;
+//! - the **collision-free speed model** computes a velocity: a direction from the preferred one
+//!   and exponential repulsions, a speed from the spacing to the nearest agent ahead.
+//!
+//! Kinematic groups take a velocity (the social force model's `v + a dt`), dynamic groups an
+//! acceleration (the speed model's `(v_new - v) / dt`), within the group's `max_speed` and
+//! `max_acceleration`, which stay hard limits. The models need a small time step: 0.01 s is
+//! JuPedSim's default and what the pedestrian scenarios use; the social force model's body
+//! forces are stiff (`k = 1.2e5 kg/s^2`) and the integration is stable for `dt <= 0.02 s` at its
+//! default parameters.
+//!
+//! Invariants: every term is finite for any finite input, including zero distance (a
+//! deterministic direction from the two ids) and overlap; pair terms between equal agents are
+//! equal and opposite when the anisotropy is off.
+
+pub mod cfsm;
+pub mod social_force;
+
+use glam::Vec2;
+use serde::{Deserialize, Serialize};
+
+use crate::error::{Error, Result, in_range, non_negative, positive};
+use crate::rng::{AgentRng, Stream};
+
+pub use cfsm::Cfsm;
+pub use social_force::SocialForce;
+
+/// The largest desired speed accepted, m/s.
+pub const MAX_DESIRED_SPEED: f32 = 100.0;
+
+/// The largest `cutoff` accepted, m.
+pub const MAX_CUTOFF: f32 = 1000.0;
+
+/// Which pedestrian model moves a group.
+#[derive(Clone, Copy, Debug, Default, PartialEq, Eq, Serialize, Deserialize)]
+#[serde(rename_all = "snake_case")]
+pub enum Model {
+    /// The social force model (Helbing, Farkas and Vicsek 2000).
+    SocialForce,
+    /// The collision-free speed model (Tordeux, Chraibi and Seyfried 2016), JuPedSim's default.
+    #[default]
+    Cfsm,
+}
+
+impl Model {
+    /// The name used in scenario files: `"social_force"` or `"cfsm"`.
+    #[must_use]
+    pub fn name(self) -> &'static str {
+        match self {
+            Model::SocialForce => "social_force",
+            Model::Cfsm => "cfsm",
+        }
+    }
+
+    /// The model named `name` (`"social_force"`, also `"sfm"`, or `"cfsm"`).
+    #[must_use]
+    pub fn parse(name: &str) -> Option<Model> {
+        match name {
+            "social_force" | "sfm" => Some(Model::SocialForce),
+            "cfsm" => Some(Model::Cfsm),
+            _ => None,
+        }
+    }
+}
+
+/// The distribution of desired speeds: a normal distribution truncated to `[min, max]`.
+/// Defaults: Weidmann's free walking speed, mean 1.34 m/s, sd 0.26 m/s, truncated at three
+/// standard deviations (0.56 to 2.12 m/s).
+#[derive(Clone, Copy, Debug, PartialEq, Serialize, Deserialize)]
+#[serde(default, deny_unknown_fields)]
+pub struct DesiredSpeed {
+    /// Mean, m/s (> 0). Default: 1.34.
+    pub mean: f32,
+    /// Standard deviation, m/s (>= 0; 0 gives every agent the mean). Default: 0.26.
+    pub sd: f32,
+    /// Smallest speed drawn, m/s (>= 0, at most the mean). Default: 0.56.
+    pub min: f32,
+    /// Largest speed drawn, m/s (at least the mean, at most 100). Default: 2.12.
+    pub max: f32,
+}
+
+impl Default for DesiredSpeed {
+    fn default() -> Self {
+        DesiredSpeed {
+            mean: 1.34,
+            sd: 0.26,
+            min: 0.56,
+            max: 2.12,
+        }
+    }
+}
+
+impl DesiredSpeed {
+    /// Every agent at `speed`.
+    #[must_use]
+    pub fn fixed(speed: f32) -> Self {
+        DesiredSpeed {
+            mean: speed,
+            sd: 0.0,
+            min: speed,
+            max: speed,
+        }
+    }
+
+    /// Checks the parameters.
+    ///
+    /// # Errors
+    /// [`Error::NotPositive`], [`Error::Negative`], [`Error::NonFinite`] or [`Error::Invalid`]
+    /// naming the key (`pedestrian.desired_speed.mean`, ...).
+    pub fn validate(&self) -> Result<()> {
+        positive("pedestrian.desired_speed.mean", self.mean)?;
+        non_negative("pedestrian.desired_speed.sd", self.sd)?;
+        non_negative("pedestrian.desired_speed.min", self.min)?;
+        for (name, v) in [
+            ("pedestrian.desired_speed.mean", self.mean),
+            ("pedestrian.desired_speed.sd", self.sd),
+            ("pedestrian.desired_speed.min", self.min),
+            ("pedestrian.desired_speed.max", self.max),
+        ] {
+            in_range(name, v, 0.0, MAX_DESIRED_SPEED, "[0, 100] m/s")?;
+        }
+        if !(self.min <= self.mean && self.mean <= self.max) {
+            return Err(Error::Invalid {
+                name: "pedestrian.desired_speed".into(),
+                reason: format!(
+                    "needs min <= mean <= max, got min {}, mean {}, max {}",
+                    self.min, self.mean, self.max
+                ),
+            });
+        }
+        Ok(())
+    }
+
+    /// The desired speed of agent `id` in a world seeded with `seed`: the same for the agent's
+    /// whole life, whatever the spawn order or the thread count.
+    #[must_use]
+    pub fn draw(&self, seed: u64, id: u32) -> f32 {
+        if self.sd == 0.0 {
+            return self.mean;
+        }
+        let mut rng = AgentRng::new(seed, id, 0, Stream::DesiredSpeed as u32);
+        for _ in 0..16 {
+            // Box-Muller: u1 in (0, 1] keeps the logarithm finite.
+            let u1 = 1.0 - rng.unit();
+            let u2 = rng.unit();
+            let z = (-2.0 * u1.ln()).sqrt() * (std::f32::consts::TAU * u2).cos();
+            let v = self.mean + self.sd * z;
+            if (self.min..=self.max).contains(&v) {
+                return v;
+            }
+        }
+        self.mean
+    }
+}
+
+/// A group's pedestrian model and its parameters.
+#[derive(Clone, Copy, Debug, Default, PartialEq, Serialize, Deserialize)]
+#[serde(default, deny_unknown_fields)]
+pub struct Pedestrian {
+    /// `"social_force"` or `"cfsm"`. Default: cfsm.
+    pub model: Model,
+    /// The agents' desired speeds. Default: Weidmann's distribution.
+    pub desired_speed: DesiredSpeed,
+    /// The social force model's parameters (used when `model = "social_force"`).
+    pub social_force: SocialForce,
+    /// The collision-free speed model's parameters (used when `model = "cfsm"`).
+    pub cfsm: Cfsm,
+}
+
+impl Pedestrian {
+    /// The default parameters of `model`.
+    #[must_use]
+    pub fn new(model: Model) -> Self {
+        Pedestrian {
+            model,
+            ..Pedestrian::default()
+        }
+    }
+
+    /// Agents and walls farther than this from an agent's centre exert no force on it, m.
+    #[must_use]
+    pub fn cutoff(&self) -> f32 {
+        match self.model {
+            Model::SocialForce => self.social_force.cutoff,
+            Model::Cfsm => self.cfsm.cutoff,
+        }
+    }
+
+    /// Checks every parameter (those of both models).
+    ///
+    /// # Errors
+    /// The variant naming the first bad key (`pedestrian.social_force.tau`, ...).
+    pub fn validate(&self) -> Result<()> {
+        self.desired_speed.validate()?;
+        self.social_force.validate()?;
+        self.cfsm.validate()
+    }
+}
+
+/// Checks a cut-off distance.
+pub(crate) fn check_cutoff(name: &'static str, v: f32) -> Result<()> {
+    positive(name, v)?;
+    in_range(name, v, 0.0, MAX_CUTOFF, "(0, 1000] m")?;
+    Ok(())
+}
+
+/// The unit vector from `other` to `me` given the offset `d = me - other` and its length; at
+/// zero distance a fixed direction whose sign is set by the ids, so the pair still separates
+/// and the two get opposite directions.
+#[inline]
+#[must_use]
+pub fn away(d: Vec2, dist: f32, me: u32, other: u32) -> Vec2 {
+    if dist > 1e-6 {
+        d / dist
+    } else if me < other {
+        Vec2::X
+    } else {
+        -Vec2::X
+    }
+}
+
+/// `exp(x)` with the exponent capped at 60, so that absurd overlaps give large but finite
+/// forces.
+#[inline]
+pub(crate) fn exp_capped(x: f32) -> f32 {
+    x.min(60.0).exp()
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn desired_speeds_follow_the_truncated_normal() {
+        let d = DesiredSpeed::default();
+        let n = 20_000u32;
+        let v: Vec<f32> = (0..n).map(|id| d.draw(7, id)).collect();
+        assert!(v.iter().all(|&s| (d.min..=d.max).contains(&s)));
+        let mean = v.iter().sum::<f32>() / n as f32;
+        let var = v.iter().map(|s| (s - mean).powi(2)).sum::<f32>() / n as f32;
+        assert!((mean - 1.34).abs() < 0.01, "mean {mean}");
+        assert!((var.sqrt() - 0.26).abs() < 0.01, "sd {}", var.sqrt());
+        // The same agent gets the same speed; another seed another one.
+        assert_eq!(d.draw(7, 5), d.draw(7, 5));
+        assert_ne!(d.draw(7, 5), d.draw(8, 5));
+        assert_eq!(DesiredSpeed::fixed(1.2).draw(3, 4), 1.2);
+    }
+
+    #[test]
+    fn bad_values_name_the_key() {
+        let bad = [
+            DesiredSpeed {
+                mean: 0.0,
+                ..DesiredSpeed::default()
+            },
+            DesiredSpeed {
+                sd: f32::NAN,
+                ..DesiredSpeed::default()
+            },
+            DesiredSpeed {
+                min: 2.0,
+                ..DesiredSpeed::default()
+            },
+            DesiredSpeed {
+                max: 1e9,
+                ..DesiredSpeed::default()
+            },
+        ];
+        for d in bad {
+            let e = d.validate().unwrap_err().to_string();
+            assert!(e.contains("desired_speed"), "{e}");
+        }
+        assert!(Pedestrian::default().validate().is_ok());
+    }
+
+    #[test]
+    fn away_is_a_unit_vector_even_at_zero_distance() {
+        assert_eq!(away(Vec2::new(3.0, 4.0), 5.0, 0, 1), Vec2::new(0.6, 0.8));
+        assert_eq!(away(Vec2::ZERO, 0.0, 0, 1), -away(Vec2::ZERO, 0.0, 1, 0));
+        assert!(exp_capped(1e9).is_finite());
+    }
+}
