@@ -147,7 +147,7 @@ struct RunArgs {
     #[arg(long, default_value_t = 800)]
     size: u32,
     /// Write trajectories every --every frames and the last, in the format the extension names:
-    /// .txt PedPy text (id frame x y z), .sqlite/.sqlite3/.db JuPedSim SQLite (version 3), any
+    /// .txt PedPy text (id frame x y z), .sqlite/.sqlite3/.db JuPedSim SQLite (version 2), any
     /// other long-format CSV (frame,t,id,x,y,vx,vy,heading,group).
     #[arg(long)]
     trajectories: Option<PathBuf>,

@@ -1,5 +1,5 @@
 //! `--trajectories` in each format the extension names, read back: JuPedSim's SQLite database
-//! (schema version 3: tables, column types, metadata, geometry, one row per agent per written
+//! (schema version 2, JuPedSim 1.4's: tables, column types, metadata, geometry, one row per agent per written
 //! frame) and PedPy's text format hold the CSV's positions frame for frame, complete on an
 //! `--until-arrived` stop and after `resume`; bad extensions and unwritable paths are one-line
 //! errors before the run.
@@ -24,28 +24,44 @@ fn demo_to(path: &Path, args: &[&str]) {
 /// Positions by (written frame index, id), and the frames as written.
 type Positions = BTreeMap<(u64, u32), (f32, f32)>;
 
-/// The CSV's rows as positions keyed by the index of their frame among the written frames,
-/// and the world frames written.
-fn read_csv(path: &Path) -> (Positions, Vec<u64>) {
+/// The CSV's rows: positions and headings keyed by the index of their frame among the written
+/// frames and the id, and the world frames written.
+struct Csv {
+    positions: Positions,
+    headings: BTreeMap<(u64, u32), f32>,
+    frames: Vec<u64>,
+}
+
+fn read_csv(path: &Path) -> Csv {
     let text = std::fs::read_to_string(path).unwrap();
-    let mut frames: Vec<u64> = Vec::new();
-    let mut out = Positions::new();
+    let mut csv = Csv {
+        positions: Positions::new(),
+        headings: BTreeMap::new(),
+        frames: Vec::new(),
+    };
     for line in text.lines().skip(1) {
         let f: Vec<&str> = line.split(',').collect();
         let frame: u64 = f[0].parse().unwrap();
-        if frames.last() != Some(&frame) {
-            frames.push(frame);
+        if csv.frames.last() != Some(&frame) {
+            csv.frames.push(frame);
         }
-        let key = (frames.len() as u64 - 1, f[2].parse().unwrap());
-        out.insert(key, (f[3].parse().unwrap(), f[4].parse().unwrap()));
+        let key = (csv.frames.len() as u64 - 1, f[2].parse().unwrap());
+        let p = (f[3].parse().unwrap(), f[4].parse().unwrap());
+        csv.positions.insert(key, p);
+        csv.headings.insert(key, f[7].parse().unwrap());
     }
-    (out, frames)
+    csv
 }
 
 fn read_sqlite(path: &Path) -> Positions {
+    sqlite_pairs(path, "pos_x", "pos_y")
+}
+
+/// Columns `a` and `b` of `trajectory_data` as float32, keyed by frame and id.
+fn sqlite_pairs(path: &Path, a: &str, b: &str) -> Positions {
     let db = Connection::open(path).unwrap();
     let mut q = db
-        .prepare("SELECT frame, id, pos_x, pos_y FROM trajectory_data")
+        .prepare(&format!("SELECT frame, id, {a}, {b} FROM trajectory_data"))
         .unwrap();
     let rows = q
         .query_map([], |r| {
@@ -109,7 +125,7 @@ const RUN: [&str; 10] = [
 ];
 
 #[test]
-fn sqlite_holds_jupedsims_version_3_schema_and_the_csv_positions() {
+fn sqlite_holds_jupedsims_version_2_schema_and_the_csv_positions() {
     let dir = tmp("schema");
     std::fs::create_dir_all(&dir).unwrap();
     let (csv, db_path) = (dir.join("s.csv"), dir.join("s.sqlite"));
@@ -128,7 +144,9 @@ fn sqlite_holds_jupedsims_version_3_schema_and_the_csv_positions() {
             ("frame", "INTEGER"),
             ("id", "INTEGER"),
             ("pos_x", "REAL"),
-            ("pos_y", "REAL")
+            ("pos_y", "REAL"),
+            ("ori_x", "REAL"),
+            ("ori_y", "REAL")
         ])
     );
     assert_eq!(
@@ -151,16 +169,27 @@ fn sqlite_holds_jupedsims_version_3_schema_and_the_csv_positions() {
         )
         .unwrap();
     assert_eq!(index, "trajectory_data");
-    assert_eq!(metadata(&db, "version").as_deref(), Some("3"));
+    assert_eq!(metadata(&db, "version").as_deref(), Some("2"));
     // dt 0.05 s, every 5th step: 4 frames per second.
     assert_eq!(metadata(&db, "fps").as_deref(), Some("4"));
 
     // Frames 0, 5, 10, 15, 20 and the last, 23: six written frames numbered 0 to 5.
-    let (from_csv, frames) = read_csv(&csv);
+    let Csv {
+        positions: from_csv,
+        headings,
+        frames,
+    } = read_csv(&csv);
     assert_eq!(frames, [0, 5, 10, 15, 20, 23]);
     let from_db = read_sqlite(&db_path);
     assert_eq!(from_db.len(), 30 * 6);
     assert_eq!(from_db, from_csv, "the CSV's positions, frame for frame");
+    // The orientation is the CSV's heading as a unit vector.
+    let oris = sqlite_pairs(&db_path, "ori_x", "ori_y");
+    assert_eq!(oris.len(), headings.len());
+    for (key, ori) in oris {
+        let (sin, cos) = headings[&key].sin_cos();
+        assert_eq!(ori, (cos, sin), "{key:?}");
+    }
     let listed: Vec<i64> = db
         .prepare("SELECT frame FROM frame_data ORDER BY frame")
         .unwrap()
@@ -209,7 +238,7 @@ fn pedpy_text_has_the_header_pedpy_reads_and_the_csv_positions() {
     let (fps, unit, from_txt) = read_text(&txt);
     assert_eq!(fps, 2.0, "dt 0.1 s, every 5th step");
     assert!(unit.contains("x/m"), "metres: {unit}");
-    let (from_csv, _) = read_csv(&csv);
+    let from_csv = read_csv(&csv).positions;
     assert_eq!(from_txt.len(), 30 * 6);
     assert_eq!(from_txt, from_csv);
 }
@@ -228,7 +257,11 @@ fn every_format_is_complete_after_an_until_arrived_stop() {
         "--until-arrived",
     ];
     demo_to(&csv, &args);
-    let (from_csv, frames) = read_csv(&csv);
+    let Csv {
+        positions: from_csv,
+        frames,
+        ..
+    } = read_csv(&csv);
     let last = *frames.last().unwrap();
     assert!(last < 100_000 && last % 7 != 0, "stopped early, at {last}");
     assert_eq!(frames.len() as u64, last / 7 + 2);
@@ -264,7 +297,11 @@ fn resume_writes_the_resumed_frames() {
         rest.to_str().unwrap(),
     ]);
     assert!(o.status.success(), "{}", stderr(&o));
-    let (from_csv, frames) = read_csv(&full);
+    let Csv {
+        positions: from_csv,
+        frames,
+        ..
+    } = read_csv(&full);
     assert_eq!(frames, [0, 4, 8, 12]);
     // Written frames 0 and 1 of the resumed run are frames 8 and 12 of the whole run.
     let expected: Positions = from_csv

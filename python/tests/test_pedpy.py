@@ -1,5 +1,5 @@
 """PedPy reads the CLI's trajectory formats: `--trajectories FILE.txt` (PedPy's text format) and
-`FILE.sqlite` (JuPedSim's SQLite, version 3) load with PedPy's own loaders, hold the same frames
+`FILE.sqlite` (JuPedSim's SQLite, version 2) load with PedPy's own loaders, hold the same frames
 and positions, and give PedPy's classic density and speed in a measurement area that match the
 scenario: 30 pedestrians walking east at 1.3 m/s through a 4 x 6 m area."""
 
@@ -119,12 +119,10 @@ def test_classic_density_and_speed_in_a_measurement_area(loaded, fmt):
 
 
 def test_the_walkable_area_is_the_corridor(loaded):
-    # PedPy 1.5's `load_walkable_area_from_jupedsim_sqlite` knows versions 1 and 2 only; the
-    # geometry table of version 3 holds the same WKT, which PedPy's WalkableArea takes.
-    with sqlite3.connect(loaded["db"]) as con:
-        (version,) = con.execute("SELECT value FROM metadata WHERE key = 'version'").fetchone()
-        (wkt,) = con.execute("SELECT wkt FROM geometry").fetchone()
-    assert version == "3"
-    area = pedpy.WalkableArea(wkt)
+    area = pedpy.load_walkable_area_from_jupedsim_sqlite(trajectory_file=loaded["db"])
     assert math.isclose(area.polygon.area, 30 * 6)
     assert area.polygon.bounds == (0, 0, 30, 6)
+    assert AREA.polygon.within(area.polygon)
+    with sqlite3.connect(loaded["db"]) as con:
+        (version,) = con.execute("SELECT value FROM metadata WHERE key = 'version'").fetchone()
+    assert version == "2"

@@ -1,12 +1,15 @@
-//! JuPedSim's SQLite trajectory database (schema version 3, as JuPedSim 1.4's
-//! `SqliteTrajectoryWriter` writes it and PedPy's `load_trajectory_from_jupedsim_sqlite` reads
-//! it).
+//! JuPedSim's SQLite trajectory database, schema version 2: what JuPedSim 1.4 (the released
+//! version) writes and reads back (`jupedsim.Recording` accepts version 2 only), and what PedPy
+//! 1.5 reads with `load_trajectory_from_jupedsim_sqlite` and `load_walkable_area_from_jupedsim_sqlite`
+//! (versions 1 and 2). JuPedSim's next schema, version 3, only drops `ori_x` and `ori_y`, and its
+//! reader upgrades a version 2 file in place.
 //!
-//! Tables: `trajectory_data(frame INTEGER, id INTEGER, pos_x REAL, pos_y REAL)` with the index
-//! `frame_id_idx` on `(frame, id)`; `metadata(key TEXT PRIMARY KEY, value TEXT)` holding
-//! `version` (3), `fps` and the geometry's bounds `xmin`, `xmax`, `ymin`, `ymax`;
-//! `geometry(hash INTEGER UNIQUE, wkt TEXT)` holding the walkable area; `frame_data(frame
-//! INTEGER, geometry_hash INTEGER)` with one row per written frame.
+//! Tables: `trajectory_data(frame INTEGER, id INTEGER, pos_x REAL, pos_y REAL, ori_x REAL, ori_y
+//! REAL)` (the orientation as a unit vector) with the index `frame_id_idx` on `(frame, id)`;
+//! `metadata(key TEXT PRIMARY KEY, value TEXT)` holding `version` (2), `fps` and the geometry's
+//! bounds `xmin`, `xmax`, `ymin`, `ymax`; `geometry(hash INTEGER UNIQUE, wkt TEXT)` holding the
+//! walkable area; `frame_data(frame INTEGER, geometry_hash INTEGER)` with one row per written
+//! frame.
 //!
 //! Invariants: rows go in through one prepared statement, in a transaction per batch of frames
 //! (at most [`BATCH_FRAMES`] frames or [`BATCH_ROWS`] rows); the index is built once at the end.
@@ -23,7 +26,7 @@ use super::wkt::{walkable_bounds, walkable_wkt};
 use crate::files::AtomicOutput;
 
 /// The schema version JuPedSim's readers check (`metadata` key `version`).
-pub const DATABASE_VERSION: u32 = 3;
+pub const DATABASE_VERSION: u32 = 2;
 /// Frames per transaction.
 const BATCH_FRAMES: u32 = 100;
 /// Rows per transaction (a frame is never split).
@@ -37,14 +40,16 @@ const SCHEMA: &str = "
         frame INTEGER NOT NULL,
         id INTEGER NOT NULL,
         pos_x REAL NOT NULL,
-        pos_y REAL NOT NULL);
+        pos_y REAL NOT NULL,
+        ori_x REAL NOT NULL,
+        ori_y REAL NOT NULL);
     CREATE TABLE metadata (key TEXT NOT NULL UNIQUE PRIMARY KEY, value TEXT NOT NULL);
     CREATE TABLE geometry (hash INTEGER NOT NULL, wkt TEXT NOT NULL);
     CREATE UNIQUE INDEX geometry_hash ON geometry (hash);
     CREATE TABLE frame_data (frame INTEGER NOT NULL, geometry_hash INTEGER NOT NULL);
 ";
 
-const INSERT_ROW: &str = "INSERT INTO trajectory_data VALUES (?1, ?2, ?3, ?4)";
+const INSERT_ROW: &str = "INSERT INTO trajectory_data VALUES (?1, ?2, ?3, ?4, ?5, ?6)";
 const INSERT_FRAME: &str = "INSERT INTO frame_data VALUES (?1, ?2)";
 
 /// An open trajectory database.
@@ -124,11 +129,14 @@ impl SqliteTrajectories {
             }
             let mut row = self.db.prepare_cached(INSERT_ROW)?;
             for i in 0..a.len() {
+                let (sin, cos) = a.orientations()[i].sin_cos();
                 row.execute(params![
                     frame,
                     a.id(i).0,
                     f64::from(a.pos_x()[i]),
-                    f64::from(a.pos_y()[i])
+                    f64::from(a.pos_y()[i]),
+                    f64::from(cos),
+                    f64::from(sin)
                 ])?;
             }
             self.db

@@ -23,7 +23,7 @@ pub enum Format {
     Csv,
     /// PedPy's (and PeTrack's) text format: `# framerate:` and unit header, `id frame x y z`.
     PedPyText,
-    /// JuPedSim's SQLite trajectory database, schema version 3.
+    /// JuPedSim's SQLite trajectory database, schema version 2 (JuPedSim 1.4's).
     JupedsimSqlite,
 }
 
