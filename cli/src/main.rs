@@ -70,9 +70,13 @@ enum Command {
         /// Time step in seconds (default: the run's; needed for a checkpoint without one).
         #[arg(long, allow_negative_numbers = true)]
         dt: Option<f32>,
-        /// Print a timing line every K frames.
+        /// Print a timing line (and write trajectory rows) every K frames.
         #[arg(long)]
         every: Option<u64>,
+        /// Write the resumed run's trajectories, as `run --trajectories` does (its first frame
+        /// is the checkpoint's).
+        #[arg(long)]
+        trajectories: Option<PathBuf>,
         /// Where to keep checkpointing (default: the file resumed from).
         #[arg(long)]
         checkpoint: Option<PathBuf>,
@@ -145,7 +149,9 @@ struct RunArgs {
     /// Longest side of the picture written by --render, pixels.
     #[arg(long, default_value_t = 800)]
     size: u32,
-    /// Write trajectories as long-format CSV: frame,t,id,x,y,vx,vy,heading,group.
+    /// Write trajectories every --every frames and the last, in the format the extension names:
+    /// .txt PedPy text (id frame x y z), .sqlite/.sqlite3/.db JuPedSim SQLite (version 2), any
+    /// other long-format CSV (frame,t,id,x,y,vx,vy,heading,group).
     #[arg(long)]
     trajectories: Option<PathBuf>,
     /// Print only the summary.
@@ -229,6 +235,7 @@ fn dispatch(command: Command) -> Result<()> {
             threads,
             dt,
             every,
+            trajectories,
             checkpoint,
             checkpoint_every,
             quiet,
@@ -238,6 +245,7 @@ fn dispatch(command: Command) -> Result<()> {
                 threads,
                 dt,
                 every,
+                trajectories,
                 checkpoint: checkpoint.unwrap_or_else(|| file.clone()),
                 checkpoint_every,
                 quiet,
@@ -434,6 +442,9 @@ fn run_scenario(s: Scenario, args: &RunArgs, file: Option<&Path>) -> Result<()> 
     .filter_map(|(flag, p)| p.map(|p| (flag, p)))
     .collect();
     files::check_outputs(&outputs, &inputs(&s, file))?;
+    if let Some(p) = &args.trajectories {
+        output::Format::of(p)?;
+    }
     let (s, mut world, pool, threads) = prepare(s, &args.common)?;
     let every = period("every", args.every, (s.steps / 20).max(1))?;
     let checkpoint = match (&args.checkpoint, args.checkpoint_every) {
@@ -459,9 +470,15 @@ fn run_scenario(s: Scenario, args: &RunArgs, file: Option<&Path>) -> Result<()> 
         size: args.size,
         frame_seconds: s.dt * every as f32,
     };
+    let sampling = output::Sampling {
+        dt: s.dt,
+        every,
+        scenario: s.name.clone(),
+        seed: world.seed(),
+    };
     let outputs = Outputs::open(
         args.render.as_deref(),
-        args.trajectories.as_deref(),
+        args.trajectories.as_deref().map(|p| (p, &sampling)),
         &world,
         options,
     )?;
@@ -483,6 +500,7 @@ struct ResumeArgs {
     threads: Option<usize>,
     dt: Option<f32>,
     every: Option<u64>,
+    trajectories: Option<PathBuf>,
     checkpoint: PathBuf,
     checkpoint_every: Option<u64>,
     quiet: bool,
@@ -490,6 +508,16 @@ struct ResumeArgs {
 
 /// Loads a checkpoint and goes on with its run, checkpointing as it did.
 fn resume(file: &Path, args: &ResumeArgs) -> Result<()> {
+    if let Some(p) = &args.trajectories {
+        // The checkpoint resumed from is read and (by default) rewritten, never a trajectory.
+        let outputs = [
+            ("--trajectories", p.as_path()),
+            ("--checkpoint", &args.checkpoint),
+        ];
+        files::check_outputs(&outputs[..1], &[file.to_path_buf()])?;
+        files::check_outputs(&outputs, &[])?;
+        output::Format::of(p)?;
+    }
     let (mut world, run) = World::load_file(file).map_err(|e| match e {
         Error::Checkpoint(c) => Error::Invalid {
             name: format!("checkpoint {}", file.display()),
@@ -543,13 +571,23 @@ fn resume(file: &Path, args: &ResumeArgs) -> Result<()> {
         quiet: args.quiet,
         until_arrived: false,
     };
-    run_steps(
-        &mut world,
-        &pool,
-        &drive,
-        Outputs::default(),
-        Some(&checkpoint),
-    )
+    let outputs = match &args.trajectories {
+        Some(p) => {
+            let sampling = output::Sampling {
+                dt,
+                every: drive.every,
+                scenario: name.clone(),
+                seed: world.seed(),
+            };
+            let options = output::RenderOptions {
+                size: 0,
+                frame_seconds: dt * drive.every as f32,
+            };
+            Outputs::open(None, Some((p, &sampling)), &world, options)?
+        }
+        None => Outputs::default(),
+    };
+    run_steps(&mut world, &pool, &drive, outputs, Some(&checkpoint))
 }
 
 /// Steps the world on to frame `d.end`: frame lines, outputs, checkpoints (at the start, every

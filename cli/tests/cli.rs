@@ -2,29 +2,10 @@
 //! sane values, trajectories have one row per agent per written frame, and bad input gets a
 //! non-zero exit with a one-line message.
 
-use std::path::PathBuf;
 use std::process::{Command, Output};
 
-fn throng(args: &[&str]) -> Output {
-    Command::new(env!("CARGO_BIN_EXE_throng"))
-        .args(args)
-        .output()
-        .expect("run throng")
-}
-
-fn tmp(name: &str) -> PathBuf {
-    let dir = std::env::temp_dir().join(format!("throng-cli-{}", std::process::id()));
-    std::fs::create_dir_all(&dir).unwrap();
-    dir.join(name)
-}
-
-fn stdout(o: &Output) -> String {
-    String::from_utf8_lossy(&o.stdout).into_owned()
-}
-
-fn stderr(o: &Output) -> String {
-    String::from_utf8_lossy(&o.stderr).into_owned()
-}
+mod common;
+use common::{assert_one_line_failure, stderr, stdout, throng, tmp};
 
 #[test]
 fn list_names_every_builtin_scenario() {
@@ -168,23 +149,6 @@ fn trajectories_have_one_row_per_agent_per_written_frame() {
     // Prey and predators told apart by the group column.
     let groups: std::collections::BTreeSet<&str> = rows.iter().map(|r| r[8]).collect();
     assert_eq!(groups.into_iter().collect::<Vec<_>>(), ["0", "1"]);
-}
-
-fn assert_one_line_failure(args: &[&str], needle: &str) {
-    let o = throng(args);
-    assert!(!o.status.success(), "{args:?} succeeded");
-    let err = stderr(&o);
-    let lines: Vec<&str> = err.lines().filter(|l| !l.trim().is_empty()).collect();
-    assert_eq!(lines.len(), 1, "{args:?}: one line wanted, got:\n{err}");
-    assert!(
-        lines[0].contains(needle),
-        "{args:?}: {:?} lacks {needle:?}",
-        lines[0]
-    );
-    assert!(
-        !err.contains("panicked") && !err.contains("backtrace"),
-        "{err}"
-    );
 }
 
 #[test]

@@ -23,49 +23,10 @@ pub struct WorldPainter {
     heat_version: Option<u64>,
 }
 
-/// The world rectangle a picture of `world` shows: the bounds' rectangle, or for an open world the
-/// box around agents, obstacles, gravity points, paths and fields, with a margin.
+/// The world rectangle a picture of `world` shows: [`World::extent`].
 #[must_use]
 pub fn world_extent(world: &World) -> (Vec2, Vec2) {
-    if let Some(size) = world.bounds().size() {
-        return (Vec2::ZERO, size);
-    }
-    let mut lo = Vec2::splat(f32::INFINITY);
-    let mut hi = Vec2::splat(f32::NEG_INFINITY);
-    let mut add = |p: Vec2| {
-        lo = lo.min(p);
-        hi = hi.max(p);
-    };
-    let a = world.agents();
-    for i in 0..a.len() {
-        add(a.position(i));
-    }
-    for c in world.obstacles().circles() {
-        add(c.center - c.radius);
-        add(c.center + c.radius);
-    }
-    for w in world.obstacles().walls() {
-        add(w.a);
-        add(w.b);
-    }
-    for p in world.gravity().points() {
-        add(p.position);
-    }
-    for path in world.paths() {
-        for &p in path.points() {
-            add(p);
-        }
-    }
-    if let Some(f) = world.field(0) {
-        let g = f.grid();
-        add(g.origin());
-        add(g.origin() + Vec2::new(g.width() as f32, g.height() as f32) * g.cell_size());
-    }
-    if !lo.is_finite() || !hi.is_finite() {
-        return (Vec2::splat(-1.0), Vec2::splat(1.0));
-    }
-    let margin = ((hi - lo).max_element() * 0.05).max(1.0);
-    (lo - margin, hi + margin)
+    world.extent()
 }
 
 impl WorldPainter {

@@ -232,6 +232,53 @@ impl World {
         self.bounds
     }
 
+    /// The rectangle `(min, max)` the world occupies: the bounds' rectangle, or for an open
+    /// world the box around agents, obstacles, gravity points, paths and the first field, grown
+    /// by 5% of its larger side (at least 1); `(-1, -1)..(1, 1)` for an empty open world.
+    /// Pictures show it and trajectory files take it as the walkable area's outline.
+    #[must_use]
+    pub fn extent(&self) -> (Vec2, Vec2) {
+        if let Some(size) = self.bounds.size() {
+            return (Vec2::ZERO, size);
+        }
+        let mut lo = Vec2::splat(f32::INFINITY);
+        let mut hi = Vec2::splat(f32::NEG_INFINITY);
+        let mut add = |p: Vec2| {
+            lo = lo.min(p);
+            hi = hi.max(p);
+        };
+        let a = self.agents();
+        for i in 0..a.len() {
+            add(a.position(i));
+        }
+        for c in self.obstacles().circles() {
+            add(c.center - c.radius);
+            add(c.center + c.radius);
+        }
+        for w in self.obstacles().walls() {
+            add(w.a);
+            add(w.b);
+        }
+        for p in self.gravity().points() {
+            add(p.position);
+        }
+        for path in self.paths() {
+            for &p in path.points() {
+                add(p);
+            }
+        }
+        if let Some(f) = self.field(0) {
+            let g = f.grid();
+            add(g.origin());
+            add(g.origin() + Vec2::new(g.width() as f32, g.height() as f32) * g.cell_size());
+        }
+        if !lo.is_finite() || !hi.is_finite() {
+            return (Vec2::splat(-1.0), Vec2::splat(1.0));
+        }
+        let margin = ((hi - lo).max_element() * 0.05).max(1.0);
+        (lo - margin, hi + margin)
+    }
+
     /// The seed all randomness derives from.
     #[must_use]
     pub fn seed(&self) -> u64 {

@@ -1,21 +1,27 @@
-//! Streaming outputs of a run: trajectory CSV rows and pictures (animated GIF frames as the run
-//! goes, or the last frame as PNG).
+//! Streaming outputs of a run: trajectories (CSV, PedPy text or JuPedSim SQLite, by the file's
+//! extension; `trajectory`) and pictures (animated GIF frames as the run goes, or the last frame
+//! as PNG).
 //!
 //! Every file is written through an [`AtomicOutput`]: complete (renamed into place by
 //! [`Outputs::finish`]) or absent (the previous file untouched) after a failure.
 
-use std::fs::File;
-use std::io::{BufWriter, Write};
+mod sqlite;
+mod trajectory;
+mod wkt;
+
 use std::path::Path;
 
 use throng::{Error, Result, World};
 
+#[cfg(feature = "render")]
 use crate::files::AtomicOutput;
+
+pub use trajectory::{Format, Sampling, Trajectories};
 
 /// The files a run writes as it goes.
 #[derive(Debug, Default)]
 pub struct Outputs {
-    csv: Option<(BufWriter<File>, AtomicOutput)>,
+    trajectories: Option<Trajectories>,
     #[cfg(feature = "render")]
     picture: Option<Picture>,
 }
@@ -46,10 +52,15 @@ pub struct RenderOptions {
 }
 
 impl Outputs {
-    /// Opens the requested files (nothing is written for an option that is `None`).
+    /// Opens the requested files (nothing is written for an option that is `None`); the
+    /// trajectory file in the format its extension names ([`Format::of`]).
+    ///
+    /// # Errors
+    /// As [`Format::of`] and [`Trajectories::create`]; for the picture, [`Error::Invalid`] for
+    /// a bad size or extension and [`Error::Io`] when it cannot be created.
     pub fn open(
         render: Option<&Path>,
-        trajectories: Option<&Path>,
+        trajectories: Option<(&Path, &Sampling)>,
         world: &World,
         options: RenderOptions,
     ) -> Result<Self> {
@@ -57,11 +68,8 @@ impl Outputs {
         if let Some(p) = render {
             out.open_picture(p, world, options)?;
         }
-        if let Some(p) = trajectories {
-            let (file, f) = AtomicOutput::create(p)?;
-            let mut w = BufWriter::new(f);
-            writeln!(w, "frame,t,id,x,y,vx,vy,heading,group").map_err(|e| file.io(e))?;
-            out.csv = Some((w, file));
+        if let Some((p, sampling)) = trajectories {
+            out.trajectories = Some(Trajectories::create(p, Format::of(p)?, sampling, world)?);
         }
         Ok(out)
     }
@@ -135,23 +143,8 @@ impl Outputs {
 
     /// Writes the world's current frame to every open output.
     pub fn frame(&mut self, world: &World) -> Result<()> {
-        if let Some((w, file)) = &mut self.csv {
-            let a = world.agents();
-            let (frame, t) = (world.frame(), world.time());
-            for i in 0..a.len() {
-                writeln!(
-                    w,
-                    "{frame},{t:.6},{},{},{},{},{},{},{}",
-                    a.id(i).0,
-                    a.pos_x()[i],
-                    a.pos_y()[i],
-                    a.vel_x()[i],
-                    a.vel_y()[i],
-                    a.orientations()[i],
-                    a.groups()[i]
-                )
-                .map_err(|e| file.io(e))?;
-            }
+        if let Some(t) = &mut self.trajectories {
+            t.frame(world)?;
         }
         #[cfg(feature = "render")]
         if let Some(p) = &mut self.picture
@@ -166,9 +159,8 @@ impl Outputs {
     /// Flushes and closes everything and moves each complete file into place; a PNG gets the
     /// last frame.
     pub fn finish(mut self, world: &World) -> Result<()> {
-        if let Some((w, file)) = self.csv.take() {
-            w.into_inner().map_err(|e| file.io(e.into_error()))?;
-            file.commit()?;
+        if let Some(t) = self.trajectories.take() {
+            t.finish()?;
         }
         #[cfg(feature = "render")]
         if let Some(mut p) = self.picture.take() {
