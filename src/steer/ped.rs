@@ -89,11 +89,24 @@ fn for_each_near(
         Some(grid) => {
             let (sx, sy, order) = (grid.sorted_x(), grid.sorted_y(), grid.order());
             grid.for_each_run(pos, r, |run| {
-                for s in run {
-                    let rel = Vec2::new(sx[s] - pos.x, sy[s] - pos.y);
-                    let j = order[s] as usize;
-                    if rel.length_squared() <= r_sq && j != i {
-                        f(j, rel);
+                let (xs, ys, js) = (&sx[run.clone()], &sy[run.clone()], &order[run]);
+                // Eight candidates at a time: the offsets and the hit mask in lanes, then the
+                // hits in order.
+                for ((xs, ys), js) in xs.chunks(8).zip(ys.chunks(8)).zip(js.chunks(8)) {
+                    let (mut dx, mut dy) = ([0.0f32; 8], [0.0f32; 8]);
+                    let mut hits = 0u32;
+                    for l in 0..xs.len() {
+                        dx[l] = xs[l] - pos.x;
+                        dy[l] = ys[l] - pos.y;
+                        hits |= u32::from(dx[l] * dx[l] + dy[l] * dy[l] <= r_sq) << l;
+                    }
+                    while hits != 0 {
+                        let l = hits.trailing_zeros() as usize;
+                        hits &= hits - 1;
+                        let j = js[l] as usize;
+                        if j != i {
+                            f(j, Vec2::new(dx[l], dy[l]));
+                        }
                     }
                 }
             });
