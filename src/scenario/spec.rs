@@ -58,6 +58,14 @@ pub struct Scenario {
     /// world. Default: none.
     #[serde(default, skip_serializing_if = "Vec::is_empty")]
     pub exits: Vec<crate::world::Exit>,
+    /// Measurement lines and areas and the summary's time window (`[measurements]`).
+    /// Default: none.
+    #[serde(default, skip_serializing_if = "no_measurements")]
+    pub measurements: crate::measure::MeasurementSpec,
+}
+
+fn no_measurements(m: &crate::measure::MeasurementSpec) -> bool {
+    *m == crate::measure::MeasurementSpec::default()
 }
 
 fn default_seed() -> u64 {
@@ -543,6 +551,7 @@ impl Scenario {
         for e in &self.exits {
             e.validate()?;
         }
+        self.measurements.validate()?;
         Ok(())
     }
 
