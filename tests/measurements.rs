@@ -38,15 +38,20 @@ fn spec(lines: Vec<MeasurementLine>, areas: Vec<MeasurementArea>) -> Measurement
 /// any step).
 fn walk(world: &mut World, rec: &mut Measurements, frames: &[Vec<Vec2>], dt: f32) {
     for (f, positions) in frames.iter().enumerate() {
-        if f > 0 {
-            world.step(dt).unwrap();
-        }
-        let ids: Vec<AgentId> = world.agents().ids().to_vec();
-        for (id, &p) in ids.iter().zip(positions) {
-            world.set_position(*id, p).unwrap();
-        }
-        rec.observe(world);
+        walk_one(world, rec, positions, (f > 0).then_some(dt));
     }
+}
+
+/// Steps by `dt` when given, then moves the agents to `frame` and observes.
+fn walk_one(w: &mut World, rec: &mut Measurements, frame: &[Vec2], dt: Option<f32>) {
+    if let Some(dt) = dt {
+        w.step(dt).unwrap();
+    }
+    let ids: Vec<AgentId> = w.agents().ids().to_vec();
+    for (id, &p) in ids.iter().zip(frame) {
+        w.set_position(*id, p).unwrap();
+    }
+    rec.observe(w);
 }
 
 #[test]
@@ -254,28 +259,17 @@ fn measure_paths(paths: &[Vec<Vec2>], order: &[usize]) -> (Vec<(u64, u64)>, Vec<
         vec![area],
     );
     let mut rec = Measurements::new(&s).unwrap();
-    let steps = paths[0].len();
     let mut counts = Vec::new();
     let mut times = Vec::new();
-    for f in 0..steps {
-        let frame: Vec<Vec2> = order.iter().map(|&k| paths[k][f]).collect();
-        walk_one(&mut w, &mut rec, &frame, f > 0);
+    let frames = (0..paths[0].len()).map(|f| order.iter().map(|&k| paths[k][f]).collect());
+    for (f, frame) in frames.enumerate() {
+        let frame: Vec<Vec2> = frame;
+        walk_one(&mut w, &mut rec, &frame, (f > 0).then_some(0.1));
         counts.push(rec.area_frames()[0].count);
         times.extend(rec.crossings().iter().map(|c| c.time.to_bits()));
     }
     times.sort_unstable();
     (rec.line_counts().collect(), counts, times)
-}
-
-fn walk_one(w: &mut World, rec: &mut Measurements, frame: &[Vec2], step: bool) {
-    if step {
-        w.step(0.1).unwrap();
-    }
-    let ids: Vec<AgentId> = w.agents().ids().to_vec();
-    for (id, &p) in ids.iter().zip(frame) {
-        w.set_position(*id, p).unwrap();
-    }
-    rec.observe(w);
 }
 
 proptest! {

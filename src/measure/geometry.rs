@@ -151,7 +151,10 @@ struct AreaSpec {
 }
 
 #[derive(Deserialize)]
-#[serde(untagged)]
+#[serde(
+    untagged,
+    expecting = "`polygon` as a list of [x, y] points or a WKT POLYGON string"
+)]
 enum PolygonSpec {
     Points(Vec<Vec2>),
     Wkt(String),
