@@ -301,28 +301,14 @@ proptest! {
     }
 }
 
-/// The built-in evacuation at 300 agents with a counting line before each door and an area over
-/// the room, run to the end on a pool of `threads`.
+/// The built-in evacuation at 300 agents (its file has a counting line in each door and the room
+/// as an area), run until the room is empty on a pool of `threads`.
 fn evacuation(threads: usize) -> (Measurements, usize) {
-    let mut s = throng::scenario::builtin("evacuation")
+    let s = throng::scenario::builtin("evacuation")
         .unwrap()
         .with_agents(300)
         .unwrap();
-    s.measurements = spec(
-        vec![
-            line("west", [4.0, 50.0], [4.0, 0.0]),
-            line("east", [66.0, 0.0], [66.0, 50.0]),
-        ],
-        vec![
-            MeasurementArea::new(
-                "room",
-                [[6.0, 6.0], [64.0, 6.0], [64.0, 44.0], [6.0, 44.0]]
-                    .map(Vec2::from)
-                    .to_vec(),
-            )
-            .unwrap(),
-        ],
-    );
+    assert_eq!(s.measurements.lines.len(), 2, "a line in each door");
     let mut w = s.build().unwrap();
     let n = w.len();
     let mut rec = Measurements::new(&s.measurements).unwrap();

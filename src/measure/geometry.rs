@@ -153,7 +153,7 @@ struct AreaSpec {
 #[derive(Deserialize)]
 #[serde(
     untagged,
-    expecting = "`polygon` as a list of [x, y] points or a WKT POLYGON string"
+    expecting = "`polygon` must be a list of [x, y] points or a WKT POLYGON string"
 )]
 enum PolygonSpec {
     Points(Vec<Vec2>),
