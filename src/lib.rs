@@ -41,6 +41,8 @@
 //! - [`group`]: group movement: path following, leader following, formations, jumps.
 //! - [`world`]: [`World`], [`WorldBuilder`], [`GroupParams`], the step pipeline and [`StepStats`].
 //! - [`scenario`]: scenario files and the built-in scenarios.
+//! - [`measure`]: pedestrian measurements: flow through lines, density and speed in areas,
+//!   evacuation time.
 //! - `render` (feature `render`): PNG and animated GIF output.
 //! - [`spawn`]: seeded placements in rectangles, discs, rings, grids, Poisson-disc layouts and
 //!   free cells, clear of obstacles when asked.
@@ -65,6 +67,7 @@ pub mod field;
 pub mod gravity;
 pub mod group;
 pub mod limits;
+pub mod measure;
 pub mod movement;
 pub mod obstacles;
 pub mod orca;

@@ -26,6 +26,14 @@ pub const MAX_GRAVITY_POINTS: usize = 100_000;
 pub const MAX_CHANNELS: usize = 64;
 /// The most goals a channel may draw at random (`{ random = n }`, `shuffle_goals`).
 pub const MAX_RANDOM_GOALS: usize = 1_000_000;
+/// The most measurement lines (`measurements.lines`) and the most measurement areas
+/// (`measurements.areas`) a scenario may have, each.
+pub const MAX_MEASUREMENTS: usize = 256;
+/// The most vertices of a measurement area's polygon (its simplicity check is quadratic in
+/// them: about half a million edge pairs at the ceiling).
+pub const MAX_POLYGON_VERTICES: usize = 1024;
+/// The longest name of a measurement line or area, bytes.
+pub const MAX_MEASUREMENT_NAME: usize = 64;
 /// The smallest time step, seconds: with cells and speeds at their ceilings a step's velocity
 /// (distance over `dt`) stays finite.
 pub const MIN_DT: f32 = 1e-6;

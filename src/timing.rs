@@ -14,6 +14,7 @@ use std::time::Duration;
 
 use serde::Serialize;
 
+use crate::measure::{MeasurementReport, Measurements};
 use crate::world::{PhaseTimes, StepStats};
 
 /// Per-step measurements of a run.
@@ -104,10 +105,16 @@ pub struct BenchReport {
     pub all_arrived_step: Option<u64>,
     /// Agents at their goal at the end (0 when no group has an arrival radius).
     pub arrived: usize,
+    /// The world time at which the last agent left through an exit (`null` when the world has
+    /// no exits or did not empty); see [`Measurements::evacuation_time`].
+    pub evacuation_time: Option<f64>,
     /// The neighbour-index backend.
     pub index: String,
     /// Mean over the timed steps of the mean neighbours per agent.
     pub mean_neighbours: f64,
+    /// The scenario's measurement lines and areas over the whole run, warm-up included (empty
+    /// lists when it has none).
+    pub measurements: MeasurementReport,
     /// Milliseconds per step.
     pub ms_per_step: StepMs,
     /// The process's peak resident memory, MiB (see [`peak_rss_mb`]).
@@ -123,6 +130,16 @@ pub struct BenchReport {
     pub steps: u64,
     /// Worker threads.
     pub threads: usize,
+}
+
+impl BenchReport {
+    /// The report with the measurements' summary and evacuation time.
+    #[must_use]
+    pub fn measured(mut self, m: &Measurements) -> Self {
+        self.evacuation_time = m.evacuation_time();
+        self.measurements = m.report();
+        self
+    }
 }
 
 /// One line per reported frame: frame number, ms for the step and each phase, agents.
@@ -273,8 +290,10 @@ impl Timings {
             agents,
             all_arrived_step: self.arrivals.all_arrived_frame,
             arrived: self.arrivals.arrived,
+            evacuation_time: None,
             index: index.to_string(),
             mean_neighbours: mean(&self.neighbours),
+            measurements: MeasurementReport::default(),
             ms_per_step: self.step_ms(),
             peak_rss_mb: peak_rss_mb(),
             phases_ms: PhaseTimes::NAMES

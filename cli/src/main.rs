@@ -17,7 +17,7 @@ use throng::scenario::{self, Scenario};
 use throng::timing::RunningTimings;
 use throng::{Error, Result, World};
 
-use crate::output::Outputs;
+use crate::output::{MeasureOutput, Outputs};
 use crate::timing::Timings;
 
 /// A data-parallel crowd and flock simulator.
@@ -154,6 +154,11 @@ struct RunArgs {
     /// other long-format CSV (frame,t,id,x,y,vx,vy,heading,group).
     #[arg(long)]
     trajectories: Option<PathBuf>,
+    /// Write the scenario's measurements every frame as CSV: frame,t,agents,left, then per
+    /// line <name>_positive,<name>_negative (cumulative crossings), then per area
+    /// <name>_count,<name>_density,<name>_speed.
+    #[arg(long, value_name = "FILE")]
+    measurements: Option<PathBuf>,
     /// Print only the summary.
     #[arg(long)]
     quiet: bool,
@@ -330,7 +335,9 @@ fn with_overrides(mut s: Scenario, c: &WorldArgs) -> Result<Scenario> {
         }
         s.dt = dt;
     }
-    Ok(s)
+    // A layout is written out once the agent count is known, so that its geometry and its
+    // measurement lines are what the run and its outputs see.
+    s.expanded()
 }
 
 /// The memory a world may take: `--max-memory`, or the machine's available memory.
@@ -436,6 +443,7 @@ fn run_scenario(s: Scenario, args: &RunArgs, file: Option<&Path>) -> Result<()> 
     let outputs: Vec<(&'static str, &Path)> = [
         ("--render", args.render.as_deref()),
         ("--trajectories", args.trajectories.as_deref()),
+        ("--measurements", args.measurements.as_deref()),
         ("--checkpoint", args.checkpoint.as_deref()),
     ]
     .into_iter()
@@ -482,6 +490,7 @@ fn run_scenario(s: Scenario, args: &RunArgs, file: Option<&Path>) -> Result<()> 
         &world,
         options,
     )?;
+    let measure = MeasureOutput::open(&s.measurements, args.measurements.as_deref())?;
     let drive = Drive {
         name: &s.name,
         dt: s.dt,
@@ -491,7 +500,13 @@ fn run_scenario(s: Scenario, args: &RunArgs, file: Option<&Path>) -> Result<()> 
         quiet: args.quiet,
         until_arrived: args.until_arrived,
     };
-    run_steps(&mut world, &pool, &drive, outputs, checkpoint.as_ref())
+    run_steps(
+        &mut world,
+        &pool,
+        &drive,
+        (outputs, Some(measure)),
+        checkpoint.as_ref(),
+    )
 }
 
 /// Options of `resume`.
@@ -587,16 +602,23 @@ fn resume(file: &Path, args: &ResumeArgs) -> Result<()> {
         }
         None => Outputs::default(),
     };
-    run_steps(&mut world, &pool, &drive, outputs, Some(&checkpoint))
+    run_steps(
+        &mut world,
+        &pool,
+        &drive,
+        (outputs, None),
+        Some(&checkpoint),
+    )
 }
 
-/// Steps the world on to frame `d.end`: frame lines, outputs, checkpoints (at the start, every
-/// `checkpoint_every` frames and at the end), the summary from running statistics.
+/// Steps the world on to frame `d.end`: frame lines, outputs, measurements (every frame),
+/// checkpoints (at the start, every `checkpoint_every` frames and at the end), the summary from
+/// running statistics and the measurements' summary.
 fn run_steps(
     world: &mut World,
     pool: &rayon::ThreadPool,
     d: &Drive,
-    mut outputs: Outputs,
+    (mut outputs, mut measure): (Outputs, Option<MeasureOutput>),
     checkpoint: Option<&Checkpointing>,
 ) -> Result<()> {
     let steps = d.end.saturating_sub(world.frame());
@@ -628,6 +650,9 @@ fn run_steps(
         c.write(world)?;
     }
     outputs.frame(world)?;
+    if let Some(m) = &mut measure {
+        m.frame(world)?;
+    }
     let mut written = world.frame();
     let ckpt_every = checkpoint.map_or(0, |c| c.run.checkpoint_every);
     let mut timings = RunningTimings::default();
@@ -635,6 +660,9 @@ fn run_steps(
     for _ in 0..steps {
         let stats = pool.install(|| world.step(d.dt))?;
         timings.push_world(&stats, world);
+        if let Some(m) = &mut measure {
+            m.frame(world)?;
+        }
         if stats.frame % d.every == 0 {
             if !d.quiet {
                 log(timing::frame_line(&stats))?;
@@ -670,7 +698,16 @@ fn run_steps(
         outputs.frame(world)?;
     }
     outputs.finish(world)?;
-    files::say(&timings.summary(wall.elapsed()))
+    if let Some(m) = &mut measure {
+        m.finish()?;
+    }
+    files::say(&timings.summary(wall.elapsed()))?;
+    if let Some(m) = &measure {
+        for line in m.recorder().summary() {
+            files::say(&line)?;
+        }
+    }
+    Ok(())
 }
 
 fn bench(s: Scenario, c: &CommonArgs, warmup: u64) -> Result<()> {
@@ -682,9 +719,12 @@ fn bench(s: Scenario, c: &CommonArgs, warmup: u64) -> Result<()> {
             value: 0.0,
         });
     }
+    let mut measure = throng::measure::Measurements::new(&s.measurements)?;
+    measure.observe(&world);
     pool.install(|| -> Result<()> {
         for _ in 0..warmup {
             world.step(s.dt)?;
+            measure.observe(&world);
         }
         Ok(())
     })?;
@@ -692,14 +732,11 @@ fn bench(s: Scenario, c: &CommonArgs, warmup: u64) -> Result<()> {
     for _ in 0..steps {
         let stats = pool.install(|| world.step(s.dt))?;
         timings.push_world(&stats, &world);
+        measure.observe(&world);
     }
     let index = world.index_kind().to_string();
-    files::say(&timing::json(
-        &timings,
-        &s.name,
-        world.len(),
-        threads,
-        &index,
-        steps,
-    ))
+    let report = timings
+        .report(&s.name, world.len(), threads, &index, steps)
+        .measured(&measure);
+    files::say(&timing::json(&report))
 }

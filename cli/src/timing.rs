@@ -1,17 +1,9 @@
 //! Frame timing lines, run summaries and the `bench --json` object: the library's
 //! [`throng::timing`], with the benchmark report printed as JSON.
 
-pub use throng::timing::{Timings, frame_line};
+pub use throng::timing::{BenchReport, Timings, frame_line};
 
-/// The `bench --json` object of the recorded steps.
-pub fn json(
-    timings: &Timings,
-    scenario: &str,
-    agents: usize,
-    threads: usize,
-    index: &str,
-    steps: u64,
-) -> String {
-    let report = timings.report(scenario, agents, threads, index, steps);
-    serde_json::to_string(&report).expect("a report of numbers and strings always serialises")
+/// The `bench --json` object of a report.
+pub fn json(report: &BenchReport) -> String {
+    serde_json::to_string(report).expect("a report of numbers and strings always serialises")
 }

@@ -531,3 +531,121 @@ fn orca_runs_report_arrivals_and_stop_when_everyone_arrived() {
     assert!(out.contains(&format!("summary: {frame} steps")), "{out}");
     assert!(out.contains("arrived 40/40"), "{out}");
 }
+
+/// A small scenario with a door line, an area and an exit beyond the door.
+const MEASURED: &str = r#"
+name = "measured"
+dt = 0.1
+steps = 200
+[world]
+kind = "bounded"
+size = [20, 10]
+[[groups]]
+count = 20
+spawn = { kind = "rect", min = [1, 1], max = [6, 9] }
+model = "kinematic"
+max_speed = 1.3
+steering = { behaviours = [{ kind = "seek", target = { point = [19.5, 5] } }] }
+[[exits]]
+min = [18, 0]
+max = [20, 10]
+[measurements]
+[[measurements.lines]]
+name = "door"
+from = [15, 0]
+to = [15, 10]
+[[measurements.areas]]
+name = "room"
+polygon = [[0, 0], [10, 0], [10, 10], [0, 10]]
+"#;
+
+#[test]
+fn measurements_write_one_row_per_frame_and_a_summary() {
+    let input = tmp("measured.toml");
+    std::fs::write(&input, MEASURED).unwrap();
+    let csv = tmp("measured.csv");
+    let o = throng(&[
+        "run",
+        input.to_str().unwrap(),
+        "--quiet",
+        "--every",
+        "50",
+        "--measurements",
+        csv.to_str().unwrap(),
+    ]);
+    assert!(o.status.success(), "{}", stderr(&o));
+    let out = stdout(&o);
+    assert!(
+        out.contains("line door: 20 crossings (+20 / -0, net 20)"),
+        "{out}"
+    );
+    assert!(out.contains("area room:"), "{out}");
+    assert!(out.contains("evacuation: the last agent left at"), "{out}");
+    let text = std::fs::read_to_string(&csv).unwrap();
+    let rows: Vec<&str> = text.lines().collect();
+    assert_eq!(
+        rows[0],
+        "frame,t,agents,left,door_positive,door_negative,room_count,room_density,room_speed"
+    );
+    assert_eq!(
+        rows.len(),
+        1 + 201,
+        "a row for frame 0 and for each of the 200 steps"
+    );
+    assert!(
+        rows[1].starts_with("0,0.000000,20,0,0,0,20,0.200000,"),
+        "{}",
+        rows[1]
+    );
+    assert!(rows[201].starts_with("200,"), "{}", rows[201]);
+    // At the end everyone has crossed the door and left.
+    let last: Vec<&str> = rows[201].split(',').collect();
+    assert_eq!(&last[2..6], ["0", "20", "20", "0"], "{}", rows[201]);
+
+    // The scenario file is never an output.
+    let o = throng(&[
+        "run",
+        input.to_str().unwrap(),
+        "--steps",
+        "2",
+        "--measurements",
+        input.to_str().unwrap(),
+    ]);
+    assert!(!o.status.success());
+    assert!(stderr(&o).contains("input"), "{}", stderr(&o));
+    assert_eq!(std::fs::read_to_string(&input).unwrap(), MEASURED);
+}
+
+#[test]
+fn bench_json_reports_measurements_and_the_evacuation_time() {
+    let input = tmp("measured_bench.toml");
+    std::fs::write(&input, MEASURED).unwrap();
+    let o = throng(&[
+        "bench",
+        input.to_str().unwrap(),
+        "--steps",
+        "190",
+        "--warmup",
+        "10",
+        "--json",
+    ]);
+    assert!(o.status.success(), "{}", stderr(&o));
+    let v: serde_json::Value = serde_json::from_str(stdout(&o).trim()).unwrap();
+    let door = &v["measurements"]["lines"][0];
+    assert_eq!(door["name"], "door");
+    assert_eq!(door["positive"], 20);
+    assert_eq!(door["length"], 10.0);
+    assert!(door["flow"].as_f64().unwrap() > 0.0);
+    assert_eq!(v["measurements"]["left"], 20);
+    assert_eq!(v["measurements"]["areas"][0]["name"], "room");
+    assert!(v["evacuation_time"].as_f64().unwrap() > 0.0);
+
+    // Without measurements or exits: empty lists, and a null evacuation time.
+    let o = throng(&[
+        "bench", "flock", "--agents", "100", "--steps", "2", "--json",
+    ]);
+    let v: serde_json::Value = serde_json::from_str(stdout(&o).trim()).unwrap();
+    assert_eq!(v["measurements"]["lines"], serde_json::json!([]));
+    assert_eq!(v["measurements"]["areas"], serde_json::json!([]));
+    assert!(v["evacuation_time"].is_null());
+}

@@ -2,6 +2,7 @@
 
 use pyo3::prelude::*;
 use pyo3::types::PyDict;
+use throng::measure::{AreaReport, LineReport, Measurements};
 use throng::timing::Timings;
 use throng::{Error, IndexKind};
 
@@ -14,7 +15,9 @@ use crate::world::{build, changes, pool};
 /// (`warmup` untimed steps, then `steps` timed ones, GIL released) and returns the same
 /// object: {"scenario", "agents", "threads", "index", "steps", "ms_per_step": {"median",
 /// "mean", "p95", "p99", "min", "max"}, "phases_ms", "agent_steps_per_sec",
-/// "mean_neighbours", "peak_rss_mb", "polarisation", "arrived", "all_arrived_step"}.
+/// "mean_neighbours", "peak_rss_mb", "polarisation", "arrived", "all_arrived_step",
+/// "evacuation_time", "measurements": {"lines", "areas", "left"}}; the measurements cover the
+/// warm-up steps too.
 /// `threads` defaults to all cores; the other keywords are those of `World.from_scenario`.
 #[pyfunction]
 #[pyo3(signature = (scenario, *, agents=None, steps=100, warmup=10, threads=None, seed=None, dt=None, index=None, **overrides))]
@@ -61,33 +64,58 @@ pub(crate) fn bench<'py>(
     let pool = pool(Some(threads))?.expect("a thread count was given");
     let mut world = build(&s)?;
     let dt = s.dt;
+    let mut measure = Measurements::new(&s.measurements).or_raise()?;
     let timings = py
         .detach(|| {
             pool.install(|| -> throng::Result<Timings> {
+                measure.observe(&world);
                 for _ in 0..warmup {
                     world.step(dt)?;
+                    measure.observe(&world);
                 }
                 let mut timings = Timings::default();
                 for _ in 0..steps {
                     let stats = world.step(dt)?;
                     timings.push_world(&stats, &world);
+                    measure.observe(&world);
                 }
                 Ok(timings)
             })
         })
         .or_raise()?;
-    let report = timings.report(
-        &s.name,
-        world.len(),
-        pool.current_num_threads(),
-        &world.index_kind().to_string(),
-        steps,
-    );
+    let report = timings
+        .report(
+            &s.name,
+            world.len(),
+            pool.current_num_threads(),
+            &world.index_kind().to_string(),
+            steps,
+        )
+        .measured(&measure);
     let dict = convert::serialize_to_py(py, &report, false)?;
-    // The conversion goes through TOML, which has no null: restore the CLI's `null`.
-    if report.all_arrived_step.is_none() {
-        dict.cast::<PyDict>()?
-            .set_item("all_arrived_step", py.None())?;
+    // The conversion goes through TOML, which has no null: restore the CLI's `null`s.
+    let dict = dict.cast::<PyDict>()?;
+    for key in ["all_arrived_step", "evacuation_time"] {
+        if !dict.contains(key)? {
+            dict.set_item(key, py.None())?;
+        }
     }
-    Ok(dict)
+    let measurements = dict
+        .get_item("measurements")?
+        .expect("the report has measurements");
+    for (list, keys) in [
+        ("lines", &LineReport::OPTIONAL_KEYS[..]),
+        ("areas", &AreaReport::OPTIONAL_KEYS[..]),
+    ] {
+        for entry in measurements.get_item(list)?.try_iter()? {
+            let entry = entry?;
+            let entry = entry.cast::<PyDict>()?;
+            for &key in keys {
+                if !entry.contains(key)? {
+                    entry.set_item(key, py.None())?;
+                }
+            }
+        }
+    }
+    Ok(dict.clone().into_any())
 }

@@ -87,6 +87,9 @@ def test_bench_returns_the_cli_bench_json_keys_and_values(throng_bin):
     # No goals in a flock: nobody arrives, and the step at which all did is null in both.
     assert ours["arrived"] == theirs["arrived"] == 0
     assert ours["all_arrived_step"] is None and theirs["all_arrived_step"] is None
+    # No exits and no measurements: a null evacuation time and empty lists in both.
+    assert ours["evacuation_time"] is None and theirs["evacuation_time"] is None
+    assert ours["measurements"] == theirs["measurements"] == {"lines": [], "areas": [], "left": 0}
     for k in ("scenario", "agents", "threads", "index", "steps", "mean_neighbours"):
         assert ours[k] == theirs[k], k
     assert set(ours["phases_ms"]) == {

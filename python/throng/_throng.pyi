@@ -44,6 +44,40 @@ class MsPerStep(TypedDict):
     max: float
 
 @type_check_only
+class LineReport(TypedDict):
+    """A counting line's summary: crossings each way, flow J, specific flow J/b, time gaps."""
+
+    name: str
+    positive: int
+    negative: int
+    net: int
+    total: int
+    first_time: Optional[float]
+    last_time: Optional[float]
+    flow: Optional[float]
+    specific_flow: Optional[float]
+    length: float
+    time_gap_mean: Optional[float]
+    time_gap_sd: Optional[float]
+
+@type_check_only
+class AreaReport(TypedDict):
+    """A measurement area's summary: means over the frames of the window."""
+
+    name: str
+    area: float
+    frames: int
+    mean_count: Optional[float]
+    mean_density: Optional[float]
+    mean_speed: Optional[float]
+
+@type_check_only
+class MeasurementReport(TypedDict):
+    lines: List[LineReport]
+    areas: List[AreaReport]
+    left: int
+
+@type_check_only
 class BenchReport(TypedDict):
     """What ``bench`` returns: the keys of ``throng bench --json``."""
 
@@ -58,6 +92,10 @@ class BenchReport(TypedDict):
     mean_neighbours: float
     polarisation: float
     peak_rss_mb: float
+    arrived: int
+    all_arrived_step: Optional[int]
+    evacuation_time: Optional[float]
+    measurements: MeasurementReport
 
 @type_check_only
 class Bounds(TypedDict):

@@ -10,7 +10,8 @@
 //! - `kind = "bottleneck"`: a room `room` (default 10 x 10 m) with, centred on its right wall,
 //!   an exit corridor `width` metres wide (default 1.2) and `length` metres long (default 4),
 //!   whose last 0.5 m is the exit. Agents spawn in the room. The layout adds a flow field (cells
-//!   of 0.1 m, goal: the exit) for groups to follow with `follow_field`.
+//!   of 0.1 m, goal: the exit) for groups to follow with `follow_field`, and the measurement
+//!   line `entrance` across the corridor's mouth (unless the scenario names a line so).
 //!
 //! Groups with `spawn = { kind = "layout" }` spawn in the layout's area, at least 0.45 m apart
 //! and 0.25 m from the walls (as JuPedSim's `distribute_by_number` places them).
@@ -95,6 +96,7 @@ struct Expansion {
     exits: Vec<Exit>,
     spawn: (Vec2, Vec2),
     field: Option<FieldSpec>,
+    line: Option<crate::measure::MeasurementLine>,
 }
 
 impl Layout {
@@ -206,6 +208,7 @@ impl Layout {
                     ],
                     spawn: (Vec2::new(margin, 0.0), Vec2::new(l - margin, width)),
                     field: None,
+                    line: None,
                 }
             }
             Layout::Bottleneck {
@@ -236,6 +239,11 @@ impl Layout {
                     exits: vec![exit],
                     spawn: (Vec2::ZERO, room),
                     field: Some(bottleneck_field(w, h, y0, y1, end)),
+                    line: Some(crate::measure::MeasurementLine {
+                        name: "entrance".into(),
+                        from: p(w, y0),
+                        to: p(w, y1),
+                    }),
                 }
             }
         })
@@ -310,6 +318,11 @@ impl Scenario {
                 });
             }
             s.field = Some(f);
+        }
+        if let Some(line) = e.line
+            && s.measurements.lines.iter().all(|l| l.name != line.name)
+        {
+            s.measurements.lines.push(line);
         }
         let m = Vec2::splat(WALL_DISTANCE);
         for g in &mut s.groups {

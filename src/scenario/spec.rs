@@ -62,6 +62,14 @@ pub struct Scenario {
     /// walls, exits and a field when the world is built. Default: none.
     #[serde(default, skip_serializing_if = "Option::is_none")]
     pub layout: Option<super::layout::Layout>,
+    /// Measurement lines and areas and the summary's time window (`[measurements]`).
+    /// Default: none.
+    #[serde(default, skip_serializing_if = "no_measurements")]
+    pub measurements: crate::measure::MeasurementSpec,
+}
+
+fn no_measurements(m: &crate::measure::MeasurementSpec) -> bool {
+    *m == crate::measure::MeasurementSpec::default()
 }
 
 fn default_seed() -> u64 {
@@ -582,6 +590,7 @@ impl Scenario {
         if let Some(l) = &self.layout {
             l.validate()?;
         }
+        self.measurements.validate()?;
         Ok(())
     }
 

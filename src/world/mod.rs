@@ -26,7 +26,7 @@ mod targets;
 pub use crate::group::Formation;
 pub use crate::profile::Profile;
 pub use builder::{DEFAULT_SEED, WorldBuilder};
-pub use exits::Exit;
+pub use exits::{Departure, Exit};
 
 /// The former name of [`Profile`]: a group's movement model, limits and behaviours.
 pub type GroupParams = Profile;

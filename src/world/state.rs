@@ -70,6 +70,8 @@ pub struct World {
     pub(crate) targets: crate::targets::TargetSlots,
     /// Rectangles through which agents leave the world.
     pub(crate) exits: Vec<super::Exit>,
+    /// The agents that left through an exit in the latest step (not part of a checkpoint).
+    pub(crate) departures: Vec<super::Departure>,
 }
 
 impl World {
@@ -98,6 +100,7 @@ impl World {
             plans_stale: true,
             targets: Default::default(),
             exits: Vec::new(),
+            departures: Vec::new(),
         }
     }
 

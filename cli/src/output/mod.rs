@@ -9,11 +9,12 @@ mod sqlite;
 mod trajectory;
 mod wkt;
 
+use std::fs::File;
+use std::io::{BufWriter, Write};
 use std::path::Path;
 
 use throng::{Error, Result, World};
 
-#[cfg(feature = "render")]
 use crate::files::AtomicOutput;
 
 pub use trajectory::{Format, Sampling, Trajectories};
@@ -176,6 +177,78 @@ impl Outputs {
         }
         #[cfg(not(feature = "render"))]
         let _ = world;
+        Ok(())
+    }
+}
+
+/// A run's measurements (`[measurements]`, exits) and, with `--measurements FILE`, their
+/// per-frame CSV: `frame,t,agents,left`, then per line `<name>_positive,<name>_negative`
+/// (cumulative crossings), then per area `<name>_count,<name>_density,<name>_speed` (the
+/// speed is empty when nobody is inside).
+#[derive(Debug)]
+pub struct MeasureOutput {
+    recorder: throng::measure::Measurements,
+    csv: Option<(BufWriter<File>, AtomicOutput)>,
+}
+
+impl MeasureOutput {
+    /// A recorder for `spec`, writing its CSV to `path` when given.
+    pub fn open(spec: &throng::measure::MeasurementSpec, path: Option<&Path>) -> Result<Self> {
+        let recorder = throng::measure::Measurements::new(spec)?;
+        let csv = match path {
+            Some(p) => {
+                let (file, f) = AtomicOutput::create(p)?;
+                let mut w = BufWriter::new(f);
+                let mut header = String::from("frame,t,agents,left");
+                for l in &spec.lines {
+                    header += &format!(",{0}_positive,{0}_negative", l.name);
+                }
+                for a in &spec.areas {
+                    header += &format!(",{0}_count,{0}_density,{0}_speed", a.name);
+                }
+                writeln!(w, "{header}").map_err(|e| file.io(e))?;
+                Some((w, file))
+            }
+            None => None,
+        };
+        Ok(MeasureOutput { recorder, csv })
+    }
+
+    /// Observes the world's current frame and writes its row.
+    pub fn frame(&mut self, world: &World) -> Result<()> {
+        self.recorder.observe(world);
+        let Some((w, file)) = &mut self.csv else {
+            return Ok(());
+        };
+        let r = &self.recorder;
+        let mut row = format!(
+            "{},{:.6},{},{}",
+            world.frame(),
+            world.time(),
+            world.len(),
+            r.left()
+        );
+        for (pos, neg) in r.line_counts() {
+            row += &format!(",{pos},{neg}");
+        }
+        for a in r.area_frames() {
+            let speed = a.mean_speed.map(|v| format!("{v:.6}")).unwrap_or_default();
+            row += &format!(",{},{:.6},{speed}", a.count, a.density);
+        }
+        writeln!(w, "{row}").map_err(|e| file.io(e))
+    }
+
+    /// The recorder.
+    pub fn recorder(&self) -> &throng::measure::Measurements {
+        &self.recorder
+    }
+
+    /// Flushes the CSV and moves it into place.
+    pub fn finish(&mut self) -> Result<()> {
+        if let Some((w, file)) = self.csv.take() {
+            w.into_inner().map_err(|e| file.io(e.into_error()))?;
+            file.commit()?;
+        }
         Ok(())
     }
 }

@@ -1,0 +1,146 @@
+//! Pedestrian measurements as the analysis tools of pedestrian dynamics make them (PedPy,
+//! JPSreport): flow through measurement lines, density and speed in measurement areas, and the
+//! evacuation time.
+//!
+//! A [`Measurements`] recorder is built from a [`MeasurementSpec`] (the scenario's
+//! `[measurements]` table) and fed the world after every step with
+//! [`Measurements::observe`]; [`Measurements::report`] condenses what it saw into a
+//! [`MeasurementReport`], which the CLI prints at the end of a run and `throng bench --json`
+//! includes.
+//!
+//! Definitions (units are the world's: metres and seconds for pedestrians):
+//! - **Crossing**: the straight move of an agent between two observed frames meets a line
+//!   ([`MeasurementLine`] says which way is positive and how touching is treated). Its time is
+//!   interpolated along the move. Every crossing counts, in each direction (PedPy's N-t diagram
+//!   keeps only each pedestrian's first one; with one-way traffic the two agree).
+//! - **Flow** `J = (N - 1) / (t_N - t_1)` over the `N` crossings (both directions) in the time
+//!   window: the number of time gaps over their total duration, i.e. one over the mean time gap.
+//!   PedPy's `compute_flow` divides the crossings of each interval by the time from the previous
+//!   interval's last crossing, the same estimator, except that its first interval counts the first
+//!   pedestrian too (`N / (t_N - t_1)`). The **specific flow** is `J / b`, `b` the line's length.
+//! - **Time gaps** (time headways): the differences between consecutive crossing times; their
+//!   mean and sample standard deviation.
+//! - **Classic density** of an area in a frame: agents inside over the polygon's area (PedPy's
+//!   `compute_classic_density`); its **mean speed**: the mean of the speeds `|v|` of the agents
+//!   inside (frames with nobody inside have none). Over a window, both are means over frames.
+//! - **Evacuation time**: the world time of the step in which the last agent left through an
+//!   exit, when the world has exits and is empty.
+//!
+//! Invariants: results depend only on the sequence of observed worlds, never on the thread
+//! count (the world itself is bit-identical for any count) or on storage order: each frame's
+//! crossings are sorted by time, then agent id, and counts and crossing times are per agent.
+//! Agents that an exit removes in a step are measured through [`World::departures`], so a
+//! crossing on the way out is counted. Memory is constant in the run's length: statistics are
+//! kept as running sums.
+
+mod geometry;
+mod recorder;
+
+pub use geometry::{MeasurementArea, MeasurementLine};
+pub use recorder::{AreaFrame, AreaReport, Crossing, LineReport, MeasurementReport, Measurements};
+
+use serde::{Deserialize, Serialize};
+
+use crate::error::{Error, Result};
+#[cfg(doc)]
+use crate::world::World;
+
+/// The scenario's `[measurements]` table: lines, areas and the time window of the summary.
+#[derive(Clone, Debug, Default, PartialEq, Serialize, Deserialize)]
+#[serde(deny_unknown_fields, try_from = "SpecFields")]
+pub struct MeasurementSpec {
+    /// Counting lines (`[[measurements.lines]]`). Default: none.
+    pub lines: Vec<MeasurementLine>,
+    /// Areas (`[[measurements.areas]]`). Default: none.
+    pub areas: Vec<MeasurementArea>,
+    /// The summary's time window `[t0, t1]`, seconds of world time (both ends included).
+    /// Default: the whole run.
+    pub window: Option<[f64; 2]>,
+}
+
+/// The unchecked fields of a [`MeasurementSpec`].
+#[derive(Deserialize)]
+#[serde(deny_unknown_fields)]
+struct SpecFields {
+    #[serde(default)]
+    lines: Vec<MeasurementLine>,
+    #[serde(default)]
+    areas: Vec<MeasurementArea>,
+    #[serde(default)]
+    window: Option<[f64; 2]>,
+}
+
+impl TryFrom<SpecFields> for MeasurementSpec {
+    type Error = Error;
+    fn try_from(f: SpecFields) -> Result<Self> {
+        let spec = MeasurementSpec {
+            lines: f.lines,
+            areas: f.areas,
+            window: f.window,
+        };
+        spec.validate()?;
+        Ok(spec)
+    }
+}
+
+impl MeasurementSpec {
+    /// Whether there is nothing to measure (no line, no area).
+    #[must_use]
+    pub fn is_empty(&self) -> bool {
+        self.lines.is_empty() && self.areas.is_empty()
+    }
+
+    /// Checks every line and area, that names are unique, and the window.
+    ///
+    /// # Errors
+    /// As [`MeasurementLine::validate`] and [`MeasurementArea::validate`];
+    /// [`Error::OutOfRange`] for more than [`MAX_MEASUREMENTS`](crate::limits::MAX_MEASUREMENTS)
+    /// lines or areas; [`Error::Invalid`] for a name used twice or a window that is not two
+    /// finite times with `t0 <= t1`.
+    pub fn validate(&self) -> Result<()> {
+        let max = crate::limits::MAX_MEASUREMENTS;
+        for (name, count) in [
+            ("measurements.lines", self.lines.len()),
+            ("measurements.areas", self.areas.len()),
+        ] {
+            if count > max {
+                return Err(Error::OutOfRange {
+                    name,
+                    value: count as f64,
+                    range: "[0, 256] entries",
+                });
+            }
+        }
+        for l in &self.lines {
+            l.validate()?;
+        }
+        for a in &self.areas {
+            a.validate()?;
+        }
+        let mut names: Vec<&str> = self
+            .lines
+            .iter()
+            .map(|l| l.name.as_str())
+            .chain(self.areas.iter().map(|a| a.name.as_str()))
+            .collect();
+        names.sort_unstable();
+        if let Some(w) = names.windows(2).find(|w| w[0] == w[1]) {
+            return Err(Error::Invalid {
+                name: "measurements".into(),
+                reason: format!(
+                    "the name `{}` is used twice (lines and areas share names)",
+                    w[0]
+                ),
+            });
+        }
+        if let Some([t0, t1]) = self.window
+            && !(t0.is_finite() && t1.is_finite() && t0 <= t1)
+        {
+            return Err(Error::Invalid {
+                name: "measurements.window".into(),
+                reason: format!("[{t0}, {t1}] must be two finite times with t0 <= t1"),
+            });
+        }
+        Ok(())
+    }
+}
