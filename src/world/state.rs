@@ -68,8 +68,10 @@ pub struct World {
     pub(crate) plans_stale: bool,
     /// Shared target slots behaviours refer to.
     pub(crate) targets: crate::targets::TargetSlots,
-    /// Rectangles through which agents leave the world.
+    /// Rectangles and polygons through which agents leave the world.
     pub(crate) exits: Vec<super::Exit>,
+    /// The walkable area whose walls were added (`World::set_walkable`), if any.
+    pub(crate) walkable: Option<crate::geometry::Walkable>,
 }
 
 impl World {
@@ -98,6 +100,7 @@ impl World {
             plans_stale: true,
             targets: Default::default(),
             exits: Vec::new(),
+            walkable: None,
         }
     }
 
