@@ -235,7 +235,6 @@ impl FieldSpec {
                     name: "field.map".into(),
                     reason: "the walkable raster needs `[geometry] walkable`".into(),
                 })?;
-                // The raster is placed already; `with_geometry` below keeps its placement.
                 let grid = area.rasterize(self.cell_size, self.origin)?;
                 let goals = (0..grid.height())
                     .flat_map(|y| (0..grid.width()).map(move |x| (x, y)))
