@@ -17,8 +17,8 @@ use crate::error::{Error, Result, finite_vec, positive};
 use crate::field::{Cell, OccupancyGrid};
 
 /// The most rows and columns the edges of a walkable area may span in all at the raster's cell
-/// size (the raster's work beyond its cells; 2^24).
-pub const MAX_RASTER_SPANS: u64 = 1 << 24;
+/// size (2^22): the raster's work beyond its cells, and at most 64 MiB of row crossings.
+pub const MAX_RASTER_SPANS: u64 = 1 << 22;
 
 impl Walkable {
     /// The occupancy grid of the area at `cell_size`: the smallest grid of the lattice through

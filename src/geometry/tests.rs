@@ -187,6 +187,11 @@ fn raster_ceilings_are_errors() {
     assert!(a.rasterize(1e-4, Vec2::ZERO).is_err());
     assert!(a.rasterize(0.0, Vec2::ZERO).is_err());
     assert!(a.rasterize(f32::NAN, Vec2::ZERO).is_err());
+    // Few cells, but 4,000 walls each spanning 10,000 columns.
+    let c = Walkable::from_rings(comb(2000, 100.0, 0.002), Vec::new()).unwrap();
+    let e = c.rasterize(0.01, Vec2::ZERO).unwrap_err().to_string();
+    assert!(e.contains("span"), "{e}");
+    assert!(c.rasterize(1.0, Vec2::ZERO).is_ok());
 }
 
 #[test]
@@ -254,21 +259,29 @@ proptest! {
     }
 }
 
+/// A comb of `teeth` teeth `length` long pointing along +x, `pitch` apart, closed by a spine
+/// at x = -1: a simple ring whose edges all overlap in x.
+fn comb(teeth: usize, length: f32, pitch: f32) -> Vec<Vec2> {
+    let mut ring = Vec::with_capacity(2 * teeth + 3);
+    for k in 0..teeth {
+        ring.push(Vec2::new(0.0, pitch * k as f32));
+        ring.push(Vec2::new(length, pitch * (k as f32 + 0.5)));
+    }
+    let top = pitch * teeth as f32;
+    ring.extend([
+        Vec2::new(0.0, top),
+        Vec2::new(-1.0, top),
+        Vec2::new(-1.0, 0.0),
+    ]);
+    ring
+}
+
 /// A comb at the vertex ceiling whose teeth all span the same x range: the crossing sweep's
 /// worst case. Run with `cargo test --release -- --ignored comb`.
 #[test]
 #[ignore = "timing of the worst case; run by hand"]
 fn a_comb_at_the_vertex_ceiling_is_checked_within_a_second() {
-    let teeth = (MAX_VERTICES - 3) / 2;
-    let mut ring = Vec::with_capacity(MAX_VERTICES);
-    for k in 0..teeth {
-        ring.push(Vec2::new(0.0, 2.0 * k as f32));
-        ring.push(Vec2::new(100.0, 2.0 * k as f32 + 1.0));
-    }
-    let top = 2.0 * teeth as f32;
-    ring.push(Vec2::new(0.0, top));
-    ring.push(Vec2::new(-1.0, top));
-    ring.push(Vec2::new(-1.0, 0.0));
+    let ring = comb((MAX_VERTICES - 3) / 2, 100.0, 1.0);
     let t = std::time::Instant::now();
     let a = Walkable::from_rings(ring, Vec::new()).unwrap();
     let took = t.elapsed();
