@@ -36,6 +36,8 @@
 //! - [`spatial`]: the neighbour-index contract and its grid, k-d tree and brute-force backends.
 //! - [`field`]: occupancy grids, BFS potential, Dijkstra integration and flow fields, walkers.
 //! - [`obstacles`]: circles and walls, their avoidance and non-penetration.
+//! - [`geometry`]: walkable areas (polygons with holes) from and to WKT: their walls, point test
+//!   and occupancy raster.
 //! - [`orca`]: optimal reciprocal collision avoidance, a velocity filter for crowds.
 //! - [`gravity`]: anti-gravity points and the force they exert.
 //! - [`group`]: group movement: path following, leader following, formations, jumps.
@@ -64,6 +66,7 @@ pub mod bounds;
 pub mod checkpoint;
 pub mod error;
 pub mod field;
+pub mod geometry;
 pub mod gravity;
 pub mod group;
 pub mod limits;
@@ -91,6 +94,7 @@ pub use error::{Error, Result};
 pub use field::{
     FlowField, GoalChannels, GridWalkers, IntegrationField, OccupancyGrid, PotentialField,
 };
+pub use geometry::Walkable;
 pub use spatial::{
     BruteIndex, GridIndex, IndexKind, KdTreeIndex, Neighbour, NeighbourIndex, SpatialIndex,
 };
@@ -101,6 +105,7 @@ pub mod prelude {
     pub use crate::agents::{AgentId, AgentInit, Agents};
     pub use crate::bounds::Bounds;
     pub use crate::error::{Error, Result};
+    pub use crate::geometry::Walkable;
     pub use crate::movement::{MovementModel, OrientationMode};
     pub use crate::steering::{
         ArriveParams, Behaviour, Combine, Neighbourhood, Steering, SteeringProfile, Target,

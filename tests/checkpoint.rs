@@ -407,6 +407,47 @@ fn crafted_values_are_rejected_by_the_worlds_validation() {
     }
 }
 
+/// A world with a walkable area and a rectangle and a polygon exit, saved: the file written
+/// before walkable areas and polygon exits existed is this one without the `walkable` key and
+/// with only rectangle exits, `{ min, max }`; it still loads, with no area.
+#[test]
+fn a_checkpoint_written_before_walkable_areas_and_polygon_exits_loads() {
+    let mut world = World::builder()
+        .group(GroupParams::default())
+        .agent(AgentInit::at(Vec2::new(1.0, 1.0), 0))
+        .build()
+        .unwrap();
+    let area = throng::Walkable::from_wkt("POLYGON ((0 0, 4 0, 4 4, 0 4, 0 0))").unwrap();
+    world.set_walkable(area.clone()).unwrap();
+    let rect = throng::world::Exit::rect(Vec2::new(3.0, 3.0), Vec2::new(4.0, 4.0));
+    world.add_exit(rect.clone()).unwrap();
+    world
+        .add_exit(throng::world::Exit::polygon(
+            throng::Walkable::from_wkt("POLYGON ((0 3, 1 3, 0 4, 0 3))").unwrap(),
+        ))
+        .unwrap();
+    let bytes = saved(&world);
+    let back = World::load(&bytes[..]).unwrap();
+    assert_eq!(back.walkable(), Some(&area));
+    assert_eq!(back.exits(), world.exits());
+    let old = crafted(&bytes, |v| {
+        let state = entry(v, &["world"]).as_map_mut().unwrap();
+        state.retain(|(k, _)| k.as_text() != Some("walkable"));
+        entry(v, &["world", "exits"]).as_array_mut().unwrap().pop();
+    });
+    let back = World::load(&old[..]).unwrap();
+    assert_eq!(back.walkable(), None);
+    assert_eq!(back.exits(), &[rect]);
+    assert_eq!(back.obstacles().walls().len(), 4);
+    // A damaged area is rejected by the same checks as a scenario's.
+    let bad = crafted(&bytes, |v| {
+        *entry(v, &["world", "walkable"]) =
+            ciborium::Value::Text("POLYGON ((0 0, 4 0, 0 0))".into());
+    });
+    let e = checkpoint_error(&bad);
+    assert!(e.to_string().contains("distinct points"), "{e}");
+}
+
 /// Every single-byte change of the payload, re-sealed with a valid checksum: loading gives an
 /// error or a world whose buffers are finite and that steps without trouble.
 #[test]

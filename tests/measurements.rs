@@ -169,11 +169,8 @@ fn an_agent_removed_by_an_exit_is_counted_when_it_crossed() {
     // The agent is put beyond the door line, inside the exit: the step removes it, and the
     // recorder sees its last move through the world's departures.
     let mut w = still_world(Bounds::Open, &[Vec2::new(1.0, 0.5), Vec2::new(2.0, 0.5)]);
-    w.add_exit(Exit {
-        min: Vec2::new(-5.0, -5.0),
-        max: Vec2::new(-1.0, 5.0),
-    })
-    .unwrap();
+    w.add_exit(Exit::rect(Vec2::new(-5.0, -5.0), Vec2::new(-1.0, 5.0)))
+        .unwrap();
     let door = line("door", [0.0, 1.0], [0.0, 0.0]);
     let mut rec = Measurements::new(&spec(vec![door], vec![])).unwrap();
     rec.observe(&w);

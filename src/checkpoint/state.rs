@@ -46,6 +46,10 @@ pub(super) struct WorldState {
     /// Exits (absent from files written before exits existed: none).
     #[serde(default)]
     exits: Vec<crate::world::Exit>,
+    /// The walkable area, as WKT (absent from files written before walkable areas existed:
+    /// none). Its walls are among `walls`.
+    #[serde(default)]
+    walkable: Option<crate::geometry::Walkable>,
     circles: Vec<Circle>,
     walls: Vec<Wall>,
     gravity: Vec<GravityPoint>,
@@ -116,6 +120,7 @@ impl WorldState {
             paths: gm.paths.clone(),
             targets: w.targets.as_slice().to_vec(),
             exits: w.exits.clone(),
+            walkable: w.walkable.clone(),
             circles: w.obstacles.circles().to_vec(),
             walls: w.obstacles.walls().to_vec(),
             gravity: w.gravity.points().to_vec(),
@@ -174,6 +179,8 @@ impl WorldState {
             || "obstacles".into(),
             Obstacles::from_lists(self.circles, self.walls),
         )?;
+        // The area was checked when it was decoded; its walls came back with the others.
+        w.walkable = self.walkable;
         let issued = usize::try_from(self.ids_issued)
             .ok()
             .filter(|&n| n <= super::MAX_IDS_ISSUED)

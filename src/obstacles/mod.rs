@@ -189,6 +189,18 @@ impl Obstacles {
         Ok(())
     }
 
+    /// Adds many walls and rebuilds the broad phase once; nothing is added when one is bad.
+    ///
+    /// # Errors
+    /// As [`Obstacles::add_wall`], for the first bad wall.
+    pub fn add_walls(&mut self, walls: &[Wall]) -> Result<()> {
+        walls.iter().try_for_each(check_wall)?;
+        crate::error::try_reserve(&mut self.walls, walls.len(), "walls")?;
+        self.walls.extend_from_slice(walls);
+        self.grid.rebuild(&self.circles, &self.walls);
+        Ok(())
+    }
+
     /// Adds the walls of a polyline, closed into a polygon when `closed`.
     ///
     /// # Errors
@@ -242,6 +254,22 @@ impl Obstacles {
                 near |= c.center.distance_squared(p) < sq(c.radius + margin);
             },
             |_| {},
+        );
+        near
+    }
+
+    /// Whether `p` lies closer than `margin` (>= 0) to some wall.
+    #[must_use]
+    pub fn near_wall(&self, p: Vec2, margin: f32) -> bool {
+        let mut near = false;
+        self.grid.visit(
+            p,
+            margin,
+            |_| {},
+            |w| {
+                let w = &self.walls[w as usize];
+                near |= w.closest_point(p).distance_squared(p) < sq(margin);
+            },
         );
         near
     }

@@ -64,20 +64,6 @@ fn left_of(a: Vec2, b: Vec2, c: Vec2) -> f32 {
     (a - c).perp_dot(b - a)
 }
 
-/// Whether `p` lies inside the polygon `pts` (crossing number).
-fn inside(pts: &[Vec2], p: Vec2) -> bool {
-    let mut inside = false;
-    let mut j = pts.len() - 1;
-    for i in 0..pts.len() {
-        let (a, b) = (pts[i], pts[j]);
-        if (a.y > p.y) != (b.y > p.y) && p.x < (b.x - a.x) * (p.y - a.y) / (b.y - a.y) + a.x {
-            inside = !inside;
-        }
-        j = i;
-    }
-    inside
-}
-
 impl WallChains {
     /// The chains of `walls`.
     #[must_use]
@@ -242,7 +228,7 @@ impl WallChains {
                     let is_in = match inside_cache.iter().find(|(k, _)| *k == l) {
                         Some(&(_, b)) => b,
                         None => {
-                            let b = inside(&self.loops[l as usize], p);
+                            let b = crate::geometry::ring_contains(&self.loops[l as usize], p);
                             inside_cache.push((l, b));
                             b
                         }

@@ -21,7 +21,9 @@ use crate::world::World;
 #[derive(Clone, Debug, PartialEq, Serialize, Deserialize)]
 #[serde(deny_unknown_fields)]
 pub struct FieldSpec {
-    /// Where the cells come from.
+    /// Where the cells come from. Default: the raster of the scenario's walkable area
+    /// (`"walkable"`).
+    #[serde(default = "walkable_map")]
     pub map: MapSource,
     /// Side of a cell in world units (> 0). Default: 1.
     #[serde(default = "one")]
@@ -54,6 +56,10 @@ pub struct FieldSpec {
 #[derive(Clone, Debug, PartialEq, Serialize, Deserialize)]
 #[serde(rename_all = "snake_case", deny_unknown_fields)]
 pub enum MapSource {
+    /// The raster of the scenario's `[geometry] walkable` area at the field's `cell_size`, on
+    /// the grid lines through `origin` (see [`Walkable::rasterize`](crate::geometry::Walkable::rasterize));
+    /// its goal cells (`"map"` channels) are the free cells whose centre lies inside an exit.
+    Walkable,
     /// An ASCII map file (`#` wall, `.` free, `G` goal, `S` spawn), relative to the scenario.
     File(PathBuf),
     /// An ASCII map written inline.
@@ -108,6 +114,9 @@ pub struct WalkerSpec {
     pub policy: WalkPolicy,
 }
 
+fn walkable_map() -> MapSource {
+    MapSource::Walkable
+}
 fn one() -> f32 {
     1.0
 }
@@ -193,8 +202,12 @@ impl FieldSpec {
 
     /// The number of cells the map will have, as far as it is known before it is read (a map
     /// file counts one cell per byte).
-    pub(crate) fn cell_estimate(&self) -> u64 {
+    pub(crate) fn cell_estimate(&self, area: Option<&crate::geometry::Walkable>) -> u64 {
         match &self.map {
+            MapSource::Walkable => area.map_or(0, |a| {
+                let side = (a.max() - a.min()) / self.cell_size.max(f32::MIN_POSITIVE);
+                ((f64::from(side.x) + 2.0) * (f64::from(side.y) + 2.0)).min(u64::MAX as f64) as u64
+            }),
             MapSource::File(p) => std::fs::metadata(p).map_or(0, |m| m.len()),
             MapSource::Ascii(text) => text.len() as u64,
             MapSource::Caves { width, height, .. } | MapSource::Tunnels { width, height, .. } => {
@@ -232,8 +245,31 @@ impl FieldSpec {
         Ok(())
     }
 
-    fn map(&self, seed: u64) -> Result<MapFile> {
+    fn map(&self, seed: u64, world: &World) -> Result<MapFile> {
         let map = match &self.map {
+            MapSource::Walkable => {
+                let area = world.walkable().ok_or_else(|| Error::Invalid {
+                    name: "field.map".into(),
+                    reason: "the walkable raster needs `[geometry] walkable`".into(),
+                })?;
+                let grid = area.rasterize(self.cell_size, self.origin)?;
+                let goals = (0..grid.height())
+                    .flat_map(|y| (0..grid.width()).map(move |x| (x, y)))
+                    .filter(|&(x, y)| {
+                        grid.is_free(x, y)
+                            && world
+                                .exits()
+                                .iter()
+                                .any(|e| e.contains(grid.cell_center(x, y)))
+                    })
+                    .collect();
+                return Ok(MapFile {
+                    source_name: "<walkable>".into(),
+                    grid,
+                    goals,
+                    spawns: Vec::new(),
+                });
+            }
             MapSource::File(p) => OccupancyGrid::load_ascii(p)?,
             MapSource::Ascii(text) => OccupancyGrid::parse_ascii(text, "<field.map.ascii>")?,
             MapSource::Caves {
@@ -265,7 +301,7 @@ impl FieldSpec {
 
     /// Builds the grid and channels and adds them to `world` (before any agent is spawned).
     pub(crate) fn add_to(&self, world: &mut World, seed: u64) -> Result<usize> {
-        let map = self.map(seed)?;
+        let map = self.map(seed, world)?;
         if self.channels.is_empty() {
             return Err(Error::Invalid {
                 name: "field.channels".into(),
@@ -275,6 +311,12 @@ impl FieldSpec {
         let mut channels = GoalChannels::new(map.grid.clone(), self.decay, self.neighbourhood)?;
         for (k, g) in self.channels.iter().enumerate() {
             let goals = match g {
+                GoalSpec::Map if self.map == MapSource::Walkable && map.goals.is_empty() => {
+                    return Err(Error::Invalid {
+                        name: "field.channels".into(),
+                        reason: "a \"map\" channel of the walkable raster has the free cells whose centre lies inside an exit, and there are none (add an exit inside the walkable area, or give the channel's cells)".into(),
+                    });
+                }
                 GoalSpec::Map => map.require_goals()?.to_vec(),
                 GoalSpec::Cells(c) => c.clone(),
                 GoalSpec::Random(n) => {

@@ -197,14 +197,8 @@ impl Layout {
                         wall(p01, p00),
                     ],
                     exits: vec![
-                        Exit {
-                            min: p00,
-                            max: Vec2::new(1.0, width),
-                        },
-                        Exit {
-                            min: Vec2::new(l - 1.0, 0.0),
-                            max: p11,
-                        },
+                        Exit::rect(p00, Vec2::new(1.0, width)),
+                        Exit::rect(Vec2::new(l - 1.0, 0.0), p11),
                     ],
                     spawn: (Vec2::new(margin, 0.0), Vec2::new(l - margin, width)),
                     field: None,
@@ -230,10 +224,7 @@ impl Layout {
                     wall(p(w, h), p(0.0, h)),
                     wall(p(0.0, h), p(0.0, 0.0)),
                 ];
-                let exit = Exit {
-                    min: p(end - 0.5, y0),
-                    max: p(end, y1),
-                };
+                let exit = Exit::rect(p(end - 0.5, y0), p(end, y1));
                 Expansion {
                     walls,
                     exits: vec![exit],

@@ -1,6 +1,7 @@
 //! Scenario files: a whole simulation described in TOML, and the built-in scenarios.
 //!
-//! A scenario names the world (bounds, size or a target density), the groups (how many agents,
+//! A scenario names the world (bounds, size or a target density, or a walkable area as WKT
+//! in `[geometry]`), the groups (how many agents,
 //! where they spawn, their movement model, limits and behaviours), the seed, the time step and the
 //! number of steps. Unknown keys are errors, reported with the file, line and column. The
 //! built-in scenarios are the TOML files of the repository's `scenarios/` folder, embedded in the
@@ -12,6 +13,7 @@
 
 mod builtin;
 mod fields;
+mod geometry;
 mod group;
 mod layout;
 mod obstacles;
@@ -20,6 +22,7 @@ mod tiles;
 
 pub use builtin::{BUILTIN, builtin, builtin_names};
 pub use fields::{FieldSpec, GoalSpec, MapSource, WalkerSpec};
+pub use geometry::GeometrySpec;
 pub use group::{AgentRef, FormationSpec, Members};
 pub use layout::Layout;
 pub use obstacles::{GravitySpec, ObstacleSpec, PolygonSpec, RandomCircles, RandomGravity};

@@ -54,8 +54,8 @@ pub struct Scenario {
     /// A grid field (goal channels, walls, walkers). Default: none.
     #[serde(default, skip_serializing_if = "Option::is_none")]
     pub field: Option<super::fields::FieldSpec>,
-    /// Exits: `{ min = [x, y], max = [x, y] }` rectangles through which agents leave the
-    /// world. Default: none.
+    /// Exits: `{ min = [x, y], max = [x, y] }` rectangles or `{ polygon = "POLYGON (...)" }`
+    /// through which agents leave the world. Default: none.
     #[serde(default, skip_serializing_if = "Vec::is_empty")]
     pub exits: Vec<crate::world::Exit>,
     /// A generated pedestrian geometry (`kind = "corridor"` or `"bottleneck"`), written out as
@@ -66,6 +66,9 @@ pub struct Scenario {
     /// Default: none.
     #[serde(default, skip_serializing_if = "no_measurements")]
     pub measurements: crate::measure::MeasurementSpec,
+    /// The walkable area (`[geometry] walkable = "POLYGON (...)"`). Default: none.
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub geometry: Option<super::GeometrySpec>,
 }
 
 fn no_measurements(m: &crate::measure::MeasurementSpec) -> bool {
@@ -454,6 +457,12 @@ impl Scenario {
         self.gravity.validate()?;
         if let Some(f) = &self.field {
             f.validate()?;
+            if f.map == super::MapSource::Walkable && self.geometry.is_none() {
+                return Err(Error::Invalid {
+                    name: "field.map".into(),
+                    reason: "the walkable raster (the map when `map` is not given) needs `[geometry] walkable`".into(),
+                });
+            }
         }
         if self.groups.is_empty() {
             return Err(Error::Invalid {
@@ -487,7 +496,7 @@ impl Scenario {
             g.params.validate()?;
             non_negative("initial_speed", g.initial_speed)?;
             match &g.spawn {
-                Spawn::Uniform if self.world.kind == WorldKind::Open => {
+                Spawn::Uniform if self.world.kind == WorldKind::Open && self.geometry.is_none() => {
                     return Err(Error::Invalid {
                         name: "spawn".into(),
                         reason: "uniform spawn needs a torus or bounded world".into(),
@@ -591,6 +600,9 @@ impl Scenario {
             l.validate()?;
         }
         self.measurements.validate()?;
+        if let Some(g) = &self.geometry {
+            g.check_world(self.bounds()?)?;
+        }
         Ok(())
     }
 
@@ -679,7 +691,10 @@ impl Scenario {
         Ok(self)
     }
 
-    /// The world's bounds for the current agent count.
+    /// The world's bounds for the current agent count. With a `[geometry]` and a `[world]`
+    /// that is open without a size, the walled world `[0, max]` of the area's bounding box
+    /// when the area lies at non-negative coordinates, otherwise the open plane (the area's
+    /// walls hold the agents either way).
     ///
     /// # Errors
     /// As [`Bounds::torus`] for a bad size; [`Error::OutOfRange`] when `density` or
@@ -706,6 +721,18 @@ impl Scenario {
             )?,
             (None, None, None) => Vec2::ZERO,
         };
+        if let Some(g) = &self.geometry
+            && self.world.kind == WorldKind::Open
+            && size == Vec2::ZERO
+        {
+            // The walls of the area hold the agents; a walled world to its bounding box also
+            // gives `uniform` spawns and `containment` their rectangle.
+            let (min, max) = (g.walkable.min(), g.walkable.max());
+            if min.x >= 0.0 && min.y >= 0.0 {
+                return Bounds::bounded(max.x, max.y);
+            }
+            return Ok(Bounds::Open);
+        }
         match self.world.kind {
             WorldKind::Open => Ok(Bounds::Open),
             WorldKind::Bounded => Bounds::bounded(size.x, size.y),
@@ -722,7 +749,8 @@ impl Scenario {
         let agents = (self.agent_count() as u64).saturating_mul(BYTES_PER_AGENT);
         let field = self.field.as_ref().map_or(0, |f| {
             let per_cell = BYTES_PER_CELL + f.channels.len() as u64 * BYTES_PER_CHANNEL_CELL;
-            f.cell_estimate().saturating_mul(per_cell)
+            f.cell_estimate(self.geometry.as_ref().map(|g| &g.walkable))
+                .saturating_mul(per_cell)
         });
         let obstacles = (self.obstacles.circles.len()
             + self.obstacles.walls.len()
@@ -737,6 +765,16 @@ impl Scenario {
                 .random_circles
                 .as_ref()
                 .map_or(0, |r| r.count)
+            + self
+                .geometry
+                .as_ref()
+                .map_or(0, |g| g.walkable.vertex_count())
+            + self
+                .exits
+                .iter()
+                .filter_map(|e| e.polygon.as_ref())
+                .map(crate::geometry::Walkable::vertex_count)
+                .sum::<usize>()
             + self.gravity.points.len()
             + self.gravity.random.as_ref().map_or(0, |r| r.count)) as u64;
         BASE_BYTES
@@ -785,8 +823,11 @@ impl Scenario {
             world.add_path(p.clone())?;
         }
         self.obstacles.apply(&mut world, self.seed)?;
+        if let Some(g) = &self.geometry {
+            world.set_walkable(g.walkable.clone())?;
+        }
         for e in &self.exits {
-            world.add_exit(*e)?;
+            world.add_exit(e.clone())?;
         }
         for g in &self.groups {
             world.add_group(g.params.clone())?;
@@ -859,14 +900,29 @@ impl Scenario {
                     });
                 }
                 let mut position = bounds.wrap(position);
-                // Random spawns that land inside an obstacle are drawn again.
+                let radius = g.params.radius;
+                if placed && !super::geometry::spawn_ok(&world, position, radius) {
+                    return Err(super::geometry::spawn_error(
+                        &world, gi, k, position, radius,
+                    ));
+                }
+                // Random spawns that land inside an obstacle (or, with a walkable area, outside
+                // it or within the agent's radius of a wall) are drawn again.
                 let mut tries = 0;
-                while !placed && world.obstacles().inside_circle(position) {
+                while !placed
+                    && (world.obstacles().inside_circle(position)
+                        || !super::geometry::spawn_ok(&world, position, radius))
+                {
                     tries += 1;
                     if tries > 1000 {
+                        let within = if world.walkable().is_some() {
+                            " inside the walkable area, clear of its walls by the agent radius"
+                        } else {
+                            " outside the obstacles"
+                        };
                         return Err(Error::Invalid {
-                            name: "spawn".into(),
-                            reason: format!("group {gi}: no free spot found outside the obstacles"),
+                            name: format!("groups[{gi}].spawn"),
+                            reason: format!("no free spot found{within} in 1000 draws"),
                         });
                     }
                     position = bounds.wrap(g.spawn_point(&mut rng, bounds, &world)?);
@@ -977,9 +1033,12 @@ impl GroupSpec {
     fn spawn_point(&self, rng: &mut ChaCha8Rng, bounds: Bounds, world: &World) -> Result<Vec2> {
         Ok(match &self.spawn {
             Spawn::FreeCells => super::fields::free_point(world, rng)?,
-            Spawn::Uniform => {
-                crate::spawn::sample_rect(rng, Vec2::ZERO, bounds.size().unwrap_or(Vec2::ONE))
-            }
+            Spawn::Uniform => match world.walkable() {
+                Some(a) => crate::spawn::sample_rect(rng, a.min(), a.max()),
+                None => {
+                    crate::spawn::sample_rect(rng, Vec2::ZERO, bounds.size().unwrap_or(Vec2::ONE))
+                }
+            },
             Spawn::Rect { min, max } => crate::spawn::sample_rect(rng, *min, *max),
             Spawn::Disc { center, radius } => crate::spawn::sample_ring(rng, *center, 0.0, *radius),
             Spawn::Points { points } => points.first().copied().unwrap_or(Vec2::ZERO),

@@ -76,6 +76,12 @@ impl Scenario {
                 reason: "a scenario with a `[field]` or a `[layout]` cannot scale by tiles".into(),
             });
         }
+        if self.geometry.is_some() {
+            return Err(Error::Invalid {
+                name: "world.scale".into(),
+                reason: "a scenario with a `[geometry]` cannot scale by tiles".into(),
+            });
+        }
         let cols = (copies as f64).sqrt().ceil() as usize;
         let rows = copies.div_ceil(cols);
         let mut out = plain.clone();
@@ -154,8 +160,10 @@ impl Scenario {
                 p.points.iter_mut().for_each(|q| *q += shift.offset);
             }
             for e in &mut copy.exits {
-                e.min += shift.offset;
-                e.max += shift.offset;
+                *e = match &e.polygon {
+                    Some(a) => crate::world::Exit::polygon(a.translated(shift.offset)?),
+                    None => crate::world::Exit::rect(e.min + shift.offset, e.max + shift.offset),
+                };
             }
             for p in &mut copy.gravity.points {
                 p.position += shift.offset;

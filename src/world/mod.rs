@@ -22,6 +22,7 @@ mod state;
 mod stats;
 mod step;
 mod targets;
+mod walkable;
 
 pub use crate::group::Formation;
 pub use crate::profile::Profile;

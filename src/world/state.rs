@@ -68,10 +68,12 @@ pub struct World {
     pub(crate) plans_stale: bool,
     /// Shared target slots behaviours refer to.
     pub(crate) targets: crate::targets::TargetSlots,
-    /// Rectangles through which agents leave the world.
+    /// Rectangles and polygons through which agents leave the world.
     pub(crate) exits: Vec<super::Exit>,
     /// The agents that left through an exit in the latest step (not part of a checkpoint).
     pub(crate) departures: Vec<super::Departure>,
+    /// The walkable area whose walls were added (`World::set_walkable`), if any.
+    pub(crate) walkable: Option<crate::geometry::Walkable>,
 }
 
 impl World {
@@ -101,6 +103,7 @@ impl World {
             targets: Default::default(),
             exits: Vec::new(),
             departures: Vec::new(),
+            walkable: None,
         }
     }
 

@@ -1,13 +1,14 @@
 //! The walkable area of a world as a WKT polygon, for trajectory files that carry their geometry
 //! (JuPedSim's SQLite format, read by PedPy as a `WalkableArea`).
 //!
-//! The outer ring is the world's rectangle, or for an open world the box around its agents,
-//! obstacles, paths and field grown by a margin ([`World::extent`], what pictures show). Closed wall chains (the scenario's closed polygons) that lie
+//! A world with a walkable area (`[geometry] walkable`, [`World::set_walkable`]) gives that
+//! area, as read. Otherwise the outer ring is the world's rectangle, or for an open world the
+//! box around its agents, obstacles, paths and field grown by a margin ([`World::extent`], what
+//! pictures show). Closed wall chains (the scenario's closed polygons) that lie
 //! strictly inside it become holes when they are simple polygons and their bounding boxes are
 //! disjoint from each other's, so the polygon is always valid (OGC simple features); other walls
 //! and circle obstacles are left out. Rings are closed (the first point repeated), the outer ring
-//! counter-clockwise and the holes clockwise. A scenario key that gives the walkable area
-//! directly is to replace [`walkable_wkt`] as the one source of this polygon.
+//! counter-clockwise and the holes clockwise.
 
 use std::fmt::Write;
 
@@ -21,6 +22,9 @@ const MAX_HOLE_EDGES: usize = 4096;
 /// The walkable area of `world` as WKT: `POLYGON ((outer ring), (hole), ...)`.
 #[must_use]
 pub fn walkable_wkt(world: &World) -> String {
+    if let Some(area) = world.walkable() {
+        return area.to_wkt();
+    }
     let (min, max) = walkable_bounds(world);
     let outer = [min, Vec2::new(max.x, min.y), max, Vec2::new(min.x, max.y)];
     let mut wkt = String::from("POLYGON (");
