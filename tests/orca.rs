@@ -312,6 +312,101 @@ fn bad_orca_keys_in_a_scenario_are_errors_naming_the_key() {
 }
 
 #[test]
+fn bad_crowd_scenario_keys_are_errors_naming_the_key() {
+    // Exits, goals and the circle and grid spawns of the crowd scenarios: each bad value is an
+    // error that names its key, whether the file fails to parse or the world fails to build.
+    let base = "name = \"t\"\n[world]\nkind = \"open\"\n";
+    let group = |spawn: &str, goal: &str| {
+        format!(
+            "{base}[[groups]]\ncount = 4\nspawn = {spawn}\n{goal}\nsteering = {{ behaviours = [{{ kind = \"seek\", target = \"own\" }}] }}\n"
+        )
+    };
+    let circle = "{ kind = \"circle\", center = [0, 0], radius = 10 }";
+    let cases = [
+        (
+            group(
+                "{ kind = \"circle\", center = [0, 0], radius = 10, per = 0 }",
+                "",
+            ),
+            "spawn.per",
+        ),
+        (
+            group("{ kind = \"circle\", center = [0, 0], radius = -1 }", ""),
+            "spawn.radius",
+        ),
+        (
+            group("{ kind = \"circle\", center = [nan, 0], radius = 1 }", ""),
+            "spawn.center",
+        ),
+        (
+            group(
+                "{ kind = \"grid\", origin = [0, 0], spacing = [1, 1], columns = 0 }",
+                "",
+            ),
+            "spawn.columns",
+        ),
+        (
+            group(
+                "{ kind = \"grid\", origin = [0, 0], spacing = [inf, 1], columns = 2 }",
+                "",
+            ),
+            "spawn.spacing",
+        ),
+        (
+            group(circle, "goal = { kind = \"point\", point = [nan, 0] }"),
+            "goal.point",
+        ),
+        (
+            group(circle, "goal = { kind = \"offset\", by = [1, inf] }"),
+            "goal.by",
+        ),
+        (
+            group(
+                circle,
+                "goal = { kind = \"antipode\", center = [nan, nan] }",
+            ),
+            "goal.center",
+        ),
+        (group(circle, "goal = { kind = \"sideways\" }"), "sideways"),
+        (group(circle, "arrival_radius = -1"), "arrival_radius"),
+        (
+            format!(
+                "{}[[exits]]\nmin = [5, 5]\nmax = [1, 1]\n",
+                group(circle, "")
+            ),
+            "exit",
+        ),
+        (
+            format!(
+                "{}[[exits]]\nmin = [nan, 0]\nmax = [1, 1]\n",
+                group(circle, "")
+            ),
+            "exit.min",
+        ),
+    ];
+    for (text, key) in cases {
+        let err = Scenario::from_toml(&text, "bad.toml")
+            .and_then(|s| s.build().map(|_| ()))
+            .expect_err(key)
+            .to_string();
+        assert!(err.contains(key), "{key}: {err}");
+    }
+    // The same scenario with good values builds.
+    let good = format!(
+        "{}[[exits]]\nmin = [20, 20]\nmax = [30, 30]\n",
+        group(circle, "goal = { kind = \"antipode\" }\narrival_radius = 1")
+    );
+    assert_eq!(
+        Scenario::from_toml(&good, "good.toml")
+            .unwrap()
+            .build()
+            .unwrap()
+            .len(),
+        4
+    );
+}
+
+#[test]
 fn everyone_leaves_the_evacuation_room_and_no_centre_enters_a_pillar() {
     let s = scenario::builtin("evacuation").unwrap();
     let mut w = s.build().unwrap();
