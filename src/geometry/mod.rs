@@ -40,7 +40,7 @@ use crate::error::{Error, MAX_COORDINATE, Result};
 use crate::obstacles::Wall;
 
 pub use raster::MAX_RASTER_SPANS;
-pub use text::MAX_WKT_BYTES;
+pub use text::{MAX_WKT_BYTES, write_ring};
 
 /// The most vertices a walkable area (or an exit polygon) may have over all its rings: the
 /// validity checks are quadratic in the worst case, and 20,000 keeps them under a second.
@@ -102,7 +102,8 @@ pub struct Walkable {
 }
 
 /// Twice the signed area of a ring (positive when counter-clockwise), in `f64`.
-fn twice_area(ring: &[Vec2]) -> f64 {
+#[must_use]
+pub fn twice_area(ring: &[Vec2]) -> f64 {
     let n = ring.len();
     (0..n)
         .map(|i| {

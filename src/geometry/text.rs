@@ -162,14 +162,7 @@ impl Walkable {
                 if r > 0 {
                     out.push_str(", ");
                 }
-                out.push('(');
-                for (k, p) in ring.iter().chain(ring.first()).enumerate() {
-                    if k > 0 {
-                        out.push_str(", ");
-                    }
-                    let _ = write!(out, "{} {}", p.x, p.y);
-                }
-                out.push(')');
+                write_ring(out, ring);
             }
             out.push(')');
         };
@@ -218,4 +211,16 @@ impl<'de> Deserialize<'de> for Walkable {
         let text = String::deserialize(d)?;
         Walkable::from_wkt(&text).map_err(serde::de::Error::custom)
     }
+}
+
+/// Appends one WKT ring, `(x y, x y, ..., x y)`, with the first point repeated at the end.
+pub fn write_ring(out: &mut String, ring: &[Vec2]) {
+    out.push('(');
+    for (k, p) in ring.iter().chain(ring.first()).enumerate() {
+        if k > 0 {
+            out.push_str(", ");
+        }
+        let _ = write!(out, "{} {}", p.x, p.y);
+    }
+    out.push(')');
 }

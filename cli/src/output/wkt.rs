@@ -10,8 +10,6 @@
 //! and circle obstacles are left out. Rings are closed (the first point repeated), the outer ring
 //! counter-clockwise and the holes clockwise.
 
-use std::fmt::Write;
-
 use throng::World;
 use throng::obstacles::{Wall, segment_intersection};
 use throng::prelude::Vec2;
@@ -28,13 +26,13 @@ pub fn walkable_wkt(world: &World) -> String {
     let (min, max) = walkable_bounds(world);
     let outer = [min, Vec2::new(max.x, min.y), max, Vec2::new(min.x, max.y)];
     let mut wkt = String::from("POLYGON (");
-    push_ring(&mut wkt, &outer);
+    throng::geometry::write_ring(&mut wkt, &outer);
     for mut hole in holes(world.obstacles().walls(), min, max) {
-        if signed_area(&hole) > 0.0 {
+        if throng::geometry::twice_area(&hole) > 0.0 {
             hole.reverse();
         }
         wkt.push_str(", ");
-        push_ring(&mut wkt, &hole);
+        throng::geometry::write_ring(&mut wkt, &hole);
     }
     wkt.push(')');
     wkt
@@ -44,29 +42,6 @@ pub fn walkable_wkt(world: &World) -> String {
 #[must_use]
 pub fn walkable_bounds(world: &World) -> (Vec2, Vec2) {
     world.extent()
-}
-
-/// Appends `(x y, x y, ..., x y)` with the first point repeated at the end.
-fn push_ring(out: &mut String, ring: &[Vec2]) {
-    out.push('(');
-    for (k, p) in ring.iter().chain(ring.first()).enumerate() {
-        if k > 0 {
-            out.push_str(", ");
-        }
-        let _ = write!(out, "{} {}", p.x, p.y);
-    }
-    out.push(')');
-}
-
-/// Twice the signed area of a ring (positive when counter-clockwise).
-fn signed_area(ring: &[Vec2]) -> f64 {
-    let n = ring.len();
-    (0..n)
-        .map(|k| {
-            let (p, q) = (ring[k], ring[(k + 1) % n]);
-            f64::from(p.x) * f64::from(q.y) - f64::from(q.x) * f64::from(p.y)
-        })
-        .sum()
 }
 
 /// The closed chains of consecutive walls (each wall's end is the next one's start, the last
@@ -115,7 +90,7 @@ fn bounding_box(points: &[Vec2]) -> (Vec2, Vec2) {
 /// than neighbours at their shared corner.
 fn is_simple(ring: &[Vec2]) -> bool {
     let n = ring.len();
-    if signed_area(ring) == 0.0 {
+    if throng::geometry::twice_area(ring) == 0.0 {
         return false;
     }
     for i in 0..n {
