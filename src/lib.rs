@@ -45,6 +45,8 @@
 //! - [`scenario`]: scenario files and the built-in scenarios.
 //! - [`measure`]: pedestrian measurements: flow through lines, density and speed in areas,
 //!   evacuation time.
+//! - [`validate`]: the validation suite: RiMEA's test cases and the bottleneck and
+//!   fundamental-diagram experiments, each with its criterion.
 //! - `render` (feature `render`): PNG and animated GIF output.
 //! - [`spawn`]: seeded placements in rectangles, discs, rings, grids, Poisson-disc layouts and
 //!   free cells, clear of obstacles when asked.
@@ -86,6 +88,7 @@ mod steer;
 pub mod steering;
 pub mod targets;
 pub mod timing;
+pub mod validate;
 pub mod world;
 
 pub use agents::{AgentId, AgentInit, Agents};

@@ -5,6 +5,7 @@ mod files;
 mod output;
 mod serve;
 mod timing;
+mod validate;
 
 use std::io::IsTerminal;
 use std::path::{Path, PathBuf};
@@ -94,6 +95,10 @@ enum Command {
         #[command(flatten)]
         serve: serve::ServeArgs,
     },
+    /// Run the validation suite (RiMEA's test cases, the bottleneck and fundamental-diagram
+    /// experiments) and print each criterion, the measured value and pass or fail; exits
+    /// non-zero when a check fails.
+    Validate(validate::ValidateArgs),
     /// List the built-in scenarios.
     List,
 }
@@ -264,6 +269,10 @@ fn dispatch(command: Command) -> Result<()> {
             warmup,
             json: _,
         } => bench(load_any(&scenario)?, &common, warmup),
+        Command::Validate(args) => {
+            let (pool, _) = thread_pool(args.threads)?;
+            validate::run(&args, &pool)
+        }
     }
 }
 

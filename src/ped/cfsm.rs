@@ -1,15 +1,23 @@
 //! The collision-free speed model (Tordeux, Chraibi and Seyfried 2016, "Collision-free speed
 //! model for pedestrian dynamics"), the default model of JuPedSim, with JuPedSim's parameter
-//! names and defaults:
+//! names:
 //!
 //! ```text
 //! e_i = normalise(e0_i + sum_j a exp((l_ij - d_ij) / D) n_ij + sum_W a_w exp((r_i - d_iW) / D_w) n_iW)
-//! v_i = min(v0_i, max(0, s_i / T)) e_i
+//! v_i = V(s_i) e_i
 //! ```
 //!
 //! with `l_ij = r_i + r_j`, `n_ij` the unit vector from `j` to `i`, and `s_i` the smallest
-//! spacing `d_ij - l_ij` to an agent `j` ahead of `i` (`e_i . (x_j - x_i) >= 0`) within the strip
-//! of half-width `l_ij` along `e_i`. A first-order model: the result is a velocity.
+//! spacing to an agent `j` ahead of `i` (`e_i . (x_j - x_i) >= 0`) within the strip of
+//! half-width `l_ij` along `e_i`. A first-order model: the result is a velocity.
+//!
+//! The paper and JuPedSim measure the spacing as `d_ij - l_ij` and take
+//! `V(s) = min(v0, max(0, s / T))` with `T = 1 s`: `{ spacing = "centre", speed_function =
+//! "linear", time_gap = 1 }` reproduces them. throng's defaults are calibrated against
+//! Weidmann's fundamental diagram instead (docs/VALIDATION.md): the spacing is the distance to
+//! contact along `e_i` ([`Spacing::Contact`]), `V(s) = v0 tanh(s / (v0 T))`
+//! ([`SpeedFunction::Smooth`]) and `T = 0.6 s`, which keeps the speeds within 11% of
+//! Weidmann's at 0.5 to 3 persons/m^2 where JuPedSim's parameters fall 33 to 36% below it.
 //!
 //! Invariants: the direction is a unit vector or zero; the speed lies in `[0, v0]`.
 
@@ -19,12 +27,13 @@ use serde::{Deserialize, Serialize};
 use super::{away, check_cutoff, exp_capped};
 use crate::error::{Result, in_range, non_negative, positive};
 
-/// The collision-free speed model's parameters; defaults as in JuPedSim 1.4.
+/// The collision-free speed model's parameters: JuPedSim 1.4's repulsions and cut-off, the
+/// spacing, speed function and time gap calibrated against Weidmann's fundamental diagram.
 #[derive(Clone, Copy, Debug, PartialEq, Serialize, Deserialize)]
 #[serde(default, deny_unknown_fields)]
 pub struct Cfsm {
-    /// The time gap `T`, s (> 0): an agent walks at most its spacing ahead divided by this.
-    /// Default: 1.
+    /// The time gap `T`, s (> 0): the slope of the speed function at zero spacing is `1 / T`.
+    /// Default: 0.6 (JuPedSim: 1).
     pub time_gap: f32,
     /// Strength `a` of the repulsion between agents (>= 0). Default: 8.
     pub strength_neighbour: f32,
@@ -37,17 +46,52 @@ pub struct Cfsm {
     /// Agents and walls farther than this from an agent's centre are ignored, m (> 0).
     /// Default: 2.
     pub cutoff: f32,
+    /// How the spacing to an agent ahead is measured. Default: [`Spacing::Contact`]
+    /// (JuPedSim: [`Spacing::Centre`]).
+    pub spacing: Spacing,
+    /// How the speed follows from the spacing. Default: [`SpeedFunction::Smooth`] (JuPedSim:
+    /// [`SpeedFunction::Linear`]).
+    pub speed_function: SpeedFunction,
+}
+
+/// The optimal-velocity function `V(s)`: the speed for the spacing `s` ahead.
+#[derive(Clone, Copy, Debug, Default, PartialEq, Eq, Serialize, Deserialize)]
+#[serde(rename_all = "snake_case")]
+pub enum SpeedFunction {
+    /// `min(v0, max(0, s / T))` (the paper's and JuPedSim's).
+    Linear,
+    /// `v0 tanh(max(0, s) / (v0 T))`: the same slope `1 / T` at `s = 0`, approaching `v0`
+    /// smoothly, so that pedestrians slow down before the spacing reaches `v0 T`, as
+    /// Weidmann's fundamental diagram has them do at 0.5 to 1.5 persons/m^2.
+    #[default]
+    Smooth,
+}
+
+/// How the spacing `s_i` to an agent `j` ahead in the strip is measured.
+#[derive(Clone, Copy, Debug, Default, PartialEq, Eq, Serialize, Deserialize)]
+#[serde(rename_all = "snake_case")]
+pub enum Spacing {
+    /// `d_ij - l_ij`, the gap between the two discs whatever their lateral offset (the
+    /// paper's and JuPedSim's).
+    Centre,
+    /// The distance `i` can walk along `e_i` before its disc touches `j`'s:
+    /// `x - sqrt(l_ij^2 - y^2)` for `j` at `x` ahead and `y` to the side. Equal to `Centre`
+    /// straight ahead; larger for agents ahead to the side, so that staggered lanes can zip.
+    #[default]
+    Contact,
 }
 
 impl Default for Cfsm {
     fn default() -> Self {
         Cfsm {
-            time_gap: 1.0,
+            time_gap: 0.6,
             strength_neighbour: 8.0,
             range_neighbour: 0.1,
             strength_wall: 5.0,
             range_wall: 0.02,
             cutoff: 2.0,
+            spacing: Spacing::Contact,
+            speed_function: SpeedFunction::Smooth,
         }
     }
 }
@@ -111,11 +155,32 @@ impl Cfsm {
         Some(rel.length() - l_ij)
     }
 
+    /// The spacing to agent `j` at `x_j = x_i + rel` along `e` under this model's
+    /// [`Spacing`] rule, `None` when `j` is not ahead within the strip (as [`Cfsm::spacing`]).
+    #[inline]
+    #[must_use]
+    pub fn spacing_to(&self, rel: Vec2, e: Vec2, l_ij: f32) -> Option<f32> {
+        match self.spacing {
+            Spacing::Centre => Self::spacing(rel, e, l_ij),
+            Spacing::Contact => {
+                let side = e.perp().dot(rel).abs();
+                if rel == Vec2::ZERO || e.dot(rel) < 0.0 || side > l_ij {
+                    return None;
+                }
+                Some(e.dot(rel) - (l_ij * l_ij - side * side).max(0.0).sqrt())
+            }
+        }
+    }
+
     /// The speed for the smallest spacing `s` ahead and the desired speed `v0`.
     #[inline]
     #[must_use]
     pub fn speed(&self, s: f32, v0: f32) -> f32 {
-        (s / self.time_gap).clamp(0.0, v0)
+        match self.speed_function {
+            SpeedFunction::Linear => (s / self.time_gap).clamp(0.0, v0),
+            SpeedFunction::Smooth if v0 > 0.0 => v0 * (s.max(0.0) / (v0 * self.time_gap)).tanh(),
+            SpeedFunction::Smooth => 0.0,
+        }
     }
 }
 
@@ -152,11 +217,49 @@ mod tests {
         assert_eq!(Cfsm::spacing(Vec2::ZERO, e, 0.4), None);
     }
 
+    /// JuPedSim's parametrisation.
+    fn jupedsim() -> Cfsm {
+        Cfsm {
+            time_gap: 1.0,
+            spacing: Spacing::Centre,
+            speed_function: SpeedFunction::Linear,
+            ..Cfsm::default()
+        }
+    }
+
     #[test]
     fn speed_is_spacing_over_time_gap_within_zero_and_v0() {
-        let m = Cfsm::default();
+        let m = jupedsim();
         assert_eq!(m.speed(0.6, 1.34), 0.6);
         assert_eq!(m.speed(5.0, 1.34), 1.34);
         assert_eq!(m.speed(-0.1, 1.34), 0.0);
+    }
+
+    #[test]
+    fn smooth_speed_by_hand() {
+        let m = Cfsm::default();
+        // v0 tanh(s / (v0 T)): 1.34 tanh(0.6 / 0.804) = 0.8463.
+        assert!((m.speed(0.6, 1.34) - 1.34 * (0.6f32 / 0.804).tanh()).abs() < 1e-6);
+        assert!((m.speed(0.6, 1.34) - 0.8463).abs() < 1e-3);
+        // Slope 1 / T at zero, below v0 everywhere, zero for overlaps and for v0 = 0.
+        assert!((m.speed(1e-3, 1.34) / 1e-3 - 1.0 / 0.6).abs() < 1e-2);
+        assert!(m.speed(100.0, 1.34) <= 1.34 && m.speed(100.0, 1.34) > 1.339);
+        assert_eq!(m.speed(-0.1, 1.34), 0.0);
+        assert_eq!(m.speed(1.0, 0.0), 0.0);
+    }
+
+    #[test]
+    fn contact_spacing_is_the_walk_to_touching() {
+        let m = Cfsm::default();
+        let e = Vec2::X;
+        // Straight ahead: as the centre rule.
+        assert_eq!(m.spacing_to(Vec2::new(1.0, 0.0), e, 0.4), Some(0.6));
+        // 0.3 to the side: touching after 1 - sqrt(0.16 - 0.09) = 0.7354 m.
+        let s = m.spacing_to(Vec2::new(1.0, 0.3), e, 0.4).unwrap();
+        assert!((s - (1.0 - 0.07f32.sqrt())).abs() < 1e-6);
+        assert!(s > Cfsm::spacing(Vec2::new(1.0, 0.3), e, 0.4).unwrap());
+        assert_eq!(m.spacing_to(Vec2::new(1.0, 0.5), e, 0.4), None);
+        assert_eq!(m.spacing_to(Vec2::new(-1.0, 0.0), e, 0.4), None);
+        assert_eq!(jupedsim().spacing_to(Vec2::new(1.0, 0.3), e, 0.4), Cfsm::spacing(Vec2::new(1.0, 0.3), e, 0.4));
     }
 }

@@ -36,7 +36,7 @@ use serde::{Deserialize, Serialize};
 use crate::error::{Error, Result, in_range, non_negative, positive};
 use crate::rng::{AgentRng, Stream};
 
-pub use cfsm::Cfsm;
+pub use cfsm::{Cfsm, Spacing, SpeedFunction};
 pub use social_force::SocialForce;
 
 /// The largest desired speed accepted, m/s.

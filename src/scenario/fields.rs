@@ -50,6 +50,16 @@ pub struct FieldSpec {
     /// Groups whose agents move as grid walkers. Default: none.
     #[serde(default)]
     pub walkers: Vec<WalkerSpec>,
+    /// Free cells whose centre lies within this distance of a wall cell (or the grid's
+    /// border) become walls too ([`OccupancyGrid::dilated`]), so that the flow leads discs of
+    /// this radius around corners instead of into them; world units, at most 64 cells.
+    /// Default: 0.
+    #[serde(default, skip_serializing_if = "is_zero")]
+    pub clearance: f32,
+}
+
+fn is_zero(v: &f32) -> bool {
+    *v == 0.0
 }
 
 /// The cells of a field.
@@ -148,6 +158,7 @@ impl FieldSpec {
             shuffle_every: 0,
             shuffle_goals: four(),
             walkers: Vec::new(),
+            clearance: 0.0,
         }
     }
 
@@ -252,7 +263,9 @@ impl FieldSpec {
                     name: "field.map".into(),
                     reason: "the walkable raster needs `[geometry] walkable`".into(),
                 })?;
-                let grid = area.rasterize(self.cell_size, self.origin)?;
+                let grid = area
+                    .rasterize(self.cell_size, self.origin)?
+                    .dilated(self.clearance)?;
                 let goals = (0..grid.height())
                     .flat_map(|y| (0..grid.width()).map(move |x| (x, y)))
                     .filter(|&(x, y)| {

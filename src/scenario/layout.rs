@@ -68,6 +68,16 @@ pub enum Layout {
     },
 }
 
+impl Layout {
+    /// Sets the corridor's or the bottleneck's width, m (checked when the scenario is
+    /// expanded).
+    pub fn set_width(&mut self, value: f32) {
+        match self {
+            Layout::Corridor { width, .. } | Layout::Bottleneck { width, .. } => *width = value,
+        }
+    }
+}
+
 fn ten() -> f32 {
     10.0
 }

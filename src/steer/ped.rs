@@ -20,7 +20,7 @@ use rayon::prelude::*;
 
 use super::pass::{STEER_CHUNK, SteerOut};
 use super::view::SteerView;
-use crate::ped::{Cfsm, Model, Pedestrian};
+use crate::ped::{Model, Pedestrian};
 use crate::spatial::{GridIndex, Neighbour, NeighbourIndex, SpatialIndex};
 use crate::steering::truncate;
 
@@ -241,7 +241,7 @@ fn agent(
             let spacing = b
                 .near
                 .iter()
-                .filter_map(|&(rel, l)| Cfsm::spacing(rel, e, l))
+                .filter_map(|&(rel, l)| cf.spacing_to(rel, e, l))
                 .fold(f32::INFINITY, f32::min);
             let v = e * cf.speed(spacing, v0);
             if !adapter.kinematic {
