@@ -112,7 +112,7 @@ fn nobody_leaves_the_bottleneck_through_a_wall_and_the_room_empties() {
 }
 
 #[test]
-fn same_bits_on_one_and_two_threads() {
+fn same_bits_on_one_two_and_four_threads() {
     let run = |s: &Scenario, threads: usize| {
         let pool = rayon::ThreadPoolBuilder::new()
             .num_threads(threads)
@@ -139,7 +139,9 @@ fn same_bits_on_one_and_two_threads() {
         for g in &mut s.groups {
             g.params.pedestrian.as_mut().unwrap().model = model;
         }
-        assert_eq!(run(&s, 1), run(&s, 2), "{model:?}");
+        let one = run(&s, 1);
+        assert_eq!(one, run(&s, 2), "{model:?}");
+        assert_eq!(one, run(&s, 4), "{model:?}");
     }
 }
 

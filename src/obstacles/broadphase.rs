@@ -102,10 +102,17 @@ impl ObstacleGrid {
     pub fn near(&self, p: Vec2, r: f32, circles: &mut Vec<u32>, walls: &mut Vec<u32>) {
         circles.clear();
         walls.clear();
+        if self.items.is_empty() {
+            return;
+        }
         self.visit(p, r, |c| circles.push(c), |w| walls.push(w));
-        for v in [circles, walls] {
-            v.sort_unstable();
-            v.dedup();
+        // A cell lists each obstacle once, circles and walls each ascending (`rebuild` adds
+        // them in id order), so only a query over several cells needs sorting.
+        if self.cell_of(p - r) != self.cell_of(p + r) {
+            for v in [circles, walls] {
+                v.sort_unstable();
+                v.dedup();
+            }
         }
     }
 
@@ -124,5 +131,34 @@ impl ObstacleGrid {
                 }
             }
         });
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use crate::rng::AgentRng;
+
+    #[test]
+    fn near_lists_each_candidate_once_ascending_in_one_cell_or_many() {
+        let mut rng = AgentRng::new(3, 0, 0, 0);
+        let mut p = || Vec2::new(50.0 * rng.unit(), 20.0 * rng.unit());
+        let circles: Vec<Circle> = (0..30).map(|_| Circle::new(p(), 0.5)).collect();
+        let walls: Vec<Wall> = (0..40).map(|_| Wall { a: p(), b: p() }).collect();
+        let mut grid = ObstacleGrid::default();
+        grid.rebuild(&circles, &walls);
+        let (mut c, mut w) = (Vec::new(), Vec::new());
+        for k in 0..400 {
+            let q = p() * 1.2 - Vec2::splat(2.0);
+            let r = [0.0, 0.5, 2.0, 30.0][k % 4];
+            grid.near(q, r, &mut c, &mut w);
+            let (mut want_c, mut want_w) = (Vec::new(), Vec::new());
+            grid.visit(q, r, |i| want_c.push(i), |i| want_w.push(i));
+            for v in [&mut want_c, &mut want_w] {
+                v.sort_unstable();
+                v.dedup();
+            }
+            assert_eq!((&c, &w), (&want_c, &want_w), "at {q} within {r}");
+        }
     }
 }

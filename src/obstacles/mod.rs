@@ -305,7 +305,8 @@ impl Obstacles {
         let mut p = to;
         let mut v = velocity;
         // Circles: push the centre back onto the surface, a few rounds for overlapping circles.
-        for _ in 0..4 {
+        let rounds = if self.circles.is_empty() { 0 } else { 4 };
+        for _ in 0..rounds {
             let mut moved = false;
             self.grid.visit(
                 p,
@@ -333,7 +334,7 @@ impl Obstacles {
                 break;
             }
         }
-        if self.inside_circle(p) {
+        if rounds > 0 && self.inside_circle(p) {
             return (from, Vec2::ZERO);
         }
         // Walls: a move that crosses one is taken back.

@@ -28,6 +28,7 @@
 //! equal and opposite when the anisotropy is off.
 
 pub mod cfsm;
+pub(crate) mod lanes;
 pub mod social_force;
 
 use glam::Vec2;

@@ -5,6 +5,11 @@
 //! within the model's cut-off (through the world's neighbour index) and the walls and circles
 //! within it (through the obstacles' broad phase).
 //!
+//! Per agent, the neighbours within the cut-off are gathered first (from the grid's cell-ordered
+//! copies, eight candidates at a time), then their pair terms are evaluated eight at a time in
+//! lanes ([`crate::ped::lanes`]) and summed per lane, the lanes added in a fixed order at the
+//! end.
+//!
 //! Runs before the ORCA filter, so a group with both walks by its pedestrian model and ORCA
 //! keeps the result collision-free.
 //!
@@ -14,13 +19,16 @@
 //! step allocates nothing.
 
 use std::cell::RefCell;
+use std::ops::Range;
 
 use glam::Vec2;
+use multiversion::multiversion;
 use rayon::prelude::*;
 
 use super::pass::{STEER_CHUNK, SteerOut};
 use super::view::SteerView;
-use crate::ped::{Model, Pedestrian};
+use crate::ped::lanes::{LANES, Neighbours, lane_sum};
+use crate::ped::{Cfsm, Model, Pedestrian, SocialForce};
 use crate::spatial::{GridIndex, Neighbour, NeighbourIndex, SpatialIndex};
 use crate::steering::truncate;
 
@@ -28,8 +36,27 @@ use crate::steering::truncate;
 #[derive(Default)]
 struct Buffers {
     found: Vec<Neighbour>,
-    /// `(x_j - x_i, r_i + r_j)` of the neighbours within the cut-off.
-    near: Vec<(Vec2, f32)>,
+    /// The grid's runs of candidates.
+    runs: Vec<Range<usize>>,
+    /// The agents within the cut-off, padded to whole blocks of [`LANES`]: `x_j - x_i`, x.
+    rx: Vec<f32>,
+    /// `x_j - x_i`, y.
+    ry: Vec<f32>,
+    /// `j`.
+    js: Vec<u32>,
+    /// `r_i + r_j`.
+    reach: Vec<f32>,
+    /// The x direction at zero distance (`Pairs::side`).
+    side: Vec<f32>,
+    /// `j`'s velocity (the social force model's friction).
+    vx: Vec<f32>,
+    vy: Vec<f32>,
+    /// `|x_j - x_i|` (the speed model's spacing).
+    dist: Vec<f32>,
+    /// The pair terms, x.
+    fx: Vec<f32>,
+    /// The pair terms, y.
+    fy: Vec<f32>,
     walls: Vec<u32>,
     circles: Vec<u32>,
 }
@@ -51,17 +78,7 @@ pub(crate) fn run(view: &SteerView, out: &mut SteerOut, parallel: bool) {
         _ => None,
     };
     let chunk = |base: usize, lx: &mut [f32], ly: &mut [f32]| {
-        BUFFERS.with_borrow_mut(|b| {
-            for k in 0..lx.len() {
-                let i = base + k;
-                let g = view.agents.group[i] as usize;
-                if let Some(ped) = &view.plans[g].pedestrian {
-                    let r = agent(view, grid, ped, i, Vec2::new(lx[k], ly[k]), b);
-                    lx[k] = r.x;
-                    ly[k] = r.y;
-                }
-            }
-        });
+        BUFFERS.with_borrow_mut(|b| requests(view, grid, base, lx, ly, b));
     };
     let (lx, ly) = (&mut out.lin_x[..n], &mut out.lin_y[..n]);
     if parallel {
@@ -74,57 +91,31 @@ pub(crate) fn run(view: &SteerView, out: &mut SteerOut, parallel: bool) {
     }
 }
 
-/// Calls `f(j, x_j - x_i)` for every agent `j != i` within `r` of `pos`, in the index's order.
-fn for_each_near(
+/// The requests of agents `base..base + lx.len()`, replaced where the group has a model.
+#[multiversion(targets("x86_64+avx2+fma", "x86_64+avx"))]
+fn requests(
     view: &SteerView,
     grid: Option<&GridIndex>,
-    i: usize,
-    pos: Vec2,
-    r: f32,
-    found: &mut Vec<Neighbour>,
-    mut f: impl FnMut(usize, Vec2),
+    base: usize,
+    lx: &mut [f32],
+    ly: &mut [f32],
+    b: &mut Buffers,
 ) {
-    let r_sq = r * r;
-    match grid {
-        Some(grid) => {
-            let (sx, sy, order) = (grid.sorted_x(), grid.sorted_y(), grid.order());
-            grid.for_each_run(pos, r, |run| {
-                let (xs, ys, js) = (&sx[run.clone()], &sy[run.clone()], &order[run]);
-                // Eight candidates at a time: the offsets and the hit mask in lanes, then the
-                // hits in order.
-                for ((xs, ys), js) in xs.chunks(8).zip(ys.chunks(8)).zip(js.chunks(8)) {
-                    let (mut dx, mut dy) = ([0.0f32; 8], [0.0f32; 8]);
-                    let mut hits = 0u32;
-                    for l in 0..xs.len() {
-                        dx[l] = xs[l] - pos.x;
-                        dy[l] = ys[l] - pos.y;
-                        hits |= u32::from(dx[l] * dx[l] + dy[l] * dy[l] <= r_sq) << l;
-                    }
-                    while hits != 0 {
-                        let l = hits.trailing_zeros() as usize;
-                        hits &= hits - 1;
-                        let j = js[l] as usize;
-                        if j != i {
-                            f(j, Vec2::new(dx[l], dy[l]));
-                        }
-                    }
-                }
-            });
-        }
-        None => {
-            view.index.neighbours_at(pos, r, found);
-            for nb in found.iter() {
-                let j = nb.index as usize;
-                if j != i {
-                    f(j, view.bounds.offset(pos, view.agents.position(j)));
-                }
-            }
+    for k in 0..lx.len() {
+        let i = base + k;
+        let g = view.agents.group[i] as usize;
+        if let Some(ped) = &view.plans[g].pedestrian {
+            let r = agent(view, grid, ped, i, Vec2::new(lx[k], ly[k]), b);
+            lx[k] = r.x;
+            ly[k] = r.y;
         }
     }
 }
 
 /// Calls `f(d, normal)` for every wall and circle within `r` of `pos`, in index order: `d` runs
-/// from the obstacle's closest point to `pos`, `normal` is the direction to use when `d` is zero.
+/// from the obstacle's closest point to `pos`, `normal` is the direction to use when `d` is zero
+/// (a wall's normal is only worked out then; otherwise `normal` is `Vec2::Y`, unused).
+#[inline(always)]
 fn for_each_wall(
     view: &SteerView,
     pos: Vec2,
@@ -144,7 +135,12 @@ fn for_each_wall(
         let wall = obstacles.walls()[w as usize];
         let d = pos - wall.closest_point(pos);
         if d.length_squared() <= r_sq {
-            let normal = (wall.b - wall.a).perp().normalize_or(Vec2::Y);
+            // The models use the normal only where `d.length() <= 1e-6`.
+            let normal = if d.length() > 1e-6 {
+                Vec2::Y
+            } else {
+                (wall.b - wall.a).perp().normalize_or(Vec2::Y)
+            };
             f(d, normal);
         }
     }
@@ -160,7 +156,207 @@ fn for_each_wall(
     }
 }
 
+/// Makes `v` at least `n` long (buffers only grow, so a warm step neither allocates nor
+/// clears them).
+#[inline(always)]
+fn at_least<T: Copy + Default>(v: &mut Vec<T>, n: usize) {
+    if v.len() < n {
+        v.resize(n, T::default());
+    }
+}
+
+/// Gathers agent `i`'s neighbours `j != i` within `r`, in the index's order, into `b` (`rx`,
+/// `ry`, `js`), padded to a whole number of blocks with lanes of `i` itself; returns their count
+/// and the padded length.
+#[inline(always)]
+fn gather(
+    view: &SteerView,
+    grid: Option<&GridIndex>,
+    i: usize,
+    pos: Vec2,
+    r: f32,
+    b: &mut Buffers,
+) -> (usize, usize) {
+    let mut count = 0;
+    match grid {
+        Some(grid) => {
+            // The runs first, so the scan below is compiled here, with this function's lanes.
+            b.runs.clear();
+            grid.for_each_run(pos, r, |run| b.runs.push(run));
+            let candidates: usize = b.runs.iter().map(ExactSizeIterator::len).sum();
+            at_least(&mut b.rx, candidates + LANES);
+            at_least(&mut b.ry, candidates + LANES);
+            at_least(&mut b.js, candidates + LANES);
+            let (rx, ry, js) = (&mut b.rx[..], &mut b.ry[..], &mut b.js[..]);
+            let order = grid.order();
+            let r_sq = r * r;
+            // Writes the hits of a block (offsets `dx`, `dy`) at `count`, in order.
+            let mut keep = |mut hits: u32, dx: &[f32; LANES], dy: &[f32; LANES], at: usize| {
+                while hits != 0 {
+                    let l = hits.trailing_zeros() as usize;
+                    hits &= hits - 1;
+                    let j = order[at + l];
+                    (rx[count], ry[count], js[count]) = (dx[l], dy[l], j);
+                    count += usize::from(j as usize != i);
+                }
+            };
+            for run in &b.runs {
+                let len = run.len();
+                match view.sorted {
+                    // The kernels' copies are padded with a block of zeros, so every block of
+                    // a run is read whole, in lanes, and its tail masked off.
+                    Some(s) => {
+                        let end = run.start + len.div_ceil(LANES) * LANES;
+                        let blocks = s.x[run.start..end]
+                            .chunks_exact(LANES)
+                            .zip(s.y[run.start..end].chunks_exact(LANES));
+                        for (c, (xs, ys)) in blocks.enumerate() {
+                            let xs: &[f32; LANES] = xs.try_into().expect("a block");
+                            let ys: &[f32; LANES] = ys.try_into().expect("a block");
+                            let left = (len - c * LANES) as f32;
+                            let (mut dx, mut dy) = ([0.0f32; LANES], [0.0f32; LANES]);
+                            let mut hits = [0u32; LANES];
+                            for l in 0..LANES {
+                                dx[l] = xs[l] - pos.x;
+                                dy[l] = ys[l] - pos.y;
+                                let near =
+                                    (dx[l] * dx[l] + dy[l] * dy[l] <= r_sq) & ((l as f32) < left);
+                                hits[l] = if near { 1 << l } else { 0 };
+                            }
+                            let hits = hits.iter().fold(0, |m, h| m | h);
+                            keep(hits, &dx, &dy, run.start + c * LANES);
+                        }
+                    }
+                    None => {
+                        let (sx, sy) = (grid.sorted_x(), grid.sorted_y());
+                        for k in run.clone().step_by(LANES) {
+                            let n = LANES.min(run.end - k);
+                            let (mut dx, mut dy) = ([0.0f32; LANES], [0.0f32; LANES]);
+                            let mut hits = 0u32;
+                            for l in 0..n {
+                                dx[l] = sx[k + l] - pos.x;
+                                dy[l] = sy[k + l] - pos.y;
+                                hits |= u32::from(dx[l] * dx[l] + dy[l] * dy[l] <= r_sq) << l;
+                            }
+                            keep(hits, &dx, &dy, k);
+                        }
+                    }
+                }
+            }
+        }
+        None => {
+            view.index.neighbours_at(pos, r, &mut b.found);
+            at_least(&mut b.rx, b.found.len() + LANES);
+            at_least(&mut b.ry, b.found.len() + LANES);
+            at_least(&mut b.js, b.found.len() + LANES);
+            for nb in &b.found {
+                let j = nb.index as usize;
+                if j != i {
+                    let rel = view.bounds.offset(pos, view.agents.position(j));
+                    (b.rx[count], b.ry[count], b.js[count]) = (rel.x, rel.y, j as u32);
+                    count += 1;
+                }
+            }
+        }
+    }
+    let padded = count.div_ceil(LANES) * LANES;
+    for k in count..padded {
+        (b.rx[k], b.ry[k], b.js[k]) = (0.0, 0.0, i as u32);
+    }
+    (count, padded)
+}
+
+/// Fills the pair inputs of the first `n` gathered neighbours (padding included) that the
+/// lanes read: `r_i + r_j`, the direction at zero distance, and (`with_velocity`) `j`'s
+/// velocity.
+#[inline(always)]
+fn fill(view: &SteerView, i: usize, b: &mut Buffers, n: usize, with_velocity: bool) {
+    let a = view.agents;
+    let (radius, id) = (a.radius[i], a.ids[i].0);
+    at_least(&mut b.reach, n);
+    at_least(&mut b.side, n);
+    let slots = b.js[..n]
+        .iter()
+        .zip(&mut b.reach[..n])
+        .zip(&mut b.side[..n]);
+    for ((&j, reach), side) in slots {
+        let j = j as usize;
+        *reach = radius + a.radius[j];
+        *side = if id < a.ids[j].0 { 1.0 } else { -1.0 };
+    }
+    if with_velocity {
+        at_least(&mut b.vx, n);
+        at_least(&mut b.vy, n);
+        let slots = b.js[..n].iter().zip(&mut b.vx[..n]).zip(&mut b.vy[..n]);
+        for ((&j, vx), vy) in slots {
+            *vx = a.vel_x[j as usize];
+            *vy = a.vel_y[j as usize];
+        }
+    }
+}
+
+/// The first `n` filled neighbours, `count` of them real, as the lanes read them.
+#[inline(always)]
+fn neighbours(b: &Buffers, count: usize, n: usize) -> Neighbours<'_> {
+    Neighbours {
+        count,
+        rx: &b.rx[..n],
+        ry: &b.ry[..n],
+        reach: &b.reach[..n],
+        side: &b.side[..n],
+    }
+}
+
+/// The social force model's pair forces on an agent with velocity `v` and preferred direction
+/// `e` from its `count` filled neighbours (`n` with the padding).
+#[multiversion(targets("x86_64+avx2+fma", "x86_64+avx"))]
+#[allow(clippy::too_many_arguments)]
+fn social_force_sum(
+    sf: &SocialForce,
+    b: &mut Buffers,
+    count: usize,
+    n: usize,
+    v: Vec2,
+    e: Vec2,
+    dt: f32,
+) -> Vec2 {
+    // The outputs leave the buffers while the lanes read the inputs.
+    let (mut fx, mut fy) = (std::mem::take(&mut b.fx), std::mem::take(&mut b.fy));
+    at_least(&mut fx, n);
+    at_least(&mut fy, n);
+    let vel = (&b.vx[..n], &b.vy[..n]);
+    let (v, e) = ((v.x, v.y), (e.x, e.y));
+    let (sx, sy) = (&mut fx[..n], &mut fy[..n]);
+    sf.pair_lanes(&neighbours(b, count, n), vel, v, e, dt, sx, sy);
+    let sum = Vec2::new(lane_sum(sx), lane_sum(sy));
+    (b.fx, b.fy) = (fx, fy);
+    sum
+}
+
+/// The speed model's repulsion of the `count` filled neighbours (`n` with the padding); keeps
+/// their distances in `b.dist` for the spacing.
+#[multiversion(targets("x86_64+avx2+fma", "x86_64+avx"))]
+fn speed_model_sum(cf: &Cfsm, b: &mut Buffers, count: usize, n: usize) -> Vec2 {
+    let (mut fx, mut fy) = (std::mem::take(&mut b.fx), std::mem::take(&mut b.fy));
+    let mut dist = std::mem::take(&mut b.dist);
+    at_least(&mut fx, n);
+    at_least(&mut fy, n);
+    at_least(&mut dist, n);
+    let (sx, sy) = (&mut fx[..n], &mut fy[..n]);
+    cf.repulsion_lanes(&neighbours(b, count, n), sx, sy, &mut dist[..n]);
+    let sum = Vec2::new(lane_sum(sx), lane_sum(sy));
+    (b.fx, b.fy, b.dist) = (fx, fy, dist);
+    sum
+}
+
+/// The smallest spacing along `e` to the `count` filled neighbours ([`Cfsm::spacing`]).
+#[multiversion(targets("x86_64+avx2+fma", "x86_64+avx"))]
+fn speed_model_spacing(cf: &Cfsm, b: &Buffers, count: usize, n: usize, e: Vec2) -> f32 {
+    cf.min_spacing_lanes((e.x, e.y), &neighbours(b, count, n), &b.dist[..n])
+}
+
 /// Agent `i`'s request under its pedestrian model, given the behaviours' request.
+#[inline(always)]
 fn agent(
     view: &SteerView,
     grid: Option<&GridIndex>,
@@ -176,8 +372,6 @@ fn agent(
     let vel = a.velocity(i);
     let radius = a.radius[i];
     let max_speed = a.max_speed[i];
-    let id = a.ids[i].0;
-    let ids = &a.ids;
 
     // The preferred direction, and the desired speed (a kinematic group's behaviours may ask
     // for less than the maximum speed, as `arrive` does near its target).
@@ -197,25 +391,15 @@ fn agent(
     } else {
         (Vec2::ZERO, 0.0)
     };
-    let cutoff = ped.cutoff();
+    let (count, n) = gather(view, grid, i, pos, ped.cutoff(), b);
 
     let chosen_velocity = match ped.model {
         Model::SocialForce => {
             let sf = &ped.social_force;
-            let mut force = Vec2::ZERO;
-            for_each_near(view, grid, i, pos, cutoff, &mut b.found, |j, rel| {
-                force += sf.pair(
-                    -rel,
-                    vel,
-                    a.velocity(j),
-                    radius + a.radius[j],
-                    e0,
-                    (id, ids[j].0),
-                    dt,
-                );
-            });
+            fill(view, i, b, n, true);
+            let force = social_force_sum(sf, b, count, n, vel, e0, dt);
             let mut walls = Vec2::ZERO;
-            for_each_wall(view, pos, cutoff, b, |d, normal| {
+            for_each_wall(view, pos, sf.cutoff, b, |d, normal| {
                 walls += sf.wall(d, vel, radius, normal, dt);
             });
             let acc = sf.driving(v0, e0, vel) + (force + walls) / sf.mass;
@@ -226,23 +410,13 @@ fn agent(
         }
         Model::Cfsm => {
             let cf = &ped.cfsm;
-            let mut dir = e0;
-            b.near.clear();
-            let near = &mut b.near;
-            for_each_near(view, grid, i, pos, cutoff, &mut b.found, |j, rel| {
-                let l = radius + a.radius[j];
-                near.push((rel, l));
-                dir += cf.repulsion(-rel, l, (id, ids[j].0));
-            });
-            for_each_wall(view, pos, cutoff, b, |d, normal| {
+            fill(view, i, b, n, false);
+            let mut dir = e0 + speed_model_sum(cf, b, count, n);
+            for_each_wall(view, pos, cf.cutoff, b, |d, normal| {
                 dir += cf.wall(d, radius, normal);
             });
             let e = dir.normalize_or_zero();
-            let spacing = b
-                .near
-                .iter()
-                .filter_map(|&(rel, l)| cf.spacing_to(rel, e, l))
-                .fold(f32::INFINITY, f32::min);
+            let spacing = speed_model_spacing(cf, b, count, n, e);
             let v = e * cf.speed(spacing, v0);
             if !adapter.kinematic {
                 return finite_or_zero(truncate((v - vel) / dt, adapter.max_acceleration));

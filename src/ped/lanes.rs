@@ -1,0 +1,334 @@
+//! The pair terms of both pedestrian models over all of an agent's neighbours at once: loops
+//! over plain slices with branch-free bodies, which the compiler turns into SIMD lanes, and a
+//! polynomial exponential ([`exp_poly`]).
+//!
+//! Each element gets what the scalar term gives ([`SocialForce::pair`], [`Cfsm::repulsion`],
+//! [`Cfsm::spacing`]), with the same operations in the same order, except that `exp` is the
+//! polynomial (within 2 ulp of the correctly rounded value over the range the models use) and
+//! the contact terms are computed with `max(overlap, 0)` instead of a branch, which adds exact
+//! zeros out of contact. The scalar functions stay the reference: the tests below hold each
+//! element to them. The sums run in [`LANES`] accumulators added in a fixed order at the end
+//! ([`lane_sum`]), so they depend on the neighbours' order only; the spacing is exact (a
+//! minimum does not depend on the order).
+//!
+//! Invariants: the slices are padded to whole blocks of [`LANES`]; elements at or beyond the
+//! neighbour count contribute exact zeros to the sums and nothing to the spacing; every result
+//! is finite for finite inputs, as for the scalar terms (the exponent is capped as
+//! [`super::exp_capped`] caps it).
+
+use super::{Cfsm, SocialForce, Spacing};
+
+/// The block width the slices are padded to.
+pub(crate) const LANES: usize = 8;
+
+/// `exp(x)` for `x` capped at 60 (as [`super::exp_capped`]) and floored at -87 (where `exp`
+/// leaves the normal numbers; every term the models scale by it is then negligible): Cody and
+/// Waite's range reduction `x = n ln 2 + r` and Cephes' degree-6 polynomial for `exp(r)`,
+/// scaled by `2^n` through the exponent bits. Branch-free, with plain multiplies and adds (no
+/// fused operations), so a loop of it vectorises and every code path gives the same bits.
+#[inline(always)]
+#[must_use]
+pub(crate) fn exp_poly(x: f32) -> f32 {
+    let x = x.clamp(-87.0, 60.0);
+    let n = (x * std::f32::consts::LOG2_E + 0.5).floor();
+    // ln 2 in two parts: 0.693_359_4 is 355 / 512 exactly as an f32.
+    let r = x - n * 0.693_359_4 - n * -2.121_944_4e-4;
+    let p = ((((1.987_569_1e-4 * r + 1.398_199_9e-3) * r + 8.333_452e-3) * r + 4.166_579_6e-2) * r
+        + 0.166_666_65)
+        * r
+        + 0.5;
+    let y = p * (r * r) + r + 1.0;
+    // n lies in [-126, 87], so `n + 127` is a normal number's biased exponent. It is read from
+    // the bits of `1.5 * 2^23 + n` (exact, one unit in its last place), which stays in lanes
+    // where a float-to-integer cast would not.
+    let biased = (n + 12_582_912.0).to_bits() - (0x4B40_0000 - 127);
+    y * f32::from_bits(biased << 23)
+}
+
+/// The sum of `x` (a whole number of blocks) in [`LANES`] accumulators, added in a fixed order.
+#[inline(always)]
+#[must_use]
+pub(crate) fn lane_sum(x: &[f32]) -> f32 {
+    let mut acc = [0.0f32; LANES];
+    for block in x.chunks_exact(LANES) {
+        for l in 0..LANES {
+            acc[l] += block[l];
+        }
+    }
+    ((acc[0] + acc[1]) + (acc[2] + acc[3])) + ((acc[4] + acc[5]) + (acc[6] + acc[7]))
+}
+
+/// An agent `i`'s neighbours, padded to whole blocks of [`LANES`].
+#[derive(Clone, Copy, Debug)]
+pub(crate) struct Neighbours<'a> {
+    /// How many of the elements are neighbours (the rest is padding).
+    pub count: usize,
+    /// `x_j - x_i`, x.
+    pub rx: &'a [f32],
+    /// `x_j - x_i`, y.
+    pub ry: &'a [f32],
+    /// `r_i + r_j`.
+    pub reach: &'a [f32],
+    /// The x component of the direction at zero distance: `1` when `i`'s id is the smaller,
+    /// else `-1` (what [`super::away`] picks).
+    pub side: &'a [f32],
+}
+
+/// The distance of a pair and the unit vector from `j` to `i` ([`super::away`]), from `rel =
+/// x_j - x_i`.
+#[inline(always)]
+fn distance_and_away(rx: f32, ry: f32, side: f32) -> (f32, f32, f32) {
+    let (dx, dy) = (-rx, -ry);
+    let d = (dx * dx + dy * dy).sqrt();
+    let apart = d > 1e-6;
+    let nx = if apart { dx / d } else { side };
+    let ny = if apart { dy / d } else { 0.0 * side };
+    (d, nx, ny)
+}
+
+impl Cfsm {
+    /// [`Cfsm::repulsion`] of every neighbour into `fx`, `fy` (zero beyond the count) and the
+    /// pair distances into `dist`; all as long as the neighbours' slices.
+    #[inline(always)]
+    pub(crate) fn repulsion_lanes(
+        &self,
+        nb: &Neighbours,
+        fx: &mut [f32],
+        fy: &mut [f32],
+        dist: &mut [f32],
+    ) {
+        let (s, range) = (self.strength_neighbour, self.range_neighbour);
+        let ins = nb.rx.iter().zip(nb.ry).zip(nb.reach.iter().zip(nb.side));
+        let outs = dist.iter_mut().zip(fx.iter_mut().zip(fy.iter_mut()));
+        for (k, (((&rx, &ry), (&reach, &side)), (dist, (fx, fy)))) in ins.zip(outs).enumerate() {
+            let (d, nx, ny) = distance_and_away(rx, ry, side);
+            let m = s * exp_poly((reach - d) / range);
+            let valid = k < nb.count;
+            *dist = d;
+            *fx = if valid { nx * m } else { 0.0 };
+            *fy = if valid { ny * m } else { 0.0 };
+        }
+    }
+
+    /// The smallest [`Cfsm::spacing_to`] along the unit direction `(ex, ey)` over the
+    /// neighbours, given their distances `dist`; `INFINITY` when none is ahead.
+    #[inline(always)]
+    #[must_use]
+    pub(crate) fn min_spacing_lanes(
+        &self,
+        (ex, ey): (f32, f32),
+        nb: &Neighbours,
+        dist: &[f32],
+    ) -> f32 {
+        let contact = self.spacing == Spacing::Contact;
+        let mut best = [f32::INFINITY; LANES];
+        let mut left = nb.count as f32;
+        let blocks = nb.rx.chunks_exact(LANES).zip(nb.ry.chunks_exact(LANES));
+        let blocks = blocks.zip(dist.chunks_exact(LANES).zip(nb.reach.chunks_exact(LANES)));
+        for ((rx, ry), (dist, reach)) in blocks {
+            for l in 0..LANES {
+                let (x, y) = (rx[l], ry[l]);
+                let along = ex * x + ey * y;
+                let side = (-ey * x + ex * y).abs();
+                let ahead = ((l as f32) < left)
+                    & ((x != 0.0) | (y != 0.0))
+                    & (along >= 0.0)
+                    & (side <= reach[l]);
+                let s = if contact {
+                    along - (reach[l] * reach[l] - side * side).max(0.0).sqrt()
+                } else {
+                    dist[l] - reach[l]
+                };
+                // `f32::min` for a non-NaN `best`, in a form that stays in lanes.
+                best[l] = if ahead & (s < best[l]) { s } else { best[l] };
+            }
+            left -= LANES as f32;
+        }
+        best.into_iter()
+            .fold(f32::INFINITY, |m, v| if v < m { v } else { m })
+    }
+}
+
+impl SocialForce {
+    /// [`SocialForce::pair`] of every neighbour, whose velocities are `(vx, vy)`, into `fx`,
+    /// `fy` (zero beyond the count), for `i`'s velocity `v` and preferred direction `e`.
+    #[inline(always)]
+    #[allow(clippy::too_many_arguments)]
+    pub(crate) fn pair_lanes(
+        &self,
+        nb: &Neighbours,
+        (vx, vy): (&[f32], &[f32]),
+        v: (f32, f32),
+        (ex, ey): (f32, f32),
+        dt: f32,
+        fx: &mut [f32],
+        fy: &mut [f32],
+    ) {
+        let ins = nb.rx.iter().zip(nb.ry).zip(nb.reach.iter().zip(nb.side));
+        let ins = ins.zip(vx.iter().zip(vy));
+        for (k, ((((&rx, &ry), (&reach, &side)), (&vjx, &vjy)), (fx, fy))) in
+            ins.zip(fx.iter_mut().zip(fy.iter_mut())).enumerate()
+        {
+            let (d, nx, ny) = distance_and_away(rx, ry, side);
+            let overlap = reach - d;
+            let contact = overlap.max(0.0);
+            let cos_phi = -(nx * ex + ny * ey);
+            let w = self.lambda + (1.0 - self.lambda) * 0.5 * (1.0 + cos_phi);
+            let normal = self.a * w * exp_poly(overlap / self.b) + self.k * contact;
+            let (tx, ty) = (-ny, nx);
+            let c = self.kappa * contact;
+            let c = c / (1.0 + 2.0 * c * dt / self.mass);
+            let slide = c * ((vjx - v.0) * tx + (vjy - v.1) * ty);
+            let valid = k < nb.count;
+            *fx = if valid { tx * slide + nx * normal } else { 0.0 };
+            *fy = if valid { ty * slide + ny * normal } else { 0.0 };
+        }
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use glam::Vec2;
+
+    use super::*;
+    use crate::rng::AgentRng;
+
+    fn ulps(a: f32, b: f32) -> u32 {
+        (i64::from(a.to_bits()) - i64::from(b.to_bits())).unsigned_abs() as u32
+    }
+
+    #[test]
+    fn polynomial_exp_is_within_two_ulp_of_exp() {
+        let mut worst = 0;
+        let mut x = -87.0_f32;
+        while x <= 60.0 {
+            let want = f64::from(x).exp() as f32;
+            worst = worst.max(ulps(exp_poly(x), want));
+            x += 0.000_37;
+        }
+        assert!(worst <= 2, "worst error {worst} ulp");
+        // Capped and floored like the scalar terms: finite, and tiny below the floor.
+        assert_eq!(exp_poly(1e9), exp_poly(60.0));
+        assert!(exp_poly(f32::MAX).is_finite() && exp_poly(f32::MIN).is_finite());
+        assert!(exp_poly(-1e9) > 0.0 && exp_poly(-1e9) < 1e-37);
+        assert_eq!((exp_poly(0.0), exp_poly(-0.0)), (1.0, 1.0));
+    }
+
+    /// Random neighbours, padded: distances from 0 (coincident) to past the cut-off, overlaps,
+    /// velocities; `(rx, ry, reach, side, vx, vy)`.
+    fn neighbours(seed: u64, count: usize) -> [Vec<f32>; 6] {
+        let mut rng = AgentRng::new(seed, 0, 0, 0);
+        let n = count.div_ceil(LANES) * LANES;
+        let mut v: [Vec<f32>; 6] = Default::default();
+        for k in 0..n {
+            let d = if k % 7 == 3 {
+                Vec2::ZERO
+            } else {
+                Vec2::new(rng.signed(), rng.signed()) * 2.0 * rng.unit()
+            };
+            v[0].push(d.x);
+            v[1].push(d.y);
+            v[2].push(0.3 + 0.3 * rng.unit());
+            v[3].push(if k % 2 == 0 { 1.0 } else { -1.0 });
+            v[4].push(2.0 * rng.signed());
+            v[5].push(2.0 * rng.signed());
+        }
+        v
+    }
+
+    fn as_neighbours<'a>(
+        count: usize,
+        rx: &'a [f32],
+        ry: &'a [f32],
+        reach: &'a [f32],
+        side: &'a [f32],
+    ) -> Neighbours<'a> {
+        Neighbours {
+            count,
+            rx,
+            ry,
+            reach,
+            side,
+        }
+    }
+
+    fn ids(side: f32) -> (u32, u32) {
+        if side > 0.0 { (0, 1) } else { (1, 0) }
+    }
+
+    fn close(a: Vec2, b: Vec2) -> bool {
+        (a - b).length() <= 1e-5 * (1.0 + b.length())
+    }
+
+    #[test]
+    fn social_force_lanes_match_the_scalar_pair_term() {
+        let mut rng = AgentRng::new(9, 0, 0, 0);
+        for (seed, count) in [(1, 1), (2, 8), (3, 13), (4, 40)] {
+            let [rx, ry, reach, side, vx, vy] = neighbours(seed, count);
+            let nb = as_neighbours(count, &rx, &ry, &reach, &side);
+            let (mut fx, mut fy) = (vec![0.0; rx.len()], vec![0.0; rx.len()]);
+            for lambda in [1.0, 0.3] {
+                let sf = SocialForce {
+                    lambda,
+                    ..SocialForce::default()
+                };
+                let v = Vec2::new(rng.signed(), rng.signed());
+                let e = Vec2::from_angle(rng.unit() * std::f32::consts::TAU);
+                for dt in [0.0, 0.01] {
+                    let vel = (&vx[..], &vy[..]);
+                    sf.pair_lanes(&nb, vel, (v.x, v.y), (e.x, e.y), dt, &mut fx, &mut fy);
+                    for k in 0..rx.len() {
+                        let got = Vec2::new(fx[k], fy[k]);
+                        if k >= count {
+                            assert_eq!(got, Vec2::ZERO);
+                            continue;
+                        }
+                        let d = -Vec2::new(rx[k], ry[k]);
+                        let vj = Vec2::new(vx[k], vy[k]);
+                        let want = sf.pair(d, v, vj, reach[k], e, ids(side[k]), dt);
+                        assert!(close(got, want), "{got} {want} at {d}");
+                    }
+                    let want: Vec2 = (0..count).map(|k| Vec2::new(fx[k], fy[k])).sum();
+                    let got = Vec2::new(lane_sum(&fx), lane_sum(&fy));
+                    assert!(close(got, want), "{got} {want}");
+                }
+            }
+        }
+    }
+
+    #[test]
+    fn speed_model_lanes_match_the_scalar_repulsion_and_spacing() {
+        let cf = Cfsm::default();
+        let mut rng = AgentRng::new(8, 0, 0, 0);
+        for (seed, count) in [(1, 0), (2, 1), (3, 8), (4, 13), (5, 40)] {
+            let [rx, ry, reach, side, _, _] = neighbours(seed, count);
+            let nb = as_neighbours(count, &rx, &ry, &reach, &side);
+            let n = rx.len();
+            let (mut fx, mut fy, mut dist) = (vec![0.0; n], vec![0.0; n], vec![0.0; n]);
+            cf.repulsion_lanes(&nb, &mut fx, &mut fy, &mut dist);
+            for k in 0..n {
+                let rel = Vec2::new(rx[k], ry[k]);
+                assert_eq!(dist[k], rel.length());
+                let got = Vec2::new(fx[k], fy[k]);
+                if k < count {
+                    let want = cf.repulsion(-rel, reach[k], ids(side[k]));
+                    assert!(close(got, want), "{got} {want} at {rel}");
+                } else {
+                    assert_eq!(got, Vec2::ZERO);
+                }
+            }
+            // The spacing is exactly the scalar minimum, whatever the direction.
+            for spacing in [Spacing::Centre, Spacing::Contact] {
+                let cf = Cfsm { spacing, ..cf };
+                for _ in 0..20 {
+                    let e = Vec2::from_angle(rng.unit() * std::f32::consts::TAU);
+                    let got = cf.min_spacing_lanes((e.x, e.y), &nb, &dist);
+                    let want = (0..count)
+                        .filter_map(|k| cf.spacing_to(Vec2::new(rx[k], ry[k]), e, reach[k]))
+                        .fold(f32::INFINITY, f32::min);
+                    assert_eq!(got.to_bits(), want.to_bits(), "{spacing:?}");
+                }
+            }
+        }
+    }
+}
