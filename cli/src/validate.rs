@@ -39,7 +39,10 @@ pub struct ValidateArgs {
 pub fn run(args: &ValidateArgs, pool: &rayon::ThreadPool) -> Result<()> {
     if args.list {
         for c in validate::CASES {
-            say(&format!("{:<11} {}\n            {}", c.id, c.title, c.about))?;
+            say(&format!(
+                "{:<11} {}\n            {}",
+                c.id, c.title, c.about
+            ))?;
         }
         return Ok(());
     }
@@ -52,10 +55,12 @@ pub fn run(args: &ValidateArgs, pool: &rayon::ThreadPool) -> Result<()> {
             .collect::<Result<Vec<_>>>()?
     };
     let model = match &args.pedestrian_model {
-        Some(name) => Some(throng::ped::Model::parse(name).ok_or_else(|| Error::Invalid {
-            name: "--pedestrian-model".into(),
-            reason: format!("unknown model {name}"),
-        })?),
+        Some(name) => Some(
+            throng::ped::Model::parse(name).ok_or_else(|| Error::Invalid {
+                name: "--pedestrian-model".into(),
+                reason: format!("unknown model {name}"),
+            })?,
+        ),
         None => None,
     };
     let options = Options {
@@ -131,7 +136,11 @@ fn print_case(r: &CaseReport, seconds: f64) -> Result<()> {
             } else {
                 format!("{v:.3}")
             };
-            if c.unit.is_empty() { v } else { format!("{v} {}", c.unit) }
+            if c.unit.is_empty() {
+                v
+            } else {
+                format!("{v} {}", c.unit)
+            }
         });
         say(&format!(
             "     {} {}: {value}  [{}]",

@@ -2,7 +2,9 @@
 
 use glam::Vec2;
 
-use super::{Case, Check, Options, Outcome, Run, Runs, Series, Size, middle_flow, scenario, weidmann};
+use super::{
+    Case, Check, Options, Outcome, Run, Runs, Series, Size, middle_flow, scenario, weidmann,
+};
 use crate::error::Result;
 use crate::scenario::{Scenario, Spawn};
 
@@ -140,7 +142,9 @@ fn crossing(o: &Outcome, line: usize, id: u32) -> Option<f64> {
 
 fn rimea_01(opt: &Options, runs: &mut Runs) -> Result<Vec<Check>> {
     let o = Run::new(runs, opt).run(scenario("rimea-01-corridor")?)?;
-    let t = crossing(&o, 0, 0).zip(crossing(&o, 1, 0)).map(|(a, b)| b - a);
+    let t = crossing(&o, 0, 0)
+        .zip(crossing(&o, 1, 0))
+        .map(|(a, b)| b - a);
     Ok(vec![Check::within(
         "time for 40 m at 1.33 m/s",
         t,
@@ -237,7 +241,13 @@ fn rimea_06(opt: &Options, runs: &mut Runs) -> Result<Vec<Check>> {
     let o = Run::new(runs, opt).run(scenario("rimea-06-corner")?)?;
     Ok(vec![
         Check::within("pedestrians out", Some(o.left as f64), 20.0, 20.0, ""),
-        Check::within("time until the last is out", o.evacuation_time, 0.0, 120.0, "s"),
+        Check::within(
+            "time until the last is out",
+            o.evacuation_time,
+            0.0,
+            120.0,
+            "s",
+        ),
     ])
 }
 
@@ -248,7 +258,8 @@ fn normal_cdf(x: f64) -> f64 {
     let t = 1.0 / (1.0 + 0.327_591_1 * z);
     let poly = t
         * (0.254_829_592
-            + t * (-0.284_496_736 + t * (1.421_413_741 + t * (-1.453_152_027 + t * 1.061_405_429))));
+            + t * (-0.284_496_736
+                + t * (1.421_413_741 + t * (-1.453_152_027 + t * 1.061_405_429))));
     let erf = 1.0 - poly * (-z * z).exp();
     if x >= 0.0 {
         0.5 * (1.0 + erf)
@@ -308,7 +319,13 @@ fn rimea_07(opt: &Options, runs: &mut Runs) -> Result<Vec<Check>> {
             .collect(),
     });
     Ok(vec![
-        Check::within("speeds measured", Some(speeds.len() as f64), n as f64, n as f64, ""),
+        Check::within(
+            "speeds measured",
+            Some(speeds.len() as f64),
+            n as f64,
+            n as f64,
+            "",
+        ),
         Check::within(
             &format!("speeds within [{lo:.2}, {hi:.2}] m/s (mean {mean:.3} m/s)"),
             Some(inside as f64),
@@ -338,9 +355,18 @@ fn rimea_09(opt: &Options, runs: &mut Runs) -> Result<Vec<Check>> {
     let n = if opt.size == Size::Quick { 500 } else { 1000 };
     let four = Run::new(runs, opt).run(sized(scenario("rimea-09-4-exits")?, opt, n))?;
     let two = Run::new(runs, opt).run(sized(scenario("rimea-09-2-exits")?, opt, n))?;
-    let ratio = two.evacuation_time.zip(four.evacuation_time).map(|(a, b)| a / b);
+    let ratio = two
+        .evacuation_time
+        .zip(four.evacuation_time)
+        .map(|(a, b)| a / b);
     Ok(vec![
-        Check::within("time with four exits", four.evacuation_time, 0.0, 1000.0, "s"),
+        Check::within(
+            "time with four exits",
+            four.evacuation_time,
+            0.0,
+            1000.0,
+            "s",
+        ),
         Check::within("time with two exits", two.evacuation_time, 0.0, 1000.0, "s"),
         Check::within("ratio of the times", ratio, 1.6, 2.4, ""),
     ])

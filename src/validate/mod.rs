@@ -151,13 +151,16 @@ pub struct Series {
 /// # Errors
 /// [`Error::Invalid`] naming the known cases when there is none.
 pub fn case(id: &str) -> Result<&'static Case> {
-    CASES.iter().find(|c| c.id == id).ok_or_else(|| Error::Invalid {
-        name: "validate".into(),
-        reason: format!(
-            "no case `{id}`; the cases are {}",
-            CASES.iter().map(|c| c.id).collect::<Vec<_>>().join(", ")
-        ),
-    })
+    CASES
+        .iter()
+        .find(|c| c.id == id)
+        .ok_or_else(|| Error::Invalid {
+            name: "validate".into(),
+            reason: format!(
+                "no case `{id}`; the cases are {}",
+                CASES.iter().map(|c| c.id).collect::<Vec<_>>().join(", ")
+            ),
+        })
 }
 
 /// Runs `case` with `options`, on the current rayon pool.
@@ -382,7 +385,9 @@ mod tests {
 
     #[test]
     fn weidmann_by_hand() {
-        assert!((weidmann(1.0) - 1.34 * (1.0 - (-1.913f64 * (1.0 - 1.0 / 5.4)).exp())).abs() < 1e-12);
+        assert!(
+            (weidmann(1.0) - 1.34 * (1.0 - (-1.913f64 * (1.0 - 1.0 / 5.4)).exp())).abs() < 1e-12
+        );
         assert!((weidmann(2.0) - 0.6066).abs() < 1e-3);
         assert_eq!(weidmann(6.0), 0.0);
         assert_eq!(weidmann(0.0), 1.34);
