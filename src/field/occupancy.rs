@@ -287,9 +287,11 @@ impl OccupancyGrid {
     /// use throng::field::OccupancyGrid;
     /// let map = OccupancyGrid::parse_ascii(".....\n.....\n..#..\n", "<map>")?;
     /// let wide = map.grid.dilated(0.5)?;
-    /// // Cells next to the wall and to the border (their centres 0.5 away) are blocked.
+    /// // Cells next to the wall and to the border (their centres 0.5 away) are blocked; the
+    /// // wall's diagonal neighbours (0.71 away) stay free.
     /// assert!(!wide.is_free(2, 1) && !wide.is_free(0, 0) && !wide.is_free(3, 2));
-    /// assert_eq!(wide.free_count(), 3);
+    /// assert!(wide.is_free(1, 1) && wide.is_free(3, 1));
+    /// assert_eq!(wide.free_count(), 2);
     /// # Ok(()) }
     /// ```
     ///
