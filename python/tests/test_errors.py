@@ -97,3 +97,12 @@ def test_a_failed_add_or_move_changes_nothing(world):
 def test_wrong_types_are_type_errors_that_name_the_argument(world):
     with pytest.raises(TypeError, match="dt"):
         world.step(dt="fast")
+
+
+def test_a_scenario_file_beyond_the_ceiling_is_refused_unread(tmp_path):
+    # A sparse 17 MiB file: refused by its size, before it is read.
+    path = tmp_path / "huge.toml"
+    with open(path, "wb") as f:
+        f.truncate(17 << 20)
+    with pytest.raises(ThrongError, match="scenario files"):
+        World.from_toml(path)

@@ -46,14 +46,15 @@ pub fn builtin_names() -> Vec<&'static str> {
     BUILTIN.iter().map(|(n, _)| *n).collect()
 }
 
-/// Parses the built-in scenario `name`.
+/// The TOML text of the built-in scenario `name`, as the repository's `scenarios/` folder has it.
 ///
 /// # Errors
 /// [`Error::Scenario`] when no built-in scenario has that name.
-pub fn builtin(name: &str) -> Result<Scenario> {
-    let (_, text) = BUILTIN
+pub fn builtin_text(name: &str) -> Result<&'static str> {
+    BUILTIN
         .iter()
         .find(|(n, _)| *n == name)
+        .map(|(_, text)| *text)
         .ok_or_else(|| Error::Scenario {
             source_name: name.to_string(),
             location: None,
@@ -61,8 +62,15 @@ pub fn builtin(name: &str) -> Result<Scenario> {
                 "unknown scenario (built-in scenarios: {})",
                 builtin_names().join(", ")
             ),
-        })?;
-    Scenario::from_toml(text, &format!("scenarios/{name}.toml"))
+        })
+}
+
+/// Parses the built-in scenario `name`.
+///
+/// # Errors
+/// [`Error::Scenario`] when no built-in scenario has that name.
+pub fn builtin(name: &str) -> Result<Scenario> {
+    Scenario::from_toml(builtin_text(name)?, &format!("scenarios/{name}.toml"))
 }
 
 #[cfg(test)]

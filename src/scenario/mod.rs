@@ -10,6 +10,10 @@
 //! Agent counts scale: `--agents N` (or [`Scenario::with_agents`]) shares `N` among the groups in
 //! proportion to their `count`s, except groups marked `fixed`; with `world.scale = "tiles"` the
 //! whole scenario is repeated side by side instead (`tiles`).
+//!
+//! Values can be changed before parsing by dotted paths into the table
+//! ([`Scenario::from_toml_with`], `overrides`), so that a sweep validates every variant exactly
+//! as a file.
 
 mod builtin;
 mod fields;
@@ -17,13 +21,15 @@ mod geometry;
 mod group;
 mod layout;
 mod obstacles;
+mod overrides;
 mod spec;
 mod tiles;
 
-pub use builtin::{BUILTIN, builtin, builtin_names};
+pub use builtin::{BUILTIN, builtin, builtin_names, builtin_text};
 pub use fields::{FieldSpec, GoalSpec, MapSource, WalkerSpec};
 pub use geometry::GeometrySpec;
 pub use group::{AgentRef, FormationSpec, Members};
 pub use layout::Layout;
 pub use obstacles::{GravitySpec, ObstacleSpec, PolygonSpec, RandomCircles, RandomGravity};
+pub use overrides::set_path;
 pub use spec::{AgentGoal, DensitySpec, GroupSpec, Scenario, Spawn, WorldScale, WorldSpec};
