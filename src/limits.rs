@@ -24,6 +24,8 @@ pub const MAX_RANDOM_CIRCLES: usize = 1_000_000;
 pub const MAX_GRAVITY_POINTS: usize = 100_000;
 /// The most goal channels of a field.
 pub const MAX_CHANNELS: usize = 64;
+/// The longest period of a quickest-path field's reroutes, frames (`field.reroute_every`).
+pub const MAX_REROUTE_EVERY: u64 = 1 << 40;
 /// The most goals a channel may draw at random (`{ random = n }`, `shuffle_goals`).
 pub const MAX_RANDOM_GOALS: usize = 1_000_000;
 /// The most measurement lines (`measurements.lines`) and the most measurement areas

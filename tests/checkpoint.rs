@@ -8,7 +8,7 @@ use std::io::Write;
 use std::path::PathBuf;
 
 use throng::checkpoint::{CheckpointError, FORMAT_VERSION, HEADER_LEN, RunInfo, write_atomic};
-use throng::field::{GoalChannels, OccupancyGrid, WalkPolicy};
+use throng::field::{FlowMetric, GoalChannels, OccupancyGrid, WalkPolicy};
 use throng::gravity::{GravityPoint, Motion};
 use throng::group::{FormationParams, Path, PathFollowParams, PathId};
 use throng::obstacles::{Circle, Wall};
@@ -535,4 +535,79 @@ fn a_failed_write_leaves_the_previous_checkpoint_intact() {
     let (r, _) = World::load_file(&path).unwrap();
     assert_eq!(bits(&r), bits(&w));
     let _ = std::fs::remove_dir_all(&dir);
+}
+
+/// A walkable corner whose field follows the geodesic distance (`metric = "euclidean"`).
+const EUCLIDEAN_CORNER: &str = r#"
+name = "corner"
+seed = 3
+dt = 0.05
+[geometry]
+walkable = "POLYGON ((0 0, 12 0, 12 12, 8 12, 8 4, 0 4, 0 0))"
+[field]
+cell_size = 0.5
+metric = "euclidean"
+[[exits]]
+min = [8, 11.5]
+max = [12, 12]
+[[groups]]
+count = 30
+spawn = { kind = "grid", origin = [0.5, 0.5], spacing = [0.6, 0.6], columns = 5 }
+radius = 0.2
+max_speed = 1.5
+steering = { behaviours = [{ kind = "follow_field", field = 0, channel = 0 }] }
+"#;
+
+#[test]
+fn a_euclidean_field_resumes_bit_for_bit_and_older_files_follow_the_steps() {
+    let s = scenario::Scenario::from_toml(EUCLIDEAN_CORNER, "corner").unwrap();
+    for threads in [1, 2] {
+        assert_resumes("corner", s.build().unwrap(), s.dt, threads);
+    }
+    let world = s.build().unwrap();
+    let bytes = saved(&world);
+    let back = World::load(&bytes[..]).unwrap();
+    assert_eq!(back.field(0).unwrap().metric(), FlowMetric::Euclidean);
+    // Files written before the metric existed followed the BFS steps.
+    let old = crafted(&bytes, |v| {
+        let fields = entry(v, &["world", "fields"]).as_array_mut().unwrap();
+        fields[0]
+            .as_map_mut()
+            .unwrap()
+            .retain(|(k, _)| k.as_text() != Some("metric"));
+    });
+    let back = World::load(&old[..]).unwrap();
+    assert_eq!(back.field(0).unwrap().metric(), FlowMetric::Steps);
+}
+
+#[test]
+fn a_quickest_field_resumes_bit_for_bit_with_its_costs() {
+    // Reroutes every 7 frames: the checkpoints fall between reroutes, so the costs in force
+    // must come from the file.
+    let text = EUCLIDEAN_CORNER.replace(
+        "metric = \"euclidean\"",
+        "metric = \"quickest\"\nreroute_every = 7\ndensity_radius = 0.75",
+    );
+    let s = scenario::Scenario::from_toml(&text, "corner").unwrap();
+    for threads in [1, 2] {
+        assert_resumes("quickest corner", s.build().unwrap(), s.dt, threads);
+    }
+    let mut world = s.build().unwrap();
+    world.step(s.dt).unwrap();
+    let costs = world.field(0).unwrap().costs().to_vec();
+    assert!(costs.iter().any(|&c| c > 1.0), "the crowd costs something");
+    let back = World::load(&saved(&world)[..]).unwrap();
+    assert_eq!(back.field(0).unwrap().costs(), &costs[..]);
+    // A cost outside [1, 20] in the file is rejected.
+    let bad = crafted(&saved(&world), |v| {
+        let fields = entry(v, &["world", "fields"]).as_array_mut().unwrap();
+        let costs = fields[0]
+            .as_map_mut()
+            .unwrap()
+            .iter_mut()
+            .find(|(k, _)| k.as_text() == Some("costs"))
+            .unwrap();
+        costs.1.as_array_mut().unwrap()[0] = ciborium::Value::Float(0.5);
+    });
+    assert!(checkpoint_error(&bad).to_string().contains("cost"));
 }

@@ -6,7 +6,8 @@ use proptest::prelude::*;
 use rand::{RngExt, SeedableRng};
 use rand_chacha::ChaCha8Rng;
 use throng::field::{
-    FlowField, IntegrationField, Neighbourhood, OccupancyGrid, PotentialField, random_free_cells,
+    DistanceField, FlowField, IntegrationField, Neighbourhood, OccupancyGrid, PotentialField,
+    random_free_cells,
 };
 
 /// Integrates `p += h * sample(p)` from `start`; returns the number of steps to a goal cell.
@@ -59,11 +60,13 @@ fn check_cave(
     let goals = random_free_cells(&grid, goals.min(grid.free_count()), seed ^ 0x55).unwrap();
     let potential = PotentialField::bfs(&grid, &goals, 0.97, n).unwrap();
     let integration = IntegrationField::dijkstra(&grid, &goals, n, None).unwrap();
+    let distance = DistanceField::fast_marching(&grid, &goals).unwrap();
     let starts = random_free_cells(&grid, points.min(grid.free_count()), seed ^ 0xaa).unwrap();
     let mut rng = ChaCha8Rng::seed_from_u64(seed);
     for (name, flow) in [
         ("potential", FlowField::from_potential(&potential)),
         ("integration", FlowField::from_integration(&integration)),
+        ("distance", FlowField::from_distance(&distance)),
     ] {
         for &(x, y) in &starts {
             // Anywhere in the start cell, edges included.
@@ -106,13 +109,15 @@ fn open_rooms_points_reach_goals() {
         let flow_i = FlowField::from_integration(
             &IntegrationField::dijkstra(&map.grid, goals, n, None).unwrap(),
         );
+        let flow_d =
+            FlowField::from_distance(&DistanceField::fast_marching(&map.grid, goals).unwrap());
         for y in 0..map.grid.height() {
             for x in 0..map.grid.width() {
                 if !map.grid.is_free(x, y) {
                     assert_eq!(flow.sample(map.grid.cell_center(x, y)), Vec2::ZERO);
                     continue;
                 }
-                for f in [&flow, &flow_i] {
+                for f in [&flow, &flow_i, &flow_d] {
                     for corner in [
                         Vec2::ZERO,
                         Vec2::new(0.999, 0.0),
@@ -147,6 +152,28 @@ fn samples_outside_and_on_goals_are_zero() {
     assert_eq!(flow.sample(Vec2::new(2.5, 0.5)), Vec2::NEG_X);
     assert_eq!(flow.next_cell(2, 0), Some((1, 0)));
     assert_eq!(flow.next_cell(0, 0), None);
+}
+
+/// In open ground the distance flow heads straight at the goal, where the step flows can only
+/// take one of eight directions.
+#[test]
+fn distance_flow_heads_straight_at_the_goal() {
+    let grid = OccupancyGrid::new(64, 64).unwrap();
+    let goal = (10, 10);
+    let flow = FlowField::from_distance(&DistanceField::fast_marching(&grid, &[goal]).unwrap());
+    let steps = FlowField::from_potential(
+        &PotentialField::bfs(&grid, &[goal], 0.9, Neighbourhood::Eight).unwrap(),
+    );
+    let (mut worst, mut worst_steps) = (0.0f32, 0.0f32);
+    for (x, y) in [(60, 30), (40, 12), (25, 63), (11, 50), (63, 63), (50, 20)] {
+        let p = grid.cell_center(x, y);
+        let to_goal = (grid.cell_center(goal.0, goal.1) - p).normalize();
+        worst = worst.max(flow.sample(p).angle_to(to_goal).abs());
+        worst_steps = worst_steps.max(steps.sample(p).angle_to(to_goal).abs());
+    }
+    assert!(worst < 0.06, "{worst} rad");
+    assert!(worst_steps > 0.3, "{worst_steps} rad");
+    assert_eq!(flow.next_cell(12, 10), Some((11, 10)));
 }
 
 proptest! {

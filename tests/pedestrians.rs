@@ -225,6 +225,11 @@ fn bad_pedestrian_values_are_errors_naming_the_key() {
         ),
         ("pedestrian = { model = \"magic\" }", "magic"),
         ("pedestrian = { social_force = { lambda = 2 } }", "lambda"),
+        (
+            "pedestrian = { cfsm = { speed_function = \"cubic\" } }",
+            "cubic",
+        ),
+        ("pedestrian = { cfsm = { spacing = \"edge\" } }", "edge"),
     ];
     for (line, key) in cases {
         let text = format!(
@@ -259,4 +264,95 @@ fn bad_pedestrian_values_are_errors_naming_the_key() {
         .unwrap_err()
         .to_string();
     assert!(e.contains("no room"), "{e}");
+    // The walkable raster's clearance and the flow's metric.
+    for (line, key) in [
+        ("clearance = -0.1", "clearance"),
+        ("clearance = nan", "clearance"),
+        ("clearance = 100", "clearance"),
+        ("metric = \"manhattan\"", "manhattan"),
+        ("metric = \"euclidean\"\nreroute_every = 5", "quickest"),
+        ("density_radius = 1", "quickest"),
+        (
+            "metric = \"quickest\"\ndensity_radius = -1",
+            "density_radius",
+        ),
+        (
+            "metric = \"quickest\"\ndensity_radius = 100",
+            "density_radius",
+        ),
+        ("metric = \"quickest\"\nreroute_every = -1", "t.toml:7:17"),
+    ] {
+        let text = format!(
+            "name = \"t\"\n[geometry]\nwalkable = \"POLYGON ((0 0, 10 0, 10 4, 0 4, 0 0))\"\n[field]\ncell_size = 0.5\n{line}\n[[exits]]\nmin = [9.5, 0]\nmax = [10, 4]\n[[groups]]\ncount = 3\nspawn = {{ kind = \"disc\", center = [2, 2], radius = 1 }}\n"
+        );
+        let e = Scenario::from_toml(&text, "t.toml")
+            .and_then(|s| s.build().map(|_| ()))
+            .unwrap_err()
+            .to_string();
+        assert!(e.contains(key), "{line}: {e}");
+    }
+}
+
+/// A room 16 x 8 m with a door 1 m wide near each end of its lower wall; 150 pedestrians start
+/// close to the left door. `metric` is the field's.
+fn two_doors(metric: &str) -> String {
+    format!(
+        r#"
+name = "two doors"
+seed = 4
+dt = 0.01
+[geometry]
+walkable = "POLYGON ((0 1, 2 1, 2 0, 3 0, 3 1, 14 1, 14 0, 15 0, 15 1, 16 1, 16 9, 0 9, 0 1))"
+[field]
+cell_size = 0.25
+clearance = 0.2
+metric = "{metric}"
+[[exits]]
+min = [2, 0]
+max = [3, 0.5]
+[[exits]]
+min = [14, 0]
+max = [15, 0.5]
+[[groups]]
+count = 150
+spawn = {{ kind = "spread", min = [0.5, 1.5], max = [6, 8.5], distance = 0.42 }}
+model = "kinematic"
+max_speed = 2.5
+radius = 0.2
+steering = {{ behaviours = [{{ kind = "follow_field", field = 0, channel = 0 }}] }}
+pedestrian = {{}}
+"#
+    )
+}
+
+/// How many pedestrians left through the far (right) door within `steps` steps, and how many
+/// are left inside.
+fn far_door_use(metric: &str, steps: u64) -> (usize, usize) {
+    let s = Scenario::from_toml(&two_doors(metric), "t.toml").unwrap();
+    let mut world = s.build().unwrap();
+    let mut right = std::collections::HashSet::new();
+    for _ in 0..steps {
+        for i in 0..world.len() {
+            if world.agents().position(i).x > 10.0 {
+                right.insert(world.agents().id(i));
+            }
+        }
+        world.step(s.dt).unwrap();
+    }
+    (right.len(), world.len())
+}
+
+#[test]
+fn quickest_routing_sends_part_of_a_jam_to_the_far_door() {
+    // Everyone's nearest door is the left one. Following the distance alone they all queue
+    // there; routed by travel time through the crowd, some walk to the free door instead, and
+    // the room empties sooner.
+    let (far_euclidean, left_euclidean) = far_door_use("euclidean", 4000);
+    let (far_quickest, left_quickest) = far_door_use("quickest", 4000);
+    assert_eq!(far_euclidean, 0);
+    assert!(far_quickest >= 10, "{far_quickest} took the far door");
+    assert!(
+        left_quickest < left_euclidean,
+        "{left_quickest} vs {left_euclidean} still inside after 40 s"
+    );
 }

@@ -19,8 +19,8 @@ use crate::agents::{AgentColumns, AgentId, Agents};
 use crate::bounds::Bounds;
 use crate::error::{Error, Result, finite, finite_vec, non_negative};
 use crate::field::{
-    Cell, GoalChannels, GridWalkers, Neighbourhood, OccupancyGrid, WalkPolicy, WalkerGroup,
-    WorldField, wall_bits,
+    Cell, FlowMetric, GoalChannels, GridWalkers, Neighbourhood, OccupancyGrid, WalkPolicy,
+    WalkerGroup, WorldField, wall_bits,
 };
 use crate::gravity::{GravityPoint, Motion};
 use crate::group::{Formation, FormationParams, NO_FORMATION, Path};
@@ -81,11 +81,26 @@ struct FieldState {
     walls: Vec<bool>,
     decay: f32,
     neighbourhood: Neighbourhood,
+    /// Absent in files written before the metric existed: those followed the steps.
+    #[serde(default)]
+    metric: FlowMetric,
+    /// The cell costs the distance flows are built with (empty for none), and the quickest
+    /// metric's reroute period and density window; absent in older files.
+    #[serde(default)]
+    costs: Vec<f32>,
+    #[serde(default)]
+    reroute_every: u64,
+    #[serde(default = "default_density_radius")]
+    density_radius: f32,
     /// Per channel: its goals and whether it waits for a rebuild.
     channels: Vec<(Vec<(u32, u32)>, bool)>,
     shuffle_every: u64,
     shuffle_count: u64,
     walkers: Vec<WalkerState>,
+}
+
+fn default_density_radius() -> f32 {
+    crate::world::fields::DEFAULT_DENSITY_RADIUS
 }
 
 #[derive(Serialize, Deserialize)]
@@ -374,6 +389,10 @@ impl FieldState {
             walls: grid.cells().iter().map(|c| !c.is_free()).collect(),
             decay: ch.decay(),
             neighbourhood: ch.neighbourhood(),
+            metric: ch.metric(),
+            costs: ch.costs().to_vec(),
+            reroute_every: f.reroute_every,
+            density_radius: f.density_radius,
             channels: (0..ch.len())
                 .map(|c| (ch.goals(c).unwrap_or_default().to_vec(), ch.is_dirty(c)))
                 .collect(),
@@ -405,7 +424,16 @@ impl FieldState {
             .collect();
         let grid = OccupancyGrid::from_cells(self.width, self.height, cells)?
             .with_geometry(self.cell_size, self.origin)?;
-        let mut channels = GoalChannels::new(grid, self.decay, self.neighbourhood)?;
+        let mut channels =
+            GoalChannels::new(grid, self.decay, self.neighbourhood)?.with_metric(self.metric);
+        channels.set_costs(&self.costs)?;
+        if self.reroute_every > 0 || self.metric == FlowMetric::Quickest {
+            crate::world::fields::check_rerouting(
+                &channels,
+                self.reroute_every,
+                self.density_radius,
+            )?;
+        }
         for (goals, _) in &self.channels {
             channels.add_channel(goals)?;
         }
@@ -450,6 +478,9 @@ impl FieldState {
             channels,
             shuffle_every: self.shuffle_every,
             shuffle_count: count,
+            reroute_every: self.reroute_every,
+            density_radius: self.density_radius,
+            congestion: Default::default(),
             walkers,
             wall_bits: bits,
         })

@@ -1,6 +1,9 @@
 //! Goal channels: several potential fields side by side on one grid, one per goal type.
 //!
-//! Each channel holds its goal cells, its [`PotentialField`] and that field's [`FlowField`].
+//! Each channel holds its goal cells, its [`PotentialField`] and a [`FlowField`]: the potential's
+//! own flow, or with [`FlowMetric::Euclidean`] the flow of the goals' [`DistanceField`] (grid
+//! walkers always climb the potential); [`FlowMetric::Quickest`] flows are built with per-cell
+//! costs that the world sets from the crowd's density.
 //! Agents of a group follow their group's channel. Changing a channel's goals (moving them, or
 //! re-randomising them, as a click does in the classic flow-field demo) marks that channel dirty; changing a cell
 //! between free and wall marks every channel dirty. [`GoalChannels::rebuild_dirty`] rebuilds the
@@ -11,17 +14,54 @@
 
 use rayon::prelude::*;
 
+use super::distance::DistanceField;
 use super::flow::FlowField;
 use super::lattice::{Neighbourhood, check_goals};
 use super::occupancy::{Cell, OccupancyGrid, random_free_cells};
 use super::potential::{PotentialField, check_decay};
 use crate::error::{Error, Result};
 
+/// What the flow of a channel follows.
+#[derive(
+    Clone, Copy, Debug, Default, PartialEq, Eq, Hash, serde::Serialize, serde::Deserialize,
+)]
+#[serde(rename_all = "snake_case")]
+pub enum FlowMetric {
+    /// The BFS field's steps: each cell points to its best neighbour, one of eight directions.
+    #[default]
+    Steps,
+    /// The geodesic Euclidean distance ([`DistanceField`]): each cell points down its gradient,
+    /// straight at the goal or the next wall corner at any angle.
+    Euclidean,
+    /// The quickest way through the crowd: the travel time of a [`DistanceField`] whose cell
+    /// costs ([`GoalChannels::set_costs`]) a world sets from the local density of agents (see
+    /// [`World::set_field_rerouting`](crate::World::set_field_rerouting)), so that a crowd
+    /// jammed at a corner or a door spreads round it instead of pressing on; otherwise as
+    /// `Euclidean`.
+    Quickest,
+}
+
+impl FlowMetric {
+    /// Whether the flow comes from a [`DistanceField`].
+    #[must_use]
+    pub fn is_distance(self) -> bool {
+        self != FlowMetric::Steps
+    }
+}
+
 #[derive(Clone, Debug)]
 struct Channel {
     goals: Vec<(u32, u32)>,
-    built: Option<(PotentialField, FlowField)>,
+    built: Option<Built>,
     dirty: bool,
+}
+
+#[derive(Clone, Debug)]
+struct Built {
+    field: PotentialField,
+    flow: FlowField,
+    /// Kept with [`FlowMetric::Euclidean`], so that rebuilds reuse its buffers.
+    distance: Option<DistanceField>,
 }
 
 /// Several goal fields on one grid, rebuilt when goals or obstacles change.
@@ -30,6 +70,9 @@ pub struct GoalChannels {
     grid: OccupancyGrid,
     decay: f32,
     neighbourhood: Neighbourhood,
+    metric: FlowMetric,
+    /// Per cell (row-major), the cost the distance flows are built with; empty for none.
+    costs: Vec<f32>,
     channels: Vec<Channel>,
 }
 
@@ -59,8 +102,54 @@ impl GoalChannels {
             grid,
             decay: check_decay(decay)?,
             neighbourhood,
+            metric: FlowMetric::Steps,
+            costs: Vec::new(),
             channels: Vec::new(),
         })
+    }
+
+    /// The same channels with flows that follow `metric` (every channel is marked dirty).
+    #[must_use]
+    pub fn with_metric(mut self, metric: FlowMetric) -> Self {
+        if metric != self.metric {
+            self.metric = metric;
+            for c in &mut self.channels {
+                c.dirty = true;
+                c.built = None;
+            }
+        }
+        self
+    }
+
+    /// What the channels' flows follow.
+    #[must_use]
+    pub fn metric(&self) -> FlowMetric {
+        self.metric
+    }
+
+    /// Sets the per-cell costs (row-major, one per cell, each in `[1, MAX_CELL_COST]`; walls'
+    /// entries ignored) that flows from a distance field are built with, or none (`&[]`), and
+    /// marks every channel dirty. The goals and the BFS fields do not change, and flows of the
+    /// [`FlowMetric::Steps`] metric ignore costs.
+    ///
+    /// # Errors
+    /// As [`DistanceField::fast_marching_with_costs`] for the costs; nothing changes then.
+    pub fn set_costs(&mut self, costs: &[f32]) -> Result<()> {
+        if !costs.is_empty() {
+            super::distance::check_costs(&self.grid, costs)?;
+        }
+        self.costs.clear();
+        self.costs.extend_from_slice(costs);
+        for c in &mut self.channels {
+            c.dirty = true;
+        }
+        Ok(())
+    }
+
+    /// The per-cell costs of the distance flows (empty for none).
+    #[must_use]
+    pub fn costs(&self) -> &[f32] {
+        &self.costs
     }
 
     /// Adds a channel with `goals` (dirty until the next rebuild) and returns its index.
@@ -190,6 +279,8 @@ impl GoalChannels {
     /// Only what [`PotentialField::bfs`] returns, which the checks on the way in rule out.
     pub fn rebuild_dirty(&mut self) -> Result<usize> {
         let (grid, decay, neighbourhood) = (&self.grid, self.decay, self.neighbourhood);
+        let distance = self.metric.is_distance();
+        let costs = (!self.costs.is_empty()).then_some(&self.costs[..]);
         let results: Vec<Result<()>> = self
             .channels
             .par_iter_mut()
@@ -197,14 +288,34 @@ impl GoalChannels {
             .map(|c| {
                 // Rebuild in place when possible: the buffers are kept, so no fresh pages.
                 match &mut c.built {
-                    Some((field, flow)) => {
-                        field.rebuild(grid, &c.goals)?;
-                        flow.rebuild_from_potential(field);
+                    Some(b) => {
+                        b.field.rebuild(grid, &c.goals)?;
+                        match &mut b.distance {
+                            Some(d) => {
+                                d.rebuild_with_costs(grid, &c.goals, costs)?;
+                                b.flow.rebuild_from_distance(d);
+                            }
+                            None => b.flow.rebuild_from_potential(&b.field),
+                        }
                     }
                     None => {
                         let field = PotentialField::bfs(grid, &c.goals, decay, neighbourhood)?;
-                        let flow = FlowField::from_potential(&field);
-                        c.built = Some((field, flow));
+                        let (flow, distance) = if distance {
+                            let d = match costs {
+                                Some(k) => {
+                                    DistanceField::fast_marching_with_costs(grid, &c.goals, k)?
+                                }
+                                None => DistanceField::fast_marching(grid, &c.goals)?,
+                            };
+                            (FlowField::from_distance(&d), Some(d))
+                        } else {
+                            (FlowField::from_potential(&field), None)
+                        };
+                        c.built = Some(Built {
+                            field,
+                            flow,
+                            distance,
+                        });
                     }
                 }
                 c.dirty = false;
@@ -223,7 +334,7 @@ impl GoalChannels {
             .get(channel)
             .filter(|c| !c.dirty)
             .and_then(|c| c.built.as_ref())
-            .map(|b| &b.0)
+            .map(|b| &b.field)
     }
 
     /// The flow field of `channel`, or `None` when it does not exist or is dirty.
@@ -233,6 +344,6 @@ impl GoalChannels {
             .get(channel)
             .filter(|c| !c.dirty)
             .and_then(|c| c.built.as_ref())
-            .map(|b| &b.1)
+            .map(|b| &b.flow)
     }
 }

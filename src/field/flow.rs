@@ -3,7 +3,10 @@
 //! This is the optimisation of the potential-field notes: an agent reads one direction from its
 //! own cell instead of comparing all its neighbours. A [`FlowField`] is built from a
 //! [`PotentialField`] (best = the neighbour an agent climbs to) or an [`IntegrationField`] (best =
-//! the cheapest neighbour), with the same corner rule and tie order as those fields.
+//! the cheapest neighbour), with the same corner rule and tie order as those fields, or from a
+//! [`DistanceField`]: then each cell also keeps the continuous direction of steepest descent,
+//! which is what it blends and returns, while its step code (for [`FlowField::next_cell`]) is the
+//! nearest allowed neighbour.
 //!
 //! Agents in continuous space call [`FlowField::sample`]: the directions of the four cells
 //! around the point are blended bilinearly, using only cells the point's own cell may step to
@@ -12,12 +15,14 @@
 //! zero with a positive component along the own cell's direction (else that direction itself);
 //! moving along it by less than one cell never enters a wall.
 //!
-//! Invariants: directions are one of the eight unit steps; goal cells, walls and unreachable
-//! cells have no direction; building is parallel over rows and deterministic.
+//! Invariants: directions are unit vectors, one of the eight unit steps except in a flow of a
+//! distance field; goal cells, walls and unreachable cells have no direction; building is
+//! parallel over rows and deterministic.
 
 use glam::Vec2;
 use rayon::prelude::*;
 
+use super::distance::DistanceField;
 use super::integration::IntegrationField;
 use super::lattice::{DIAGONAL_SIDES, DIRECTIONS, Lattice, UNIT};
 use super::potential::{PotentialField, UNSET, WALL};
@@ -33,6 +38,9 @@ pub struct FlowField {
     lattice: Lattice,
     /// Padded direction codes: `0..8` index [`DIRECTIONS`], then `GOAL` or `NONE`.
     codes: Vec<u8>,
+    /// Padded continuous unit directions (zero where the code has none), for a flow of a
+    /// [`DistanceField`]; empty otherwise, when a cell's direction is its code's unit step.
+    dirs: Vec<Vec2>,
 }
 
 impl FlowField {
@@ -55,6 +63,7 @@ impl FlowField {
         let mut flow = FlowField {
             lattice: field.lattice,
             codes: Vec::new(),
+            dirs: Vec::new(),
         };
         flow.rebuild_from_potential(field);
         flow
@@ -66,6 +75,7 @@ impl FlowField {
         use super::lattice::Neighbourhood;
         let l = field.lattice;
         self.lattice = l;
+        self.dirs = Vec::new();
         if self.codes.len() != l.len {
             self.codes = vec![NONE; l.len];
         }
@@ -104,7 +114,84 @@ impl FlowField {
                 field.best_from(p).map_or(NONE, |q| code_of(&lattice, p, q))
             }
         });
-        FlowField { lattice, codes }
+        FlowField {
+            lattice,
+            codes,
+            dirs: Vec::new(),
+        }
+    }
+
+    /// The flow of a distance field: each cell keeps its direction of steepest descent (the
+    /// upwind negative gradient of the distance), so agents head straight for the goal or the
+    /// next wall corner on the way, at any angle; its step code is the allowed neighbour nearest
+    /// to the goals.
+    ///
+    /// # Examples
+    /// ```
+    /// # fn main() -> throng::Result<()> {
+    /// use throng::field::{DistanceField, FlowField, OccupancyGrid};
+    /// let grid = OccupancyGrid::new(30, 30)?;
+    /// let flow = FlowField::from_distance(&DistanceField::fast_marching(&grid, &[(0, 0)])?);
+    /// // From (20, 10) the goal lies at about 26.6 degrees below the -x axis, not at 45.
+    /// let d = flow.direction(20, 10);
+    /// assert!((d.y / d.x - 0.5).abs() < 0.1, "{d}");
+    /// # Ok(()) }
+    /// ```
+    #[must_use]
+    pub fn from_distance(field: &DistanceField) -> Self {
+        let mut flow = FlowField {
+            lattice: field.lattice,
+            codes: Vec::new(),
+            dirs: Vec::new(),
+        };
+        flow.rebuild_from_distance(field);
+        flow
+    }
+
+    /// Rebuilds this flow in place from `field` (as [`FlowField::from_distance`], reusing the
+    /// buffers when the size is unchanged).
+    pub fn rebuild_from_distance(&mut self, field: &DistanceField) {
+        let l = field.lattice;
+        self.lattice = l;
+        self.codes.clear();
+        self.codes.resize(l.len, NONE);
+        self.dirs.clear();
+        self.dirs.resize(l.len, Vec2::ZERO);
+        let dist = &field.distance[..];
+        let (w, h) = (l.width as usize, l.height as usize);
+        self.codes
+            .par_chunks_mut(l.stride)
+            .zip(self.dirs.par_chunks_mut(l.stride))
+            .enumerate()
+            .with_min_len(16)
+            .for_each(|(row, (codes, dirs))| {
+                if row == 0 || row > h {
+                    return;
+                }
+                let base = row * l.stride;
+                for x in 1..=w {
+                    let p = base + x;
+                    let t = dist[p];
+                    codes[x] = if t == 0.0 {
+                        GOAL
+                    } else if !t.is_finite() {
+                        NONE
+                    } else {
+                        distance_code(dist, p, &l.offsets)
+                    };
+                    // On a ridge between goals the gradient can point at a cell no nearer than
+                    // this one (two goals diagonal to each other): then the best neighbour's
+                    // step, so that following the flow always descends.
+                    let d = field.descent(p);
+                    let (dx, dy) = (d.x.round() as isize, d.y.round() as isize);
+                    let ahead = p.wrapping_add_signed(dx + dy * l.stride as isize);
+                    dirs[x] = if codes[x] < 8 && dist[ahead] >= t {
+                        UNIT[codes[x] as usize]
+                    } else {
+                        d
+                    };
+                }
+            });
     }
 
     /// Number of columns.
@@ -161,7 +248,16 @@ impl FlowField {
     pub fn direction(&self, x: u32, y: u32) -> Vec2 {
         self.lattice
             .checked_index(x, y)
-            .map_or(Vec2::ZERO, |p| unit(self.codes[p]))
+            .map_or(Vec2::ZERO, |p| self.dir(p))
+    }
+
+    /// The unit direction of padded cell `p` (zero where it has none).
+    #[inline]
+    fn dir(&self, p: usize) -> Vec2 {
+        match self.dirs.get(p) {
+            Some(&d) => d,
+            None => unit(self.codes[p]),
+        }
     }
 
     /// The cell `(x, y)`'s direction leads to, or `None` where it has none.
@@ -213,9 +309,9 @@ impl FlowField {
                     continue;
                 }
             }
-            v += w * unit(self.codes[q]);
+            v += w * self.dir(q);
         }
-        let own_dir = UNIT[own as usize];
+        let own_dir = self.dir(c);
         if v.dot(own_dir) <= 0.0 {
             return own_dir;
         }
@@ -286,6 +382,32 @@ fn potential_code(steps: &[u32], p: usize, o: &[isize; 8], eight: bool) -> u8 {
                 code = (k + 4) as u8;
             }
         }
+    }
+    code
+}
+
+/// The direction code of reachable non-goal padded cell `p` of a distance field `dist`: the
+/// first neighbour in [`DIRECTIONS`] order with the smallest distance, smaller than `p`'s, that
+/// may be stepped to (a diagonal needs both sides reachable).
+#[inline]
+fn distance_code(dist: &[f32], p: usize, o: &[isize; 8]) -> u8 {
+    let mut best = dist[p];
+    let mut code = NONE;
+    for (k, &off) in o.iter().enumerate() {
+        let d = dist[p.wrapping_add_signed(off)];
+        if d >= best {
+            continue;
+        }
+        if k >= 4 {
+            let (a, b) = DIAGONAL_SIDES[k - 4];
+            if !dist[p.wrapping_add_signed(o[a])].is_finite()
+                || !dist[p.wrapping_add_signed(o[b])].is_finite()
+            {
+                continue;
+            }
+        }
+        best = d;
+        code = k as u8;
     }
     code
 }

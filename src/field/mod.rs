@@ -6,19 +6,24 @@
 //!   maps ([`OccupancyGrid::parse_ascii`]) or generated ([`OccupancyGrid::caves`]).
 //! - [`PotentialField`]: the multi-goal BFS field with decay (energy 1 at the goals, times `decay`
 //!   per step), in 4- or 8-[`Neighbourhood`]s.
+//! - [`DistanceField`]: geodesic Euclidean distances by fast marching, whose gradient points
+//!   straight at the goal or the next wall corner at any angle.
 //! - [`IntegrationField`]: Dijkstra path costs (1 per orthogonal step, `sqrt(2)` per diagonal,
 //!   optional per-cell costs) for smoother paths.
 //! - [`FlowField`]: the direction to the best neighbour, precomputed per cell and sampled
 //!   bilinearly in continuous space.
 //! - [`GridWalkers`]: the discrete climb to the best free neighbour cell, with queueing, in a parallel
 //!   deterministic step.
-//! - [`GoalChannels`]: one field per goal type, rebuilt when goals or obstacles change.
+//! - [`GoalChannels`]: one field per goal type, rebuilt when goals or obstacles change; its
+//!   [`FlowMetric`] says whether agents follow the BFS field's steps or the distance field.
 //!
 //! Shared invariants: cells are addressed `(x, y)` with `x < width`, `y < height`; diagonal steps
 //! never cut a wall's corner; ties between equally good neighbours go to the first in
 //! [`DIRECTIONS`]; every result is independent of the number of threads.
 
 mod channels;
+mod congestion;
+mod distance;
 mod flow;
 mod integration;
 mod lattice;
@@ -27,7 +32,9 @@ mod potential;
 mod set;
 mod walker;
 
-pub use channels::GoalChannels;
+pub use channels::{FlowMetric, GoalChannels};
+pub use congestion::{DEFAULT_DENSITY_RADIUS, DEFAULT_REROUTE_EVERY};
+pub use distance::{DistanceField, MAX_CELL_COST};
 pub use flow::FlowField;
 pub use integration::IntegrationField;
 pub use lattice::{DIRECTIONS, Neighbourhood};

@@ -26,6 +26,7 @@
 use glam::Vec2;
 use rayon::prelude::*;
 
+use super::congestion::Congestion;
 use crate::agents::{AgentId, Agents};
 use crate::bounds::Bounds;
 use crate::error::{Error, Result};
@@ -51,6 +52,12 @@ pub(crate) struct WorldField {
     pub(crate) shuffle_every: u64,
     /// ... to this many goals each.
     pub(crate) shuffle_count: usize,
+    /// With [`FlowMetric::Quickest`](super::FlowMetric): set the costs from the crowd every this
+    /// many frames (0: never) ...
+    pub(crate) reroute_every: u64,
+    /// ... over density windows of this half-side (world units).
+    pub(crate) density_radius: f32,
+    pub(crate) congestion: Congestion,
     pub(crate) walkers: Vec<WalkerGroup>,
     /// One bit per cell of the grid (row-major), set on walls: the wall check's compact copy
     /// of the grid, kept in step with it by `World::set_field_blocked`.
@@ -85,6 +92,8 @@ pub(crate) struct FieldSet {
     rebuilt: Vec<(usize, usize)>,
     /// Scratch: per agent, whether it stands on a goal of the channel it follows.
     on_goal: Vec<bool>,
+    /// Scratch: the cell costs of a reroute.
+    costs: Vec<f32>,
 }
 
 /// Reorders agents by the row-major cell of `grid` they stand in (agents outside last), so that
@@ -406,6 +415,23 @@ impl FieldSet {
                 {
                     set_arrived(&mut self.arrived, agents.ids[i], false);
                 }
+            }
+        }
+        // Quickest-path reroutes: new costs, the same goals, so arrivals stand.
+        for f in &mut self.fields {
+            if f.reroute_every > 0 && frame.is_multiple_of(f.reroute_every) {
+                let positions = (0..agents.len()).map(|i| agents.position(i));
+                f.congestion.costs(
+                    f.channels.grid(),
+                    positions,
+                    f.density_radius,
+                    &mut self.costs,
+                );
+                let r = f.channels.set_costs(&self.costs);
+                debug_assert!(r.is_ok(), "congestion costs lie in [1, 20]: {r:?}");
+                let r = f.channels.rebuild_dirty();
+                debug_assert!(r.is_ok(), "the goals are unchanged: {r:?}");
+                self.rebuilds += r.unwrap_or(0) as u64;
             }
         }
     }

@@ -13,7 +13,7 @@ use serde::{Deserialize, Serialize};
 
 use crate::error::{Error, Result};
 use crate::field::{
-    GoalChannels, MapFile, Neighbourhood, OccupancyGrid, WalkPolicy, random_free_cells,
+    FlowMetric, GoalChannels, MapFile, Neighbourhood, OccupancyGrid, WalkPolicy, random_free_cells,
 };
 use crate::world::World;
 
@@ -56,6 +56,23 @@ pub struct FieldSpec {
     /// Default: 0.
     #[serde(default, skip_serializing_if = "is_zero")]
     pub clearance: f32,
+    /// What the flow that `follow_field` agents read follows: `"steps"` (the BFS field's best
+    /// neighbour, eight directions) or `"euclidean"` (the gradient of the geodesic distance by
+    /// fast marching, any angle). Grid walkers climb the BFS field either way. Default: steps.
+    #[serde(default, skip_serializing_if = "is_steps")]
+    pub metric: FlowMetric,
+    /// With `metric = "quickest"`: frames between reroutes by the crowd's density (0: never).
+    /// Default: 50.
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub reroute_every: Option<u64>,
+    /// With `metric = "quickest"`: the half-side of the square the density is counted in, world
+    /// units (metres). Default: 0.5.
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub density_radius: Option<f32>,
+}
+
+fn is_steps(m: &FlowMetric) -> bool {
+    *m == FlowMetric::Steps
 }
 
 fn is_zero(v: &f32) -> bool {
@@ -159,6 +176,9 @@ impl FieldSpec {
             shuffle_goals: four(),
             walkers: Vec::new(),
             clearance: 0.0,
+            metric: FlowMetric::Steps,
+            reroute_every: None,
+            density_radius: None,
         }
     }
 
@@ -321,7 +341,8 @@ impl FieldSpec {
                 reason: "at least one channel is required".into(),
             });
         }
-        let mut channels = GoalChannels::new(map.grid.clone(), self.decay, self.neighbourhood)?;
+        let mut channels = GoalChannels::new(map.grid.clone(), self.decay, self.neighbourhood)?
+            .with_metric(self.metric);
         for (k, g) in self.channels.iter().enumerate() {
             let goals = match g {
                 GoalSpec::Map if self.map == MapSource::Walkable && map.goals.is_empty() => {
@@ -344,6 +365,18 @@ impl FieldSpec {
     /// Goal re-randomisation and walkers, once the agents are spawned.
     pub(crate) fn finish(&self, world: &mut World, field: usize) -> Result<()> {
         world.shuffle_field_goals_every(field, self.shuffle_every, self.shuffle_goals)?;
+        if self.metric == FlowMetric::Quickest
+            || self.reroute_every.is_some()
+            || self.density_radius.is_some()
+        {
+            world.set_field_rerouting(
+                field,
+                self.reroute_every
+                    .unwrap_or(crate::world::fields::DEFAULT_REROUTE_EVERY),
+                self.density_radius
+                    .unwrap_or(crate::world::fields::DEFAULT_DENSITY_RADIUS),
+            )?;
+        }
         for w in &self.walkers {
             world.add_walkers(field, w.group, w.channel, w.policy)?;
         }

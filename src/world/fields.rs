@@ -1,5 +1,5 @@
 //! The world's field API: adding fields, moving their goals, blocking cells, grid walkers and
-//! arrivals. The per-step work lives in the fields subsystem (`crate::field::FieldSet`).
+//! arrivals, and quickest-path rerouting. The per-step work lives in the fields subsystem (`crate::field::FieldSet`).
 
 use glam::Vec2;
 
@@ -7,8 +7,39 @@ use super::state::World;
 use crate::agents::AgentId;
 use crate::error::{Error, Result};
 use crate::field::{
-    GoalChannels, GridWalkers, WalkPolicy, WalkerGroup, WorldField, cell_of, in_wall, wall_bits,
+    FlowMetric, GoalChannels, GridWalkers, WalkPolicy, WalkerGroup, WorldField, cell_of, in_wall,
+    wall_bits,
 };
+
+pub(crate) use crate::field::{DEFAULT_DENSITY_RADIUS, DEFAULT_REROUTE_EVERY};
+use crate::limits::MAX_REROUTE_EVERY;
+
+/// The checks of [`World::set_field_rerouting`].
+pub(crate) fn check_rerouting(channels: &GoalChannels, every: u64, radius: f32) -> Result<()> {
+    if channels.metric() != FlowMetric::Quickest {
+        return Err(Error::Invalid {
+            name: "field.reroute_every".into(),
+            reason: "rerouting by the crowd's density needs the \"quickest\" metric".into(),
+        });
+    }
+    if every > MAX_REROUTE_EVERY {
+        return Err(Error::OutOfRange {
+            name: "field.reroute_every",
+            value: every as f64,
+            range: "[0, 2^40] frames",
+        });
+    }
+    let cells = radius / channels.grid().cell_size();
+    crate::error::finite("field.density_radius", radius)?;
+    if !(radius > 0.0 && cells <= 64.0) {
+        return Err(Error::OutOfRange {
+            name: "field.density_radius",
+            value: f64::from(radius),
+            range: "(0, 64 cells]",
+        });
+    }
+    Ok(())
+}
 
 /// The checks of [`World::shuffle_field_goals_every`]: `count` goals fit the grid's free cells.
 pub(crate) fn check_shuffle(channels: &GoalChannels, every: u64, count: usize) -> Result<()> {
@@ -63,10 +94,18 @@ impl World {
         }
         let bits = wall_bits(grid);
         self.plans_stale = true;
+        let reroute_every = if channels.metric() == FlowMetric::Quickest {
+            DEFAULT_REROUTE_EVERY
+        } else {
+            0
+        };
         self.fields.fields.push(WorldField {
             channels,
             shuffle_every: 0,
             shuffle_count: 0,
+            reroute_every,
+            density_radius: DEFAULT_DENSITY_RADIUS,
+            congestion: Default::default(),
             walkers: Vec::new(),
             wall_bits: bits,
         });
@@ -137,6 +176,25 @@ impl World {
         check_shuffle(&f.channels, every, count)?;
         f.shuffle_every = every;
         f.shuffle_count = count;
+        Ok(())
+    }
+
+    /// Sets how a field of the [`FlowMetric::Quickest`] metric follows the crowd: every `every`
+    /// frames (counted from frame 0; 0 turns it off, the costs then stay as they are) the cell
+    /// costs are set from the density of all agents in a square of half-side `radius` (world
+    /// units, taken as metres, at least one cell) around each cell and the channels are rebuilt
+    /// with them at once. The arrival flags are kept: the goals have not moved. A field added
+    /// with that metric starts with every 50 frames and a radius of 0.5 (a window of about 1 m^2).
+    ///
+    /// # Errors
+    /// [`Error::Invalid`] for an unknown field or one of another metric; [`Error::NonFinite`] or
+    /// [`Error::OutOfRange`] for a radius outside `(0, 64]` cells or `every` beyond
+    /// [`MAX_REROUTE_EVERY`](crate::limits::MAX_REROUTE_EVERY).
+    pub fn set_field_rerouting(&mut self, field: usize, every: u64, radius: f32) -> Result<()> {
+        let f = self.fields.get_mut(field)?;
+        check_rerouting(&f.channels, every, radius)?;
+        f.reroute_every = every;
+        f.density_radius = radius;
         Ok(())
     }
 
