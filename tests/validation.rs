@@ -1,7 +1,7 @@
 //! The validation suite at its quick size with the default pedestrian parameters: the cases
-//! that pass (RiMEA 1, 4, 6, 7, 12), what holds of those that do not yet (the bottleneck's
-//! flow, RiMEA 15's times), and the same report on 1 and 2 threads. RiMEA 9 (about 2 minutes
-//! even at its quick size) runs with `throng validate rimea-09`.
+//! that pass (RiMEA 1, 4, 6, 7, 12, 15), what holds of the one that does not yet (the
+//! bottleneck's flow), and the same report on 1 and 2 threads. RiMEA 9 (about 2 minutes even at
+//! its quick size) runs with `throng validate rimea-09`.
 
 use throng::validate::{self, Options, Size};
 
@@ -67,11 +67,10 @@ fn bottleneck_flow_is_at_least_the_peers_and_grows_with_the_width() {
 }
 
 #[test]
-fn rimea_15_every_crowd_leaves_and_the_corner_takes_longer_than_the_short_way() {
-    let r = report("rimea-15");
-    let t: Vec<f64> = r.checks[..3].iter().map(|c| c.value.unwrap()).collect();
-    assert!(t[1] >= t[0] && t[2] >= t[0], "{t:?}");
-    assert!(r.checks.last().unwrap().pass);
+fn rimea_15_the_corner_takes_between_the_short_and_the_long_way() {
+    // Quickest-path routing spreads the crowd round the corner; routed by the distance alone it
+    // jams at the inner edge and takes longer than the long way.
+    passes("rimea-15");
 }
 
 #[test]

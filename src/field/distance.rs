@@ -73,15 +73,7 @@ impl DistanceField {
     /// [`Error::Invalid`](crate::Error::Invalid) when `goals` is empty or a goal is outside the
     /// grid or on a wall.
     pub fn fast_marching(grid: &OccupancyGrid, goals: &[(u32, u32)]) -> Result<Self> {
-        let mut field = DistanceField {
-            lattice: Lattice::of(grid),
-            distance: Vec::new(),
-            reachable: 0,
-            open: Vec::new(),
-            done: Vec::new(),
-            cost: Vec::new(),
-            heap: Vec::new(),
-        };
+        let mut field = DistanceField::empty(grid);
         field.rebuild_with_costs(grid, goals, None)?;
         Ok(field)
     }
@@ -113,7 +105,14 @@ impl DistanceField {
         goals: &[(u32, u32)],
         costs: &[f32],
     ) -> Result<Self> {
-        let mut field = DistanceField {
+        let mut field = DistanceField::empty(grid);
+        field.rebuild_with_costs(grid, goals, Some(costs))?;
+        Ok(field)
+    }
+
+    /// A field of `grid`'s shape with nothing built yet.
+    fn empty(grid: &OccupancyGrid) -> Self {
+        DistanceField {
             lattice: Lattice::of(grid),
             distance: Vec::new(),
             reachable: 0,
@@ -121,9 +120,7 @@ impl DistanceField {
             done: Vec::new(),
             cost: Vec::new(),
             heap: Vec::new(),
-        };
-        field.rebuild_with_costs(grid, goals, Some(costs))?;
-        Ok(field)
+        }
     }
 
     /// Rebuilds the field in place for `goals` on `grid` (which may differ from the grid it was
