@@ -60,7 +60,7 @@ struct Channel {
 struct Built {
     field: PotentialField,
     flow: FlowField,
-    /// Kept with [`FlowMetric::Euclidean`], so that rebuilds reuse its buffers.
+    /// Kept with a distance metric, so that rebuilds reuse its buffers.
     distance: Option<DistanceField>,
 }
 
