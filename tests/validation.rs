@@ -1,7 +1,9 @@
 //! The validation suite at its quick size with the default pedestrian parameters: the cases
-//! that pass (RiMEA 1, 4, 6, 7, 12, 15), what holds of the one that does not yet (the
-//! bottleneck's flow), and the same report on 1 and 2 threads. RiMEA 9 (about 2 minutes even at
-//! its quick size) runs with `throng validate rimea-09`.
+//! that pass (RiMEA 1, 4, 6, 7, 12, 15 and the bottleneck's flow at 1.2 and 2 m), and the same
+//! report on 1 and 2 threads. RiMEA 9 (about 2 minutes even at
+//! its quick size) runs with `throng validate rimea-09`, and RiMEA 11 (whose split between the
+//! exits is a balance near one half with quickest-path routing: docs/VALIDATION.md) with
+//! `throng validate rimea-11`.
 
 use throng::validate::{self, Options, Size};
 
@@ -52,18 +54,14 @@ fn report(id: &str) -> validate::CaseReport {
 }
 
 #[test]
-fn bottleneck_flow_is_at_least_the_peers_and_grows_with_the_width() {
-    // The experiments' band (1.5 to 2.1) is not reached (docs/VALIDATION.md); JuPedSim's
-    // model gives 1.10 and 1.12 at these widths, and so must throng's, within 10%.
+fn bottleneck_flow_is_in_the_experiments_band_and_grows_with_the_width() {
+    // 1.5 to 2.1 persons/(m s) at b = 1.2 and 2 m (JuPedSim's speed model: 1.10 and 1.12).
     let r = report("bottleneck");
+    let failed: Vec<_> = r.checks.iter().filter(|c| !c.pass).collect();
+    assert!(failed.is_empty(), "{failed:#?}");
     let points = &r.series[0].points;
     assert_eq!(points.len(), 2, "{r:#?}");
-    for &[b, jb] in points {
-        assert!(jb >= 1.0, "J/b {jb} at b = {b}");
-    }
     assert!(points[1][0] * points[1][1] > points[0][0] * points[0][1]);
-    let walls = r.checks.last().unwrap();
-    assert!(walls.pass, "{walls:?}");
 }
 
 #[test]

@@ -15,6 +15,7 @@ fn list_names_every_case() {
         "rimea-06",
         "rimea-07",
         "rimea-09",
+        "rimea-11",
         "rimea-12",
         "rimea-15",
         "bottleneck",
@@ -60,10 +61,18 @@ fn json_holds_every_check_and_the_verdict() {
 
 #[test]
 fn a_failing_check_exits_non_zero_naming_it() {
-    // The bottleneck's specific flow with the default parameters lies below the experiments'
-    // band (docs/VALIDATION.md): the run reports it and fails.
+    // The social force model at the papers' parameters clogs the bottleneck, below the
+    // experiments' band (docs/VALIDATION.md): the run reports it and fails.
     let o = assert_one_line_failure(
-        &["validate", "bottleneck", "--quick", "--threads", "2"],
+        &[
+            "validate",
+            "bottleneck",
+            "--quick",
+            "--threads",
+            "2",
+            "--pedestrian-model",
+            "social_force",
+        ],
         "bottleneck: J/b at b = 1.2 m",
     );
     assert!(stdout(&o).contains("FAIL bottleneck"));

@@ -19,7 +19,17 @@
 //! ([`SpeedFunction::Smooth`]) and `T = 0.6 s`, which keeps the speeds within 11% of
 //! Weidmann's at 0.5 to 3 persons/m^2 where JuPedSim's parameters fall 33 to 36% below it.
 //!
-//! Invariants: the direction is a unit vector or zero; the speed lies in `[0, v0]`.
+//! Pressure from behind: a pedestrian with more of the crowd behind than ahead (at the front of
+//! a queue, in the mouth of a bottleneck) accepts a shorter time gap. Of the `n` agents within
+//! the cut-off, `n_b` behind (`e_i . (x_j - x_i) < 0`), the imbalance `(2 n_b - n) / max(n, 4)`
+//! gives the pressure `q = clamp((imbalance - onset) / span, 0, 1)`, and the time gap is
+//! `T + (T_p - T) q`. In a crowd of even density the imbalance stays near zero and the time gap
+//! at `T`, so the fundamental diagram keeps its calibration; at a bottleneck's mouth it brings
+//! the specific flow into the experiments' band (docs/VALIDATION.md). `pressed_time_gap =
+//! time_gap` turns it off.
+//!
+//! Invariants: the direction is a unit vector or zero; the speed lies in `[0, v0]`; the time gap
+//! lies in `[pressed_time_gap, time_gap]`.
 
 use glam::Vec2;
 use serde::{Deserialize, Serialize};
@@ -35,6 +45,16 @@ pub struct Cfsm {
     /// The time gap `T`, s (> 0): the slope of the speed function at zero spacing is `1 / T`.
     /// Default: 0.6 (JuPedSim: 1).
     pub time_gap: f32,
+    /// The time gap `T_p` under full pressure from behind, s (in `(0, time_gap]`; equal to
+    /// `time_gap` for no pressure term, as in JuPedSim). Keep `dt <= pressed_time_gap` for the
+    /// model's freedom from collisions. Default: 0.1.
+    pub pressed_time_gap: f32,
+    /// The imbalance of neighbours behind over ahead at which the pressure starts (in `[0,
+    /// 1)`). Default: 0.15.
+    pub pressure_onset: f32,
+    /// The rise of the imbalance above the onset over which the pressure grows from 0 to 1
+    /// (in `(0, 2]`). Default: 0.15.
+    pub pressure_span: f32,
     /// Strength `a` of the repulsion between agents (>= 0). Default: 8.
     pub strength_neighbour: f32,
     /// Range `D` of the repulsion between agents, m (> 0). Default: 0.1.
@@ -81,10 +101,17 @@ pub enum Spacing {
     Contact,
 }
 
+/// The smallest neighbour count the imbalance is divided by, so that one agent behind and none
+/// ahead is not full pressure.
+pub const PRESSURE_MIN_COUNT: f32 = 4.0;
+
 impl Default for Cfsm {
     fn default() -> Self {
         Cfsm {
             time_gap: 0.6,
+            pressed_time_gap: 0.1,
+            pressure_onset: 0.15,
+            pressure_span: 0.15,
             strength_neighbour: 8.0,
             range_neighbour: 0.1,
             strength_wall: 5.0,
@@ -120,7 +147,54 @@ impl Cfsm {
             non_negative(name, v)?;
             in_range(name, v, 0.0, 1e9, "[0, 1e9]")?;
         }
+        positive("pedestrian.cfsm.pressed_time_gap", self.pressed_time_gap)?;
+        in_range(
+            "pedestrian.cfsm.pressed_time_gap",
+            self.pressed_time_gap,
+            0.0,
+            self.time_gap,
+            "(0, time_gap]",
+        )?;
+        in_range(
+            "pedestrian.cfsm.pressure_onset",
+            self.pressure_onset,
+            0.0,
+            0.999_999,
+            "[0, 1)",
+        )?;
+        positive("pedestrian.cfsm.pressure_span", self.pressure_span)?;
+        in_range(
+            "pedestrian.cfsm.pressure_span",
+            self.pressure_span,
+            0.0,
+            2.0,
+            "(0, 2]",
+        )?;
         check_cutoff("pedestrian.cfsm.cutoff", self.cutoff)
+    }
+
+    /// The pressure `q` in `[0, 1]` on an agent with `behind` of its `total` neighbours within
+    /// the cut-off behind it (see the module docs).
+    #[inline]
+    #[must_use]
+    pub fn pressure(&self, behind: f32, total: f32) -> f32 {
+        let imbalance = (2.0 * behind - total) / total.max(PRESSURE_MIN_COUNT);
+        ((imbalance - self.pressure_onset) / self.pressure_span).clamp(0.0, 1.0)
+    }
+
+    /// The time gap under the pressure `q`: `T + (T_p - T) q`.
+    #[inline]
+    #[must_use]
+    pub fn time_gap_at(&self, q: f32) -> f32 {
+        self.time_gap + (self.pressed_time_gap - self.time_gap) * q
+    }
+
+    /// Whether a neighbour at `x_j = x_i + rel` lies behind an agent walking along `e` (counts
+    /// towards the pressure).
+    #[inline]
+    #[must_use]
+    pub fn is_behind(rel: Vec2, e: Vec2) -> bool {
+        e.dot(rel) < 0.0
     }
 
     /// The repulsion of agent `j` on agent `i`'s direction; `d = x_i - x_j`.
@@ -172,13 +246,27 @@ impl Cfsm {
         }
     }
 
-    /// The speed for the smallest spacing `s` ahead and the desired speed `v0`.
+    /// The speed for the smallest spacing `s` ahead and the desired speed `v0`, without
+    /// pressure (time gap `T`).
     #[inline]
     #[must_use]
     pub fn speed(&self, s: f32, v0: f32) -> f32 {
+        self.speed_with_gap(s, v0, self.time_gap)
+    }
+
+    /// The speed for the spacing `s`, the desired speed `v0` and the pressure `q`
+    /// ([`Cfsm::pressure`]).
+    #[inline]
+    #[must_use]
+    pub fn speed_under(&self, s: f32, v0: f32, q: f32) -> f32 {
+        self.speed_with_gap(s, v0, self.time_gap_at(q))
+    }
+
+    #[inline]
+    fn speed_with_gap(&self, s: f32, v0: f32, time_gap: f32) -> f32 {
         match self.speed_function {
-            SpeedFunction::Linear => (s / self.time_gap).clamp(0.0, v0),
-            SpeedFunction::Smooth if v0 > 0.0 => v0 * (s.max(0.0) / (v0 * self.time_gap)).tanh(),
+            SpeedFunction::Linear => (s / time_gap).clamp(0.0, v0),
+            SpeedFunction::Smooth if v0 > 0.0 => v0 * (s.max(0.0) / (v0 * time_gap)).tanh(),
             SpeedFunction::Smooth => 0.0,
         }
     }
@@ -221,6 +309,7 @@ mod tests {
     fn jupedsim() -> Cfsm {
         Cfsm {
             time_gap: 1.0,
+            pressed_time_gap: 1.0,
             spacing: Spacing::Centre,
             speed_function: SpeedFunction::Linear,
             ..Cfsm::default()
@@ -264,5 +353,60 @@ mod tests {
             jupedsim().spacing_to(Vec2::new(1.0, 0.3), e, 0.4),
             Cfsm::spacing(Vec2::new(1.0, 0.3), e, 0.4)
         );
+    }
+
+    #[test]
+    fn pressure_by_hand() {
+        let m = Cfsm::default();
+        // An even crowd: no pressure, the time gap T.
+        assert_eq!(m.pressure(10.0, 20.0), 0.0);
+        assert_eq!(m.time_gap_at(0.0), 0.6);
+        // 13 of 20 behind: imbalance 0.3, (0.3 - 0.15) / 0.15 = 1, the time gap T_p.
+        assert!((m.pressure(13.0, 20.0) - 1.0).abs() < 1e-6);
+        assert!((m.time_gap_at(1.0) - 0.1).abs() < 1e-7);
+        // 45 of 80: imbalance 0.125, below the onset.
+        assert_eq!(m.pressure(45.0, 80.0), 0.0);
+        // 9 of 40: imbalance -0.55 (the back of a queue): none.
+        assert_eq!(m.pressure(9.0, 40.0), 0.0);
+        // 22 of 40: imbalance 0.1; 23 of 40: 0.15, the onset; 24.5 of 40: 0.225, half-way.
+        assert_eq!(m.pressure(23.0, 40.0), 0.0);
+        assert!((m.pressure(24.5, 40.0) - 0.5).abs() < 1e-6);
+        assert!((m.time_gap_at(0.5) - 0.35).abs() < 1e-6);
+        // One agent behind, none ahead: imbalance 1 / 4 (the minimum count), q = 2 / 3.
+        assert!((m.pressure(1.0, 1.0) - (0.25 - 0.15) / 0.15).abs() < 1e-6);
+        // Nobody near: no pressure, and no division by zero.
+        assert_eq!(m.pressure(0.0, 0.0), 0.0);
+        // Under pressure the speed rises at the same spacing, never above v0.
+        assert!(m.speed_under(0.3, 1.34, 1.0) > m.speed(0.3, 1.34));
+        assert_eq!(m.speed_under(0.3, 1.34, 0.0), m.speed(0.3, 1.34));
+        assert!(m.speed_under(10.0, 1.34, 1.0) <= 1.34);
+        // JuPedSim's parameters have none.
+        assert_eq!(
+            jupedsim().speed_under(0.3, 1.34, 1.0),
+            jupedsim().speed(0.3, 1.34)
+        );
+        assert!(Cfsm::is_behind(Vec2::new(-0.1, 1.0), Vec2::X));
+        assert!(!Cfsm::is_behind(Vec2::new(0.0, 1.0), Vec2::X));
+    }
+
+    #[test]
+    fn bad_pressure_keys_are_named() {
+        let with = |set: fn(&mut Cfsm)| {
+            let mut m = Cfsm::default();
+            set(&mut m);
+            m
+        };
+        for (m, key) in [
+            (with(|m| m.pressed_time_gap = 0.7), "pressed_time_gap"),
+            (with(|m| m.pressed_time_gap = 0.0), "pressed_time_gap"),
+            (with(|m| m.pressure_onset = f32::NAN), "pressure_onset"),
+            (with(|m| m.pressure_onset = 1.0), "pressure_onset"),
+            (with(|m| m.pressure_span = 0.0), "pressure_span"),
+            (with(|m| m.pressure_span = f32::INFINITY), "pressure_span"),
+        ] {
+            let e = m.validate().unwrap_err().to_string();
+            assert!(e.contains(key), "{e}");
+        }
+        assert!(Cfsm::default().validate().is_ok());
     }
 }

@@ -111,7 +111,8 @@ impl Cfsm {
     }
 
     /// The smallest [`Cfsm::spacing_to`] along the unit direction `(ex, ey)` over the
-    /// neighbours, given their distances `dist`; `INFINITY` when none is ahead.
+    /// neighbours, given their distances `dist` (`INFINITY` when none is ahead), and how many
+    /// of them lie behind ([`Cfsm::is_behind`], the pressure's count).
     #[inline(always)]
     #[must_use]
     pub(crate) fn min_spacing_lanes(
@@ -119,9 +120,10 @@ impl Cfsm {
         (ex, ey): (f32, f32),
         nb: &Neighbours,
         dist: &[f32],
-    ) -> f32 {
+    ) -> (f32, f32) {
         let contact = self.spacing == Spacing::Contact;
         let mut best = [f32::INFINITY; LANES];
+        let mut behind = [0.0f32; LANES];
         let mut left = nb.count as f32;
         let blocks = nb.rx.chunks_exact(LANES).zip(nb.ry.chunks_exact(LANES));
         let blocks = blocks.zip(dist.chunks_exact(LANES).zip(nb.reach.chunks_exact(LANES)));
@@ -130,10 +132,8 @@ impl Cfsm {
                 let (x, y) = (rx[l], ry[l]);
                 let along = ex * x + ey * y;
                 let side = (-ey * x + ex * y).abs();
-                let ahead = ((l as f32) < left)
-                    & ((x != 0.0) | (y != 0.0))
-                    & (along >= 0.0)
-                    & (side <= reach[l]);
+                let real = (l as f32) < left;
+                let ahead = real & ((x != 0.0) | (y != 0.0)) & (along >= 0.0) & (side <= reach[l]);
                 let s = if contact {
                     along - (reach[l] * reach[l] - side * side).max(0.0).sqrt()
                 } else {
@@ -141,11 +141,14 @@ impl Cfsm {
                 };
                 // `f32::min` for a non-NaN `best`, in a form that stays in lanes.
                 best[l] = if ahead & (s < best[l]) { s } else { best[l] };
+                behind[l] += if real & (along < 0.0) { 1.0 } else { 0.0 };
             }
             left -= LANES as f32;
         }
-        best.into_iter()
-            .fold(f32::INFINITY, |m, v| if v < m { v } else { m })
+        let spacing = best
+            .into_iter()
+            .fold(f32::INFINITY, |m, v| if v < m { v } else { m });
+        (spacing, behind.into_iter().sum())
     }
 }
 
@@ -322,11 +325,15 @@ mod tests {
                 let cf = Cfsm { spacing, ..cf };
                 for _ in 0..20 {
                     let e = Vec2::from_angle(rng.unit() * std::f32::consts::TAU);
-                    let got = cf.min_spacing_lanes((e.x, e.y), &nb, &dist);
+                    let (got, behind) = cf.min_spacing_lanes((e.x, e.y), &nb, &dist);
                     let want = (0..count)
                         .filter_map(|k| cf.spacing_to(Vec2::new(rx[k], ry[k]), e, reach[k]))
                         .fold(f32::INFINITY, f32::min);
                     assert_eq!(got.to_bits(), want.to_bits(), "{spacing:?}");
+                    let want_behind = (0..count)
+                        .filter(|&k| Cfsm::is_behind(Vec2::new(rx[k], ry[k]), e))
+                        .count();
+                    assert_eq!(behind, want_behind as f32);
                 }
             }
         }

@@ -349,9 +349,10 @@ fn speed_model_sum(cf: &Cfsm, b: &mut Buffers, count: usize, n: usize) -> Vec2 {
     sum
 }
 
-/// The smallest spacing along `e` to the `count` filled neighbours ([`Cfsm::spacing`]).
+/// The smallest spacing along `e` to the `count` filled neighbours ([`Cfsm::spacing_to`]) and
+/// how many of them lie behind.
 #[multiversion(targets("x86_64+avx2+fma", "x86_64+avx"))]
-fn speed_model_spacing(cf: &Cfsm, b: &Buffers, count: usize, n: usize, e: Vec2) -> f32 {
+fn speed_model_spacing(cf: &Cfsm, b: &Buffers, count: usize, n: usize, e: Vec2) -> (f32, f32) {
     cf.min_spacing_lanes((e.x, e.y), &neighbours(b, count, n), &b.dist[..n])
 }
 
@@ -416,8 +417,8 @@ fn agent(
                 dir += cf.wall(d, radius, normal);
             });
             let e = dir.normalize_or_zero();
-            let spacing = speed_model_spacing(cf, b, count, n, e);
-            let v = e * cf.speed(spacing, v0);
+            let (spacing, behind) = speed_model_spacing(cf, b, count, n, e);
+            let v = e * cf.speed_under(spacing, v0, cf.pressure(behind, count as f32));
             if !adapter.kinematic {
                 return finite_or_zero(truncate((v - vel) / dt, adapter.max_acceleration));
             }

@@ -35,6 +35,10 @@ pub(super) const SCENARIOS: &[(&str, &str)] = &[
         include_str!("../../scenarios/validation/rimea-09-2-exits.toml"),
     ),
     (
+        "rimea-11-route-choice",
+        include_str!("../../scenarios/validation/rimea-11-route-choice.toml"),
+    ),
+    (
         "rimea-12-bottlenecks",
         include_str!("../../scenarios/validation/rimea-12-bottlenecks.toml"),
     ),
@@ -100,6 +104,15 @@ pub const CASES: &[Case] = &[
                 (JuPedSim's test) 1.6 to 2.4 times. Quick: 500 pedestrians (the doors still \
                 jam, which is what the ratio is about).",
         run: rimea_09,
+    },
+    Case {
+        id: "rimea-11",
+        title: "RiMEA 11: the choice of escape route",
+        about: "1,000 pedestrians in the left part of a room 30 x 20 m leave through two exits \
+                1 m wide in its upper wall, one nearer than the other. RiMEA: most take the \
+                nearer exit and some the other; here: everyone out, more than half through the \
+                nearer exit and at least 5% through the other. Quick: 500 pedestrians.",
+        run: rimea_11,
     },
     Case {
         id: "rimea-12",
@@ -369,6 +382,56 @@ fn rimea_09(opt: &Options, runs: &mut Runs) -> Result<Vec<Check>> {
         ),
         Check::within("time with two exits", two.evacuation_time, 0.0, 1000.0, "s"),
         Check::within("ratio of the times", ratio, 1.6, 2.4, ""),
+    ])
+}
+
+/// How many agents crossed `line` (each counted once).
+fn crossed(o: &Outcome, line: usize) -> usize {
+    let mut ids: Vec<u32> = o
+        .crossings
+        .iter()
+        .filter(|c| c.0 == line)
+        .map(|c| c.1)
+        .collect();
+    ids.sort_unstable();
+    ids.dedup();
+    ids.len()
+}
+
+fn rimea_11(opt: &Options, runs: &mut Runs) -> Result<Vec<Check>> {
+    let n = if opt.size == Size::Quick { 500 } else { 1000 };
+    let o = Run::new(runs, opt).run(sized(scenario("rimea-11-route-choice")?, opt, n))?;
+    let (near, far) = (crossed(&o, 0), crossed(&o, 1));
+    let share = |k: usize| Some(k as f64 / n as f64);
+    Ok(vec![
+        Check::within(
+            "pedestrians out",
+            Some(o.left as f64),
+            n as f64,
+            n as f64,
+            "",
+        ),
+        Check::within(
+            "time until the last is out",
+            o.evacuation_time,
+            0.0,
+            1000.0,
+            "s",
+        ),
+        Check::new(
+            &format!("share through the nearer exit ({near} of {n})"),
+            "> 0.5 (most prefer the nearer exit)".into(),
+            share(near),
+            "",
+            share(near).is_some_and(|s| s > 0.5),
+        ),
+        Check::new(
+            &format!("share through the other exit ({far} of {n})"),
+            ">= 0.05 (some choose the other)".into(),
+            share(far),
+            "",
+            share(far).is_some_and(|s| s >= 0.05),
+        ),
     ])
 }
 
