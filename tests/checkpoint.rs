@@ -611,3 +611,46 @@ fn a_quickest_field_resumes_bit_for_bit_with_its_costs() {
     });
     assert!(checkpoint_error(&bad).to_string().contains("cost"));
 }
+
+#[test]
+fn exit_choices_resume_bit_for_bit_and_older_files_have_none() {
+    // Two exits, one channel each, chosen with no inertia and rerouted every 7 frames, so that
+    // the choices in force at a checkpoint must come from the file.
+    let text = EUCLIDEAN_CORNER
+        .replace(
+            "metric = \"euclidean\"",
+            "metric = \"quickest\"\nreroute_every = 7\nchannels = [{ exit = 0 }, { exit = 1 }]",
+        )
+        .replace(
+            "max = [12, 12]\n",
+            "max = [12, 12]\n[[exits]]\nmin = [11.5, 0]\nmax = [12, 4]\n",
+        )
+        .replace(
+            "{ kind = \"follow_field\", field = 0, channel = 0 }",
+            "{ kind = \"choose_exit\", switch_gain = 0 }",
+        );
+    let s = scenario::Scenario::from_toml(&text, "corner").unwrap();
+    for threads in [1, 2] {
+        assert_resumes("exit choice", s.build().unwrap(), s.dt, threads);
+    }
+    let mut world = s.build().unwrap();
+    world.step(s.dt).unwrap();
+    let back = World::load(&saved(&world)[..]).unwrap();
+    for &id in world.agents().ids() {
+        assert!(world.chosen_channel(id).is_some());
+        assert_eq!(back.chosen_channel(id), world.chosen_channel(id), "{id:?}");
+    }
+    let old = crafted(&saved(&world), |v| {
+        entry(v, &["world"])
+            .as_map_mut()
+            .unwrap()
+            .retain(|(k, _)| k.as_text() != Some("chosen"));
+    });
+    let back = World::load(&old[..]).unwrap();
+    assert!(
+        back.agents()
+            .ids()
+            .iter()
+            .all(|&id| back.chosen_channel(id).is_none())
+    );
+}

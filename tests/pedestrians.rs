@@ -342,35 +342,18 @@ fn bad_pedestrian_values_are_errors_naming_the_key() {
     }
 }
 
-/// A room 16 x 8 m with a door 1 m wide near each end of its lower wall; 150 pedestrians start
-/// close to the left door. `metric` is the field's.
+#[path = "support/two_doors.rs"]
+mod support;
+
+/// The two-door room, one channel with both doors as goals; 150 pedestrians start close to
+/// the left door. `metric` is the field's.
 fn two_doors(metric: &str) -> String {
-    format!(
-        r#"
-name = "two doors"
-seed = 4
-dt = 0.01
-[geometry]
-walkable = "POLYGON ((0 1, 2 1, 2 0, 3 0, 3 1, 14 1, 14 0, 15 0, 15 1, 16 1, 16 9, 0 9, 0 1))"
-[field]
-cell_size = 0.25
-clearance = 0.2
-metric = "{metric}"
-[[exits]]
-min = [2, 0]
-max = [3, 0.5]
-[[exits]]
-min = [14, 0]
-max = [15, 0.5]
-[[groups]]
-count = 150
-spawn = {{ kind = "spread", min = [0.5, 1.5], max = [6, 8.5], distance = 0.42 }}
-model = "kinematic"
-max_speed = 2.5
-radius = 0.2
-steering = {{ behaviours = [{{ kind = "follow_field", field = 0, channel = 0 }}] }}
-pedestrian = {{}}
-"#
+    support::two_doors(
+        metric,
+        "",
+        150,
+        ([0.5, 1.5], [6.0, 8.5]),
+        "{ kind = \"follow_field\", field = 0, channel = 0 }",
     )
 }
 

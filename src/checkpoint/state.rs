@@ -59,6 +59,10 @@ pub(super) struct WorldState {
     fields: Vec<FieldState>,
     /// Ids of the agents marked arrived.
     arrived: Vec<u32>,
+    /// `(id, channel)` of each agent that has chosen an exit (absent from files written before
+    /// exit choice existed: none).
+    #[serde(default)]
+    chosen: Vec<(u32, u8)>,
     field_rebuilds: u64,
 }
 
@@ -156,6 +160,9 @@ impl WorldState {
             arrived: (0..w.fields.arrived.len() as u32)
                 .filter(|&k| w.fields.arrived[k as usize])
                 .collect(),
+            chosen: (0..w.fields.chosen.len() as u32)
+                .filter_map(|k| w.fields.chosen_of(AgentId(k)).map(|c| (k, c as u8)))
+                .collect(),
             field_rebuilds: w.fields.rebuilds,
         }
     }
@@ -232,6 +239,15 @@ impl WorldState {
                 .ok_or_else(|| invalid("arrived", format!("agent #{id} was never added")))? = true;
         }
         w.fields.arrived = arrived;
+        for (id, c) in self.chosen {
+            if id as usize >= issued || c >= 64 {
+                return Err(invalid(
+                    "chosen",
+                    format!("agent #{id} and channel {c}: no such agent or channel"),
+                ));
+            }
+            w.fields.choose_for(AgentId(id), usize::from(c), issued);
+        }
         w.fields.rebuilds = self.field_rebuilds;
         restore_formations(&mut w, self.formations, issued)?;
         // Profiles may name fields and channels: check every reference now, not at the first step.

@@ -346,4 +346,26 @@ impl GoalChannels {
             .and_then(|c| c.built.as_ref())
             .map(|b| &b.flow)
     }
+
+    /// How far the goals of `channel` are from world point `p`, for choosing among channels:
+    /// with a distance metric the geodesic distance of `p`'s cell (with the quickest metric,
+    /// weighted by the cells' costs: the free speed's travel time through the crowd, in metres),
+    /// otherwise the BFS field's steps times the cell size. `None` when the channel does not
+    /// exist or is dirty, or when `p` lies off the grid, on a wall or where no goal is reached.
+    #[must_use]
+    pub fn travel_cost(&self, channel: usize, p: glam::Vec2) -> Option<f32> {
+        let built = self
+            .channels
+            .get(channel)
+            .filter(|c| !c.dirty)
+            .and_then(|c| c.built.as_ref())?;
+        let (x, y) = self.grid.world_to_cell(p)?;
+        match &built.distance {
+            Some(d) => d.distance(x, y),
+            None => built
+                .field
+                .steps(x, y)
+                .map(|s| s as f32 * self.grid.cell_size()),
+        }
+    }
 }

@@ -8,8 +8,11 @@
 //! 1. **prepare** (the `fields` phase, before steering): goals due for re-randomisation get new
 //!    cells, dirty channels (moved goals, changed walls) are rebuilt, and the frame-start
 //!    positions are kept;
+//!    then agents of `choose_exit` groups choose a channel, or revise their choice where the
+//!    travel times changed (a reroute or a rebuild), keeping it unless another channel is
+//!    cheaper by the group's switching gain;
 //! 2. during **steering**, `follow_field` samples its channel's flow at the agent's position
-//!    (read only, [`FieldSet::follow`]);
+//!    (read only, [`FieldSet::follow`]), `choose_exit` its chosen channel's;
 //! 3. **after_move** (the `fields` phase, after integration and the world's bounds): every agent
 //!    whose move would end inside a wall cell of any field slides along the free axis or stays
 //!    where it was, and loses the velocity component into the wall (on a torus the move is the
@@ -20,8 +23,9 @@
 //! are checked in sub-steps of at most half a cell, and a diagonal cell change needs one of the
 //! two orthogonal cells free, so walls meeting at a corner are not crossed); channels are never
 //! dirty while agents steer; arrival flags are reset when the channel an agent follows is
-//! rebuilt; everything is independent of the number of threads; frames without a goal change
-//! allocate nothing.
+//! rebuilt; a chosen channel changes only in the prepare hook;
+//! everything is independent of the number of threads; frames without a goal change allocate
+//! nothing.
 
 use glam::Vec2;
 use rayon::prelude::*;
@@ -31,6 +35,7 @@ use crate::agents::{AgentId, Agents};
 use crate::bounds::Bounds;
 use crate::error::{Error, Result};
 use crate::field::{GoalChannels, GridWalkers, OccupancyGrid, WalkPolicy};
+use crate::steering::ChannelSet;
 
 /// Agents per parallel task of the wall check.
 const WALL_CHUNK: usize = 4096;
@@ -64,6 +69,22 @@ pub(crate) struct WorldField {
     pub(crate) wall_bits: Vec<u64>,
 }
 
+/// Which channel of a field a group's agents follow.
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub(crate) enum FollowChannel {
+    /// This channel (`follow_field`).
+    Fixed(usize),
+    /// Each agent's own choice among these channels (`choose_exit`), kept until another's
+    /// travel time falls below `1 - switch_gain` times its own.
+    Chosen {
+        channels: ChannelSet,
+        switch_gain: f32,
+    },
+}
+
+/// No channel chosen yet (a fresh agent, before its first prepare hook).
+const UNCHOSEN: u8 = u8::MAX;
+
 /// The wall bits of `grid` (see `WorldField::wall_bits`).
 pub(crate) fn wall_bits(grid: &OccupancyGrid) -> Vec<u64> {
     let mut bits = vec![0u64; grid.len().div_ceil(64)];
@@ -81,8 +102,11 @@ pub(crate) struct FieldSet {
     pub(crate) fields: Vec<WorldField>,
     /// Per agent id: reached a goal of its channel since the channel was last rebuilt.
     pub(crate) arrived: Vec<bool>,
-    /// Per group: the `(field, channel)` its first `follow_field` behaviour names.
-    follow: Vec<Option<(usize, usize)>>,
+    /// Per group: the field and channel its first `follow_field` or `choose_exit` behaviour
+    /// names.
+    follow: Vec<Option<(usize, FollowChannel)>>,
+    /// Per agent id: the channel it chose (`choose_exit`), or `UNCHOSEN`.
+    pub(crate) chosen: Vec<u8>,
     /// Channel rebuilds so far.
     pub(crate) rebuilds: u64,
     /// Scratch of the reordering sort, and its permutation.
@@ -94,6 +118,8 @@ pub(crate) struct FieldSet {
     on_goal: Vec<bool>,
     /// Scratch: the cell costs of a reroute.
     costs: Vec<f32>,
+    /// Scratch: per field, whether its travel times changed this frame.
+    due: Vec<bool>,
 }
 
 /// Reorders agents by the row-major cell of `grid` they stand in (agents outside last), so that
@@ -348,10 +374,100 @@ impl FieldSet {
         self.arrived.get(id.0 as usize).copied().unwrap_or(false)
     }
 
-    /// Sets, per group, the `(field, channel)` its agents follow (from the compiled plans).
-    pub(crate) fn set_follow(&mut self, follow: impl Iterator<Item = Option<(usize, usize)>>) {
+    /// Sets, per group, the field and channel its agents follow (from the compiled plans).
+    pub(crate) fn set_follow(
+        &mut self,
+        follow: impl Iterator<Item = Option<(usize, FollowChannel)>>,
+    ) {
         self.follow.clear();
         self.follow.extend(follow);
+    }
+
+    /// The channel agent `id` follows under `channel`: the fixed one, or its choice (the
+    /// lowest channel of the set until it has chosen).
+    #[inline]
+    pub(crate) fn channel_of(&self, channel: FollowChannel, id: AgentId) -> usize {
+        match channel {
+            FollowChannel::Fixed(c) => c,
+            FollowChannel::Chosen { channels, .. } => {
+                match self.chosen.get(id.0 as usize).copied() {
+                    Some(c) if c != UNCHOSEN => usize::from(c),
+                    _ => channels.iter(64).next().unwrap_or(0),
+                }
+            }
+        }
+    }
+
+    /// Records that agent `id` (of `issued` ids) has chosen `channel` (a restored checkpoint).
+    pub(crate) fn choose_for(&mut self, id: AgentId, channel: usize, issued: usize) {
+        if self.chosen.len() < issued {
+            self.chosen.resize(issued, UNCHOSEN);
+        }
+        self.chosen[id.0 as usize] = channel as u8;
+    }
+
+    /// The channel agent `id` has chosen (`choose_exit`), if it has.
+    pub(crate) fn chosen_of(&self, id: AgentId) -> Option<usize> {
+        self.chosen
+            .get(id.0 as usize)
+            .copied()
+            .filter(|&c| c != UNCHOSEN)
+            .map(usize::from)
+    }
+
+    /// Exit choice: every agent of a `choose_exit` group that has not chosen yet, or whose
+    /// field was rerouted this frame (`due[field]`), compares the travel costs of its cell to
+    /// the channels of its set; it takes the cheapest when it has no choice (or its choice is
+    /// out of reach), and otherwise switches only to a channel cheaper than `1 - switch_gain`
+    /// times its own. Ties go to the lower channel. Sequential: a handful of lookups per agent,
+    /// in index order, the same for any thread count.
+    fn choose(&mut self, agents: &Agents, due: &[bool]) {
+        if !self
+            .follow
+            .iter()
+            .any(|f| matches!(f, Some((_, FollowChannel::Chosen { .. }))))
+        {
+            return;
+        }
+        for i in 0..agents.len() {
+            let Some(&Some((
+                fi,
+                FollowChannel::Chosen {
+                    channels,
+                    switch_gain,
+                },
+            ))) = self.follow.get(agents.group[i] as usize)
+            else {
+                continue;
+            };
+            let Some(f) = self.fields.get(fi) else {
+                continue;
+            };
+            let k = agents.ids[i].0 as usize;
+            let current = self.chosen[k];
+            if current != UNCHOSEN && !due.get(fi).copied().unwrap_or(false) {
+                continue;
+            }
+            let p = agents.position(i);
+            let mut best: Option<(usize, f32)> = None;
+            for c in channels.iter(f.channels.len()) {
+                if let Some(t) = f.channels.travel_cost(c, p)
+                    && best.is_none_or(|(_, b)| t < b)
+                {
+                    best = Some((c, t));
+                }
+            }
+            let Some((c, t)) = best else {
+                continue;
+            };
+            let own = (current != UNCHOSEN)
+                .then(|| f.channels.travel_cost(usize::from(current), p))
+                .flatten();
+            match own {
+                Some(o) if t >= (1.0 - switch_gain) * o => {}
+                _ => self.chosen[k] = c as u8,
+            }
+        }
     }
 
     /// The prepare hook, before steering: due goal shuffles, rebuilds of dirty channels
@@ -373,6 +489,9 @@ impl FieldSet {
         let issued = agents.ids_issued();
         if self.arrived.len() < issued {
             self.arrived.resize(issued, false);
+        }
+        if self.chosen.len() < issued {
+            self.chosen.resize(issued, UNCHOSEN);
         }
         if !flocking
             && !agents.is_empty()
@@ -410,16 +529,26 @@ impl FieldSet {
         if !self.rebuilt.is_empty() {
             for i in 0..agents.len() {
                 let g = agents.group[i] as usize;
-                if let Some(Some(fc)) = self.follow.get(g)
-                    && self.rebuilt.contains(fc)
+                if let Some(&Some((field, channel))) = self.follow.get(g)
+                    && self
+                        .rebuilt
+                        .contains(&(field, self.channel_of(channel, agents.ids[i])))
                 {
                     set_arrived(&mut self.arrived, agents.ids[i], false);
                 }
             }
         }
-        // Quickest-path reroutes: new costs, the same goals, so arrivals stand.
-        for f in &mut self.fields {
+        // Quickest-path reroutes: new costs, the same goals, so arrivals stand. Exit choices are
+        // revised where the travel times changed.
+        let mut due = std::mem::take(&mut self.due);
+        due.clear();
+        due.resize(self.fields.len(), false);
+        for &(fi, _) in &self.rebuilt {
+            due[fi] = true;
+        }
+        for (fi, f) in self.fields.iter_mut().enumerate() {
             if f.reroute_every > 0 && frame.is_multiple_of(f.reroute_every) {
+                due[fi] = true;
                 let positions = (0..agents.len()).map(|i| agents.position(i));
                 f.congestion.costs(
                     f.channels.grid(),
@@ -434,6 +563,8 @@ impl FieldSet {
                 self.rebuilds += r.unwrap_or(0) as u64;
             }
         }
+        self.choose(agents, &due);
+        self.due = due;
     }
 
     /// The linear steering of `follow_field` for one agent: a desired velocity (kinematic) or
@@ -559,6 +690,8 @@ impl FieldSet {
         if self.follow.iter().all(Option::is_none) {
             return;
         }
+        let mut flags_buf = std::mem::take(&mut self.on_goal);
+        let this = &*self;
         let fields = &self.fields;
         let follow = &self.follow;
         let agents = &*agents;
@@ -566,6 +699,7 @@ impl FieldSet {
             let Some(&Some((field, channel))) = follow.get(agents.group[i] as usize) else {
                 return false;
             };
+            let channel = this.channel_of(channel, agents.ids[i]);
             let Some(channels) = fields.get(field).map(|f| &f.channels) else {
                 return false;
             };
@@ -580,9 +714,9 @@ impl FieldSet {
                 flow.is_goal_at(p)
             }
         };
-        self.on_goal.resize(n, false);
+        flags_buf.resize(n, false);
         if exec_parallel {
-            self.on_goal
+            flags_buf
                 .par_chunks_mut(WALL_CHUNK)
                 .enumerate()
                 .for_each(|(c, flags)| {
@@ -591,10 +725,11 @@ impl FieldSet {
                     }
                 });
         } else {
-            for (i, f) in self.on_goal.iter_mut().enumerate() {
+            for (i, f) in flags_buf.iter_mut().enumerate() {
                 *f = on_goal(i);
             }
         }
+        self.on_goal = flags_buf;
         for i in 0..n {
             if self.on_goal[i] {
                 set_arrived(&mut self.arrived, agents.ids[i], true);

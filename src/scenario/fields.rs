@@ -125,6 +125,9 @@ pub enum GoalSpec {
     Cells(Vec<(u32, u32)>),
     /// This many distinct random free cells.
     Random(usize),
+    /// The free cells whose centre lies inside exit `k` (the `k`-th of the scenario's
+    /// `[[exits]]`): one channel per exit, for allocated escape routes and `choose_exit`.
+    Exit(usize),
 }
 
 /// A group moved by grid walkers.
@@ -356,6 +359,7 @@ impl FieldSpec {
                 GoalSpec::Random(n) => {
                     random_free_cells(&map.grid, *n, seed ^ 0x60a1_0000 ^ k as u64)?
                 }
+                GoalSpec::Exit(e) => exit_cells(&map.grid, world, k, *e)?,
             };
             channels.add_channel(&goals)?;
         }
@@ -382,6 +386,35 @@ impl FieldSpec {
         }
         Ok(())
     }
+}
+
+/// The free cells of `grid` whose centre lies inside exit `exit` of `world`, for channel
+/// `channel`.
+fn exit_cells(
+    grid: &OccupancyGrid,
+    world: &World,
+    channel: usize,
+    exit: usize,
+) -> Result<Vec<(u32, u32)>> {
+    let exits = world.exits();
+    let e = exits.get(exit).ok_or_else(|| Error::Invalid {
+        name: format!("field.channels[{channel}]"),
+        reason: format!(
+            "exit {exit} does not exist (the scenario has {})",
+            exits.len()
+        ),
+    })?;
+    let cells: Vec<(u32, u32)> = (0..grid.height())
+        .flat_map(|y| (0..grid.width()).map(move |x| (x, y)))
+        .filter(|&(x, y)| grid.is_free(x, y) && e.contains(grid.cell_center(x, y)))
+        .collect();
+    if cells.is_empty() {
+        return Err(Error::Invalid {
+            name: format!("field.channels[{channel}]"),
+            reason: format!("no free cell of the field has its centre inside exit {exit}"),
+        });
+    }
+    Ok(cells)
 }
 
 /// A uniformly random point on the free cells of the world's first field (rejection sampling).

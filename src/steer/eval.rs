@@ -109,6 +109,18 @@ pub(crate) fn evaluate(v: &SteerView, me: &Me, b: &Behaviour, d: &mut Draws) -> 
             params,
         } => jump(me, launch, landing, &params),
         Behaviour::FollowField { field, channel } => follow_field(v, me, field, channel),
+        Behaviour::ChooseExit {
+            field,
+            channels,
+            switch_gain,
+        } => {
+            let chosen = crate::field::FollowChannel::Chosen {
+                channels,
+                switch_gain,
+            };
+            let channel = v.fields.channel_of(chosen, v.agents.ids[me.i]);
+            follow_field(v, me, field, channel)
+        }
         Behaviour::Vicsek { noise, .. } => vicsek(me, noise, d),
     }
 }

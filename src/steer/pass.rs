@@ -238,7 +238,7 @@ pub(crate) fn steer_agent(v: &SteerView, i: usize) -> (Steering, f32, f32) {
         } => {
             let f = v.fields.follow(
                 field,
-                channel,
+                v.fields.channel_of(channel, a.ids[i]),
                 a.ids[i],
                 a.position(i),
                 velocity,

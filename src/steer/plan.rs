@@ -13,6 +13,7 @@
 
 use super::adapter::Adapter;
 use crate::error::{Error, Result};
+use crate::field::FollowChannel;
 use crate::profile::Profile;
 use crate::steering::{Behaviour, Combine, Target};
 
@@ -75,8 +76,8 @@ pub(crate) enum PlanKind {
     FollowField {
         /// The field.
         field: usize,
-        /// Its channel.
-        channel: usize,
+        /// Its channel, or the agent's choice.
+        channel: FollowChannel,
         /// The behaviour's weight.
         weight: f32,
     },
@@ -120,8 +121,8 @@ pub(crate) struct Plan {
     pub adapter: Adapter,
     pub spec: NeighbourSpec,
     pub kind: PlanKind,
-    /// The `(field, channel)` of the profile's first `follow_field` behaviour.
-    pub follow: Option<(usize, usize)>,
+    /// The field and channel of the profile's first `follow_field` or `choose_exit` behaviour.
+    pub follow: Option<(usize, FollowChannel)>,
     /// The largest `within` radius of a nearest-agent target per group it looks for.
     pub nearest: Vec<(usize, f32)>,
     /// The group's ORCA filter.
@@ -152,7 +153,30 @@ impl Plan {
                             fields: refs.channels.len(),
                         });
                     }
-                    follow.get_or_insert((field, channel));
+                    follow.get_or_insert((field, FollowChannel::Fixed(channel)));
+                }
+                Behaviour::ChooseExit {
+                    field,
+                    channels,
+                    switch_gain,
+                } => {
+                    let n = refs.channels.get(field).copied().unwrap_or(0);
+                    let channel = channels.max().unwrap_or(0);
+                    if n == 0 || channel >= n {
+                        return Err(Error::UnknownField {
+                            group,
+                            field,
+                            channel,
+                            fields: refs.channels.len(),
+                        });
+                    }
+                    follow.get_or_insert((
+                        field,
+                        FollowChannel::Chosen {
+                            channels,
+                            switch_gain,
+                        },
+                    ));
                 }
                 Behaviour::FollowPath { path, .. } if path.0 as usize >= refs.paths => {
                     return Err(Error::UnknownPath {
@@ -187,7 +211,8 @@ impl Plan {
         let kind = if let Some((terms, len)) = flock {
             PlanKind::Flock { terms, len }
         } else if let [w] = &profile.steering.behaviours[..]
-            && let Behaviour::FollowField { field, channel } = w.behaviour
+            && let Behaviour::FollowField { .. } | Behaviour::ChooseExit { .. } = w.behaviour
+            && let Some((field, channel)) = follow
             && profile.steering.combine == Combine::WeightedSum
         {
             PlanKind::FollowField {

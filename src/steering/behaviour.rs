@@ -105,6 +105,73 @@ impl Default for WanderParams {
     }
 }
 
+/// The default `switch_gain` of [`Behaviour::ChooseExit`].
+pub const DEFAULT_SWITCH_GAIN: f32 = 0.25;
+
+fn default_switch_gain() -> f32 {
+    DEFAULT_SWITCH_GAIN
+}
+
+/// A set of goal channels of one field (channels 0 to 63, as a field has at most 64), written
+/// in a scenario as a list of channel numbers; the empty set stands for every channel.
+#[derive(Clone, Copy, Debug, Default, PartialEq, Eq, Hash)]
+pub struct ChannelSet(u64);
+
+impl ChannelSet {
+    /// Every channel of the field.
+    pub const ALL: ChannelSet = ChannelSet(0);
+
+    /// The channels listed.
+    ///
+    /// # Errors
+    /// [`Error::OutOfRange`] for a channel above 63.
+    pub fn of(channels: &[usize]) -> Result<Self> {
+        let mut bits = 0u64;
+        for &c in channels {
+            if c >= 64 {
+                return Err(Error::OutOfRange {
+                    name: "choose_exit.channels",
+                    value: c as f64,
+                    range: "[0, 63]",
+                });
+            }
+            bits |= 1 << c;
+        }
+        Ok(ChannelSet(bits))
+    }
+
+    /// Whether this is the set of every channel.
+    #[must_use]
+    pub fn is_all(&self) -> bool {
+        self.0 == 0
+    }
+
+    /// The channels below `count` (a field's channel count) in the set, ascending.
+    pub fn iter(self, count: usize) -> impl Iterator<Item = usize> {
+        (0..count.min(64)).filter(move |&c| self.0 == 0 || self.0 & (1 << c) != 0)
+    }
+
+    /// The largest channel listed, if the set lists any.
+    #[must_use]
+    pub fn max(self) -> Option<usize> {
+        (self.0 != 0).then(|| 63 - self.0.leading_zeros() as usize)
+    }
+}
+
+impl Serialize for ChannelSet {
+    fn serialize<S: serde::Serializer>(&self, s: S) -> std::result::Result<S::Ok, S::Error> {
+        let list: Vec<usize> = (0..64).filter(|&c| self.0 & (1 << c) != 0).collect();
+        list.serialize(s)
+    }
+}
+
+impl<'de> Deserialize<'de> for ChannelSet {
+    fn deserialize<D: serde::Deserializer<'de>>(d: D) -> std::result::Result<Self, D::Error> {
+        let list = Vec::<usize>::deserialize(d)?;
+        ChannelSet::of(&list).map_err(serde::de::Error::custom)
+    }
+}
+
 /// One steering behaviour with its parameters.
 ///
 /// Every behaviour works in both movement models: the world calls the dynamic function (a force)
@@ -290,6 +357,25 @@ pub enum Behaviour {
         #[serde(default)]
         channel: usize,
     },
+    /// Follow, of several goal channels of a field (typically one per exit, see the `exit`
+    /// channels of a scenario's `[field]`), the one with the shortest estimated travel time, and
+    /// keep that choice unless another becomes quicker by more than `switch_gain`: the exit
+    /// choice of a crowd with inertia. Each agent chooses when it first steers and again at each
+    /// reroute of a quickest-path field (whose travel times include the crowd's jams), from the
+    /// travel time of its cell to each channel's goals; then it moves as `follow_field` does on
+    /// the chosen channel. Yields nothing when the field does not exist.
+    ChooseExit {
+        /// The field, as numbered by `World::add_field`. Default: 0.
+        #[serde(default)]
+        field: usize,
+        /// The channels to choose among. Default: every channel of the field.
+        #[serde(default, skip_serializing_if = "ChannelSet::is_all")]
+        channels: ChannelSet,
+        /// An agent leaves its channel for another only when the other's travel time is below
+        /// `(1 - switch_gain)` times its own; in `[0, 1)`. Default: 0.25.
+        #[serde(default = "default_switch_gain")]
+        switch_gain: f32,
+    },
     /// The Vicsek model (kinematic agents at constant speed): the new heading is the direction
     /// of the sum of the unit velocities of every agent within `radius`, itself included, turned
     /// by a uniform random angle in `[-noise / 2, noise / 2]` from the agent's counter-based
@@ -410,6 +496,7 @@ impl Behaviour {
             Behaviour::KeepFormation { .. } => "keep_formation",
             Behaviour::Jump { .. } => "jump",
             Behaviour::FollowField { .. } => "follow_field",
+            Behaviour::ChooseExit { .. } => "choose_exit",
             Behaviour::Vicsek { .. } => "vicsek",
         }
     }
@@ -447,6 +534,7 @@ impl Behaviour {
             | Behaviour::KeepFormation { .. }
             | Behaviour::Jump { .. }
             | Behaviour::FollowField { .. }
+            | Behaviour::ChooseExit { .. }
             | Behaviour::Vicsek { .. } => None,
         }
     }
@@ -545,6 +633,22 @@ impl Behaviour {
                 }
             }
             Behaviour::FollowField { .. } => {}
+            Behaviour::ChooseExit { switch_gain, .. } => {
+                crate::error::in_range(
+                    "choose_exit.switch_gain",
+                    *switch_gain,
+                    0.0,
+                    1.0,
+                    "[0, 1)",
+                )?;
+                if *switch_gain == 1.0 {
+                    return Err(Error::OutOfRange {
+                        name: "choose_exit.switch_gain",
+                        value: 1.0,
+                        range: "[0, 1)",
+                    });
+                }
+            }
             Behaviour::Vicsek { radius, noise } => {
                 positive("vicsek.radius", *radius)?;
                 crate::error::in_range(

@@ -250,6 +250,17 @@ impl Behaviour {
         Behaviour::FollowField { field, channel }
     }
 
+    /// Choose among every channel of field `field` by travel time, with the default switching
+    /// gain ([`DEFAULT_SWITCH_GAIN`](crate::steering::DEFAULT_SWITCH_GAIN)).
+    #[must_use]
+    pub fn choose_exit(field: usize) -> Self {
+        Behaviour::ChooseExit {
+            field,
+            channels: super::behaviour::ChannelSet::ALL,
+            switch_gain: super::behaviour::DEFAULT_SWITCH_GAIN,
+        }
+    }
+
     /// The Vicsek model with interaction radius `radius` and noise width `noise` (radians).
     #[must_use]
     pub fn vicsek(radius: f32, noise: f32) -> Self {
@@ -406,6 +417,10 @@ mod tests {
                 "kind = 'follow_field'\nfield = 1\nchannel = 2".into(),
             ),
             (Behaviour::vicsek(1.0, 0.0), "kind = 'vicsek'".into()),
+            (
+                Behaviour::choose_exit(1),
+                "kind = 'choose_exit'\nfield = 1".into(),
+            ),
         ] {
             assert_eq!(built, parse(&text), "{text}");
             built.validate().expect(&text);

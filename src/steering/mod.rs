@@ -31,8 +31,8 @@ pub use align::{
 };
 pub use basis::Basis;
 pub use behaviour::{
-    ArriveParams, Behaviour, Combine, Neighbourhood, SteeringProfile, Target, WanderParams,
-    Weighted,
+    ArriveParams, Behaviour, ChannelSet, Combine, DEFAULT_SWITCH_GAIN, Neighbourhood,
+    SteeringProfile, Target, WanderParams, Weighted,
 };
 pub use combine::{PrioritySum, priority_sum, weighted_sum};
 pub use flocking::{NeighbourSums, alignment, cohesion, desired, polarisation, separation};

@@ -109,9 +109,11 @@ pub const CASES: &[Case] = &[
         id: "rimea-11",
         title: "RiMEA 11: the choice of escape route",
         about: "1,000 pedestrians in the left part of a room 30 x 20 m leave through two exits \
-                1 m wide in its upper wall, one nearer than the other. RiMEA: most take the \
-                nearer exit and some the other; here: everyone out, more than half through the \
-                nearer exit and at least 5% through the other. Quick: 500 pedestrians.",
+                1 m wide in its upper wall, one nearer than the other; each chooses an exit by \
+                its travel time through the crowd and keeps it unless the other becomes 25% \
+                quicker (choose_exit). RiMEA: most take the nearer exit and some the other; \
+                here: everyone out, more than half through the nearer exit and at least 5% \
+                through the other. Quick: 500 pedestrians.",
         run: rimea_11,
     },
     Case {

@@ -340,6 +340,14 @@ impl World {
         self.fields.arrived_of(id)
     }
 
+    /// The channel agent `id` has chosen by `choose_exit` (see
+    /// [`Behaviour::ChooseExit`](crate::steering::Behaviour::ChooseExit)), or `None` when it
+    /// has not chosen (its group does not choose, or it has not steered yet).
+    #[must_use]
+    pub fn chosen_channel(&self, id: AgentId) -> Option<usize> {
+        self.fields.chosen_of(id)
+    }
+
     /// Number of live agents that have arrived (see [`World::has_arrived`]).
     #[must_use]
     pub fn arrived_count(&self) -> usize {
