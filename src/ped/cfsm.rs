@@ -28,6 +28,12 @@
 //! the specific flow into the experiments' band (docs/VALIDATION.md). `pressed_time_gap =
 //! time_gap` turns it off.
 //!
+//! Sidestepping (not in the paper, off by default): a pedestrian blocked at contact ahead turns its direction by
+//! 45, then 90 degrees to either side and takes the first turn with room ahead, so that an arch
+//! of pedestrians at a narrow door, each in the way of another, breaks up as real ones do. It
+//! moves only where the model would let it move in that direction, so the freedom from
+//! collisions stands.
+//!
 //! Invariants: the direction is a unit vector or zero; the speed lies in `[0, v0]`; the time gap
 //! lies in `[pressed_time_gap, time_gap]`.
 
@@ -72,7 +78,25 @@ pub struct Cfsm {
     /// How the speed follows from the spacing. Default: [`SpeedFunction::Smooth`] (JuPedSim:
     /// [`SpeedFunction::Linear`]).
     pub speed_function: SpeedFunction,
+    /// Whether a blocked pedestrian (one whose spacing ahead is at most
+    /// [`BLOCKED_SPACING`]) steps sideways: it takes, of its direction turned by 45 and then
+    /// by 90 degrees to either side (the side of its preferred direction first), the first
+    /// turn that leaves it room ahead and does not lead into a wall within
+    /// [`SIDESTEP_WALL_MARGIN`] of its body, at the speed the model gives for that room.
+    /// Without it, pedestrians at a narrow door can stand in each other's way at contact until
+    /// the crowd behind them thins (an arch: the model is first order and deterministic); with
+    /// it, such arches break up within seconds, but at doors of two bodies' width the last
+    /// two pedestrians can end up held for good on either side of the entrance by their
+    /// mutual repulsion (docs/VALIDATION.md measures both). Default: false (as JuPedSim).
+    pub sidestep: bool,
 }
+
+/// The spacing, m, at or below which a pedestrian counts as blocked ([`Cfsm::sidestep`]).
+pub const BLOCKED_SPACING: f32 = 0.01;
+
+/// How close, m, to a wall or circle a pedestrian's body may be before it does not step
+/// sideways towards it ([`Cfsm::sidestep`]).
+pub const SIDESTEP_WALL_MARGIN: f32 = 0.05;
 
 /// The optimal-velocity function `V(s)`: the speed for the spacing `s` ahead.
 #[derive(Clone, Copy, Debug, Default, PartialEq, Eq, Serialize, Deserialize)]
@@ -119,6 +143,7 @@ impl Default for Cfsm {
             cutoff: 2.0,
             spacing: Spacing::Contact,
             speed_function: SpeedFunction::Smooth,
+            sidestep: false,
         }
     }
 }

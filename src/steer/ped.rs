@@ -27,6 +27,7 @@ use rayon::prelude::*;
 
 use super::pass::{STEER_CHUNK, SteerOut};
 use super::view::SteerView;
+use crate::ped::cfsm::{BLOCKED_SPACING, SIDESTEP_WALL_MARGIN};
 use crate::ped::lanes::{LANES, Neighbours, lane_sum};
 use crate::ped::{Cfsm, Model, Pedestrian, SocialForce};
 use crate::spatial::{GridIndex, Neighbour, NeighbourIndex, SpatialIndex};
@@ -356,6 +357,18 @@ fn speed_model_spacing(cf: &Cfsm, b: &Buffers, count: usize, n: usize, e: Vec2) 
     cf.min_spacing_lanes((e.x, e.y), &neighbours(b, count, n), &b.dist[..n])
 }
 
+/// At most this many obstacles near an agent's body are kept for its sidestep.
+const NEAR_WALLS: usize = 4;
+
+/// The turns a blocked pedestrian tries, `(cos, sin)`: 45 degrees, then 90.
+const SIDESTEP_TURNS: [(f32, f32); 2] = [
+    (
+        std::f32::consts::FRAC_1_SQRT_2,
+        std::f32::consts::FRAC_1_SQRT_2,
+    ),
+    (0.0, 1.0),
+];
+
 /// Agent `i`'s request under its pedestrian model, given the behaviours' request.
 #[inline(always)]
 fn agent(
@@ -413,11 +426,36 @@ fn agent(
             let cf = &ped.cfsm;
             fill(view, i, b, n, false);
             let mut dir = e0 + speed_model_sum(cf, b, count, n);
+            // The obstacles touching the body or nearly: the sidestep does not turn into them.
+            let mut near = [Vec2::ZERO; NEAR_WALLS];
+            let mut near_count = 0;
             for_each_wall(view, pos, cf.cutoff, b, |d, normal| {
                 dir += cf.wall(d, radius, normal);
+                let dist = d.length();
+                if dist < radius + SIDESTEP_WALL_MARGIN && near_count < NEAR_WALLS {
+                    near[near_count] = if dist > 1e-6 { d / dist } else { normal };
+                    near_count += 1;
+                }
             });
-            let e = dir.normalize_or_zero();
-            let (spacing, behind) = speed_model_spacing(cf, b, count, n, e);
+            let mut e = dir.normalize_or_zero();
+            let (mut spacing, behind) = speed_model_spacing(cf, b, count, n, e);
+            if cf.sidestep && spacing <= BLOCKED_SPACING && v0 > 0.0 && e != Vec2::ZERO {
+                let first = if e.perp_dot(e0) < 0.0 { -1.0 } else { 1.0 };
+                let walls = &near[..near_count];
+                'turns: for (cos, sin) in SIDESTEP_TURNS {
+                    for side in [first, -first] {
+                        let turned = Vec2::new(cos, side * sin).rotate(e);
+                        if walls.iter().any(|&w| turned.dot(w) < 0.0) {
+                            continue;
+                        }
+                        let (s, _) = speed_model_spacing(cf, b, count, n, turned);
+                        if s > BLOCKED_SPACING {
+                            (e, spacing) = (turned, s);
+                            break 'turns;
+                        }
+                    }
+                }
+            }
             let v = e * cf.speed_under(spacing, v0, cf.pressure(behind, count as f32));
             if !adapter.kinematic {
                 return finite_or_zero(truncate((v - vel) / dt, adapter.max_acceleration));
