@@ -21,6 +21,8 @@ pub enum Stream {
     Orca = 0x6f72_0001,
     /// A pedestrian's desired speed (frame 0, drawn once for the agent's life).
     DesiredSpeed = 0x7065_0001,
+    /// A pedestrian's pre-movement time (frame 0, drawn once for the agent's life).
+    Premovement = 0x7065_0002,
 }
 
 /// The random numbers of one agent in one frame.

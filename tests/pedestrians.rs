@@ -426,3 +426,62 @@ fn a_sidestep_breaks_the_arch_that_clogs_a_narrow_door() {
     );
     assert!(on < 10.0, "with the sidestep the longest wait is {on} s");
 }
+
+#[test]
+fn pedestrians_stand_until_their_premovement_time_and_bad_times_are_errors() {
+    let text = r#"
+name = "wait"
+seed = 3
+dt = 0.05
+[[groups]]
+count = 20
+spawn = { kind = "grid", origin = [0, 0], spacing = [1, 1], columns = 5 }
+model = "kinematic"
+max_speed = 2
+radius = 0.2
+steering = { behaviours = [{ kind = "seek", target = { point = [100, 2] } }] }
+pedestrian = { premovement = { min = 1, max = 4 } }
+"#;
+    let s = Scenario::from_toml(text, "t.toml").unwrap();
+    let pm = s.groups[0].params.pedestrian.unwrap().premovement.unwrap();
+    let mut w = s.build().unwrap();
+    // Start and drawn time by id (storage order changes as the world reorders its agents).
+    let by_id: std::collections::HashMap<AgentId, (Vec2, f32)> = (0..w.len())
+        .map(|i| {
+            let id = w.agents().id(i);
+            (id, (w.agents().position(i), pm.draw(s.seed, id.0)))
+        })
+        .collect();
+    let times: Vec<f32> = by_id.values().map(|v| v.1).collect();
+    assert!(times.iter().all(|t| (1.0..=4.0).contains(t)));
+    assert!(times.iter().any(|&t| t < 2.0) && times.iter().any(|&t| t > 3.0));
+    for _ in 0..100 {
+        let now = w.time() as f32;
+        w.step(s.dt).unwrap();
+        for i in 0..w.len() {
+            let id = w.agents().id(i);
+            let (start, t) = by_id[&id];
+            let moved = w.agents().position(i).distance(start) > 1e-4;
+            // The step taken at `now` moves an agent exactly when its time has come.
+            if now < t {
+                assert!(!moved, "{id:?} moved at {now} s before its {t} s");
+            } else {
+                assert!(moved, "{id:?} still stands at {now} s after its {t} s");
+            }
+        }
+    }
+    for (line, key) in [
+        ("premovement = { min = -1, max = 4 }", "premovement.min"),
+        ("premovement = { min = 5, max = 4 }", "premovement.max"),
+        ("premovement = { min = 1, max = inf }", "premovement.max"),
+        ("premovement = { min = nan, max = 4 }", "premovement.min"),
+        ("premovement = { min = 1 }", "max"),
+    ] {
+        let bad = text.replace("premovement = { min = 1, max = 4 }", line);
+        let e = Scenario::from_toml(&bad, "t.toml")
+            .and_then(|s| s.build())
+            .unwrap_err()
+            .to_string();
+        assert!(e.contains(key), "{line}: {e}");
+    }
+}

@@ -168,6 +168,59 @@ impl DesiredSpeed {
     }
 }
 
+/// Pre-movement times: how long after the start of the run (world time 0, the alarm) each
+/// pedestrian waits before it walks, drawn per agent from the uniform distribution on
+/// `[min, max]` s (RiMEA test 5 uses 10 to 100 s). A waiting pedestrian has no preferred
+/// velocity: it stands (the social force model still lets others push it). Drawn from the agent's
+/// counter-based stream, so the same for any spawn order or thread count; agents added after
+/// their time walk at once.
+#[derive(Clone, Copy, Debug, PartialEq, Serialize, Deserialize)]
+#[serde(deny_unknown_fields)]
+pub struct Premovement {
+    /// The shortest time, s (>= 0).
+    pub min: f32,
+    /// The longest time, s (>= `min`, at most 1e6).
+    pub max: f32,
+}
+
+impl Premovement {
+    /// Checks the bounds.
+    ///
+    /// # Errors
+    /// [`Error::NonFinite`](crate::Error::NonFinite) or
+    /// [`Error::OutOfRange`](crate::Error::OutOfRange) naming the key
+    /// (`pedestrian.premovement.min`, ...).
+    pub fn validate(&self) -> Result<()> {
+        non_negative("pedestrian.premovement.min", self.min)?;
+        in_range(
+            "pedestrian.premovement.min",
+            self.min,
+            0.0,
+            MAX_PREMOVEMENT,
+            "[0, 1e6] s",
+        )?;
+        in_range(
+            "pedestrian.premovement.max",
+            self.max,
+            self.min,
+            MAX_PREMOVEMENT,
+            "[min, 1e6] s",
+        )?;
+        Ok(())
+    }
+
+    /// The pre-movement time of agent `id` in a world of `seed`, s: the same for the agent's
+    /// whole life.
+    #[must_use]
+    pub fn draw(&self, seed: u64, id: u32) -> f32 {
+        let mut rng = AgentRng::new(seed, id, 0, Stream::Premovement as u32);
+        self.min + (self.max - self.min) * rng.unit()
+    }
+}
+
+/// The longest pre-movement time a scenario may ask for, s.
+pub const MAX_PREMOVEMENT: f32 = 1e6;
+
 /// A group's pedestrian model and its parameters.
 #[derive(Clone, Copy, Debug, Default, PartialEq, Serialize, Deserialize)]
 #[serde(default, deny_unknown_fields)]
@@ -180,6 +233,9 @@ pub struct Pedestrian {
     pub social_force: SocialForce,
     /// The collision-free speed model's parameters (used when `model = "cfsm"`).
     pub cfsm: Cfsm,
+    /// Pre-movement times. Default: none (everyone walks from the start).
+    #[serde(skip_serializing_if = "Option::is_none")]
+    pub premovement: Option<Premovement>,
 }
 
 impl Pedestrian {
@@ -207,8 +263,20 @@ impl Pedestrian {
     /// The variant naming the first bad key (`pedestrian.social_force.tau`, ...).
     pub fn validate(&self) -> Result<()> {
         self.desired_speed.validate()?;
+        if let Some(p) = &self.premovement {
+            p.validate()?;
+        }
         self.social_force.validate()?;
         self.cfsm.validate()
+    }
+
+    /// Whether agent `id` of a world of `seed` still waits at world time `time` (see
+    /// [`Premovement`]).
+    #[inline]
+    #[must_use]
+    pub fn waits(&self, seed: u64, id: u32, time: f64) -> bool {
+        self.premovement
+            .is_some_and(|p| time < f64::from(p.draw(seed, id)))
     }
 }
 

@@ -405,6 +405,12 @@ fn agent(
     } else {
         (Vec2::ZERO, 0.0)
     };
+    // Before its pre-movement time a pedestrian does not walk.
+    let (e0, v0) = if ped.waits(view.seed, a.ids[i].0, view.time) {
+        (Vec2::ZERO, 0.0)
+    } else {
+        (e0, v0)
+    };
     let (count, n) = gather(view, grid, i, pos, ped.cutoff(), b);
 
     let chosen_velocity = match ped.model {

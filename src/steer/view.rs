@@ -87,6 +87,8 @@ pub(crate) struct SteerView<'a> {
     pub seed: u64,
     pub frame: u64,
     pub dt: f32,
+    /// The world's time at frame t, s.
+    pub time: f64,
     pub index: &'a SpatialIndex,
     /// Cell-ordered copies for the grid kernels (`None`: use the scalar traversal).
     pub sorted: Option<&'a SortedCopies>,

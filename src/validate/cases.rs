@@ -19,6 +19,10 @@ pub(super) const SCENARIOS: &[(&str, &str)] = &[
         include_str!("../../scenarios/validation/fundamental-diagram.toml"),
     ),
     (
+        "rimea-05-premovement",
+        include_str!("../../scenarios/validation/rimea-05-premovement.toml"),
+    ),
+    (
         "rimea-06-corner",
         include_str!("../../scenarios/validation/rimea-06-corner.toml"),
     ),
@@ -78,6 +82,15 @@ pub const CASES: &[Case] = &[
                 Weidmann's at the measured density for 0.5 to 3 persons/m^2, and falling with \
                 the density. Quick: 0.5, 1, 2 and 3 persons/m^2 only.",
         run: rimea_04,
+    },
+    Case {
+        id: "rimea-05",
+        title: "RiMEA 5: pre-movement times",
+        about: "10 pedestrians in a room 8 x 5 m with a 1 m door, each waiting a pre-movement \
+                time drawn uniformly from 10 to 100 s. RiMEA: each starts at its own time; \
+                here: every one stands still until its time and walks within 0.1 s after it, \
+                every time within 10 to 100 s, and everyone out.",
+        run: rimea_05,
     },
     Case {
         id: "rimea-06",
@@ -148,6 +161,11 @@ pub const CASES: &[Case] = &[
 ];
 
 /// The crossing time of agent `id` at `line` (its first).
+/// The check that all `n` pedestrians left through the exits.
+fn all_out(o: &Outcome, n: usize) -> Check {
+    Check::within("pedestrians out", Some(o.left as f64), n as f64, n as f64, "")
+}
+
 fn crossing(o: &Outcome, line: usize, id: u32) -> Option<f64> {
     o.crossings
         .iter()
@@ -255,7 +273,7 @@ fn rimea_04(opt: &Options, runs: &mut Runs) -> Result<Vec<Check>> {
 fn rimea_06(opt: &Options, runs: &mut Runs) -> Result<Vec<Check>> {
     let o = Run::new(runs, opt).run(scenario("rimea-06-corner")?)?;
     Ok(vec![
-        Check::within("pedestrians out", Some(o.left as f64), 20.0, 20.0, ""),
+        all_out(&o, 20),
         Check::within(
             "time until the last is out",
             o.evacuation_time,
@@ -358,6 +376,81 @@ fn rimea_07(opt: &Options, runs: &mut Runs) -> Result<Vec<Check>> {
     ])
 }
 
+fn rimea_05(opt: &Options, runs: &mut Runs) -> Result<Vec<Check>> {
+    let s = scenario("rimea-05-premovement")?;
+    let n = s.groups[0].count;
+    let seed = s.seed.wrapping_add(opt.seed_offset);
+    let pm = s.groups[0]
+        .params
+        .pedestrian
+        .and_then(|p| p.premovement)
+        .ok_or_else(|| crate::Error::Invalid {
+            name: "rimea-05-premovement".into(),
+            reason: "the scenario has no pre-movement times".into(),
+        })?;
+    let o = Run::new(runs, opt).run(s)?;
+    // Each agent's drawn time and the time it first moved, by id.
+    let pairs: Vec<(f64, Option<f64>)> = (0..n as u32)
+        .map(|id| {
+            let t = f64::from(pm.draw(seed, id));
+            (t, o.moved.get(id as usize).copied().flatten())
+        })
+        .collect();
+    let on_time = pairs
+        .iter()
+        .filter(|(t, m)| m.is_some_and(|m| m >= *t && m <= t + 0.1))
+        .count();
+    let early = pairs
+        .iter()
+        .filter(|(t, m)| m.is_some_and(|m| m < *t))
+        .count();
+    let within = pairs
+        .iter()
+        .filter(|(t, _)| (f64::from(pm.min)..=f64::from(pm.max)).contains(t))
+        .count();
+    let (first, last) = pairs
+        .iter()
+        .fold((f64::INFINITY, 0.0f64), |(a, b), (t, _)| {
+            (a.min(*t), b.max(*t))
+        });
+    runs.series.push(Series {
+        name: "pre-movement times".into(),
+        x: "drawn time (s)".into(),
+        y: "first move (s)".into(),
+        points: pairs
+            .iter()
+            .filter_map(|&(t, m)| m.map(|m| [t, m]))
+            .collect(),
+    });
+    Ok(vec![
+        Check::within(
+            &format!(
+                "drawn times within [{}, {}] s (first {first:.1} s, last {last:.1} s)",
+                pm.min, pm.max
+            ),
+            Some(within as f64),
+            n as f64,
+            n as f64,
+            "",
+        ),
+        Check::within(
+            "pedestrians that moved before their time",
+            Some(early as f64),
+            0.0,
+            0.0,
+            "",
+        ),
+        Check::within(
+            "pedestrians that started within 0.1 s after their time",
+            Some(on_time as f64),
+            n as f64,
+            n as f64,
+            "",
+        ),
+        all_out(&o, n),
+    ])
+}
+
 /// `s` with its first group's count scaled for the quick size.
 fn sized(mut s: Scenario, opt: &Options, quick: usize) -> Scenario {
     if opt.size == Size::Quick {
@@ -406,13 +499,7 @@ fn rimea_11(opt: &Options, runs: &mut Runs) -> Result<Vec<Check>> {
     let (near, far) = (crossed(&o, 0), crossed(&o, 1));
     let share = |k: usize| Some(k as f64 / n as f64);
     Ok(vec![
-        Check::within(
-            "pedestrians out",
-            Some(o.left as f64),
-            n as f64,
-            n as f64,
-            "",
-        ),
+        all_out(&o, n),
         Check::within(
             "time until the last is out",
             o.evacuation_time,
@@ -442,7 +529,7 @@ fn rimea_12(opt: &Options, runs: &mut Runs) -> Result<Vec<Check>> {
     let (corridor, exit) = (middle_flow(&o.crossings, 0), middle_flow(&o.crossings, 1));
     let d = exit.zip(corridor).map(|(e, c)| e - c);
     Ok(vec![
-        Check::within("pedestrians out", Some(o.left as f64), 150.0, 150.0, ""),
+        all_out(&o, 150),
         Check::new(
             &format!(
                 "exit flow less corridor flow ({} and {} 1/s)",

@@ -235,9 +235,15 @@ pub struct Outcome {
     pub inside: usize,
     /// Agents that left through exits.
     pub left: u64,
+    /// Per agent id: the time at which it first stood more than [`MOVED`] from where it
+    /// started (`None`: it never did, or it was added later).
+    pub moved: Vec<Option<f64>>,
     /// The world at the end.
     pub world: World,
 }
+
+/// How far, m, an agent must be from where it started for [`Outcome::moved`] to count it.
+pub const MOVED: f32 = 0.01;
 
 /// Runs scenarios for a case: steps each until its world is empty or its `steps` are done,
 /// observing the measurements and checking every move against the walls.
@@ -284,6 +290,8 @@ impl<'a> Run<'a> {
         let mut crossings = Vec::new();
         let mut last: Vec<Option<Vec2>> = Vec::new();
         remember(&world, &mut last);
+        let start = last.clone();
+        let mut moved: Vec<Option<f64>> = vec![None; start.len()];
         for _ in 0..s.steps {
             if world.is_empty() {
                 break;
@@ -301,6 +309,13 @@ impl<'a> Run<'a> {
             );
             self.runs.wall_crossings += wall_crossings(&world, &last);
             remember(&world, &mut last);
+            for (m, (p, s)) in moved.iter_mut().zip(last.iter().zip(&start)) {
+                if let (None, Some(p), Some(s)) = (*m, p, s)
+                    && p.distance(*s) > MOVED
+                {
+                    *m = Some(world.time());
+                }
+            }
             if stop(&world) {
                 break;
             }
@@ -312,6 +327,7 @@ impl<'a> Run<'a> {
             evacuation_time: measure.evacuation_time(),
             inside: world.len(),
             left: measure.left(),
+            moved,
             world,
         })
     }

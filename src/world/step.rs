@@ -225,6 +225,7 @@ impl World {
             seed: self.seed,
             frame: self.frame,
             dt,
+            time: self.time,
             index: &self.index,
             sorted: use_kernel.then_some(&self.scratch.sorted),
             nearest: &self.scratch.nearest,
