@@ -12,6 +12,7 @@ fn list_names_every_case() {
     for id in [
         "rimea-01",
         "rimea-04",
+        "rimea-05",
         "rimea-06",
         "rimea-07",
         "rimea-09",
