@@ -437,10 +437,12 @@ fn agent(
             let mut near_count = 0;
             for_each_wall(view, pos, cf.cutoff, b, |d, normal| {
                 dir += cf.wall(d, radius, normal);
-                let dist = d.length();
-                if dist < radius + SIDESTEP_WALL_MARGIN && near_count < NEAR_WALLS {
-                    near[near_count] = if dist > 1e-6 { d / dist } else { normal };
-                    near_count += 1;
+                if cf.sidestep && near_count < NEAR_WALLS {
+                    let dist = d.length();
+                    if dist < radius + SIDESTEP_WALL_MARGIN {
+                        near[near_count] = if dist > 1e-6 { d / dist } else { normal };
+                        near_count += 1;
+                    }
                 }
             });
             let mut e = dir.normalize_or_zero();

@@ -163,7 +163,13 @@ pub const CASES: &[Case] = &[
 /// The crossing time of agent `id` at `line` (its first).
 /// The check that all `n` pedestrians left through the exits.
 fn all_out(o: &Outcome, n: usize) -> Check {
-    Check::within("pedestrians out", Some(o.left as f64), n as f64, n as f64, "")
+    Check::within(
+        "pedestrians out",
+        Some(o.left as f64),
+        n as f64,
+        n as f64,
+        "",
+    )
 }
 
 fn crossing(o: &Outcome, line: usize, id: u32) -> Option<f64> {
