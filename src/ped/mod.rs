@@ -187,8 +187,8 @@ impl Premovement {
     /// Checks the bounds.
     ///
     /// # Errors
-    /// [`Error::NonFinite`](crate::Error::NonFinite) or
-    /// [`Error::OutOfRange`](crate::Error::OutOfRange) naming the key
+    /// [`Error::NonFinite`] or
+    /// [`Error::OutOfRange`] naming the key
     /// (`pedestrian.premovement.min`, ...).
     pub fn validate(&self) -> Result<()> {
         non_negative("pedestrian.premovement.min", self.min)?;

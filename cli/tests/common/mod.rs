@@ -14,9 +14,11 @@ pub fn throng(args: &[&str]) -> Output {
         .expect("run throng")
 }
 
-/// `name` in this test process's scratch folder (created on first use).
+/// `name` in this test process's scratch folder (created on first use), under the target
+/// directory's `tmp` (which `cargo clean` removes) rather than the system's temporary folder.
 pub fn tmp(name: &str) -> PathBuf {
-    let dir = std::env::temp_dir().join(format!("throng-cli-{}", std::process::id()));
+    let dir = PathBuf::from(env!("CARGO_TARGET_TMPDIR"))
+        .join(format!("throng-cli-{}", std::process::id()));
     std::fs::create_dir_all(&dir).unwrap();
     dir.join(name)
 }
