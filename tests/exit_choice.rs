@@ -7,6 +7,7 @@ use std::collections::HashMap;
 
 use throng::prelude::*;
 use throng::scenario::Scenario;
+use throng::steering::ChannelSet;
 
 #[path = "support/two_doors.rs"]
 mod support;
@@ -235,5 +236,29 @@ fn bad_exit_choice_keys_are_errors_naming_them() {
             .unwrap_or_else(|| panic!("{steering} {channels}: accepted"))
             .to_string();
         assert!(e.contains(key), "{steering} {channels}: {e}");
+    }
+}
+
+#[test]
+fn a_choice_outside_a_changed_set_is_made_again() {
+    let (mut world, dt) = build(&two_doors(
+        "euclidean",
+        60,
+        ([0.5, 1.5], [15.5, 8.5]),
+        "{ kind = \"choose_exit\" }",
+    ));
+    world.step(dt).unwrap();
+    let ids: Vec<AgentId> = world.agents().ids().to_vec();
+    assert!(ids.iter().any(|&id| world.chosen_channel(id) == Some(0)));
+    let mut params = world.groups()[0].clone();
+    params.steering = SteeringProfile::single(Behaviour::ChooseExit {
+        field: 0,
+        channels: ChannelSet::of(&[1]).unwrap(),
+        switch_gain: 0.25,
+    });
+    world.set_group_params(0, params).unwrap();
+    world.step(dt).unwrap();
+    for id in ids {
+        assert_eq!(world.chosen_channel(id), Some(1), "{id:?}");
     }
 }

@@ -444,7 +444,11 @@ impl FieldSet {
                 continue;
             };
             let k = agents.ids[i].0 as usize;
-            let current = self.chosen[k];
+            // A choice outside the set (the group's set has changed) counts as none.
+            let current = match self.chosen[k] {
+                c if c != UNCHOSEN && !channels.contains(usize::from(c)) => UNCHOSEN,
+                c => c,
+            };
             if current != UNCHOSEN && !due.get(fi).copied().unwrap_or(false) {
                 continue;
             }

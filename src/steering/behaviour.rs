@@ -151,6 +151,12 @@ impl ChannelSet {
         (0..count.min(64)).filter(move |&c| self.0 == 0 || self.0 & (1 << c) != 0)
     }
 
+    /// Whether `channel` is in the set.
+    #[must_use]
+    pub fn contains(self, channel: usize) -> bool {
+        channel < 64 && (self.0 == 0 || self.0 & (1 << channel) != 0)
+    }
+
     /// The largest channel listed, if the set lists any.
     #[must_use]
     pub fn max(self) -> Option<usize> {
