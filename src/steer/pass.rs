@@ -75,7 +75,7 @@ pub(crate) fn run(view: &SteerView, out: &mut SteerOut, scratch: &mut PassScratc
         for k in 0..lx.len() {
             let i = base + k;
             let g = view.agents.group[i] as usize;
-            if let PlanKind::Seek { .. } = view.plans[g].kind {
+            if let PlanKind::Seek { .. } | PlanKind::Arrive { .. } = view.plans[g].kind {
                 if seekers.len == LANES || (seekers.len > 0 && seekers.group != g) {
                     seekers.flush(view, (lx, ly, an, wa, nb), base);
                 }
@@ -118,7 +118,7 @@ pub(crate) fn run(view: &SteerView, out: &mut SteerOut, scratch: &mut PassScratc
     }
 }
 
-/// Up to [`LANES`] agents of one seek plan, evaluated together.
+/// Up to [`LANES`] agents of one seek or arrive plan, evaluated together.
 #[derive(Debug, Default)]
 struct SeekLanes {
     len: usize,
@@ -149,27 +149,32 @@ impl SeekLanes {
             return;
         }
         let plan = &view.plans[self.group];
-        let PlanKind::Seek {
-            target,
-            threshold,
-            weight,
-        } = plan.kind
-        else {
-            unreachable!("only seek plans are gathered");
-        };
-        let target = match target {
+        let point = |target: Target| match target {
             Target::Point(p) => p,
             Target::Slot(s) => view.targets[s.0 as usize].position,
-            _ => unreachable!("seek plans name a point or a slot"),
+            _ => unreachable!("lane plans name a point or a slot"),
         };
-        let (tx, ty) = seek_lanes(
-            self,
-            view.bounds,
-            target,
-            threshold,
-            weight,
-            plan.adapter.kinematic,
-        );
+        let kinematic = plan.adapter.kinematic;
+        let (tx, ty) = match plan.kind {
+            PlanKind::Seek {
+                target,
+                threshold,
+                weight,
+            } => seek_lanes(
+                self,
+                view.bounds,
+                point(target),
+                threshold,
+                weight,
+                kinematic,
+            ),
+            PlanKind::Arrive {
+                target,
+                params,
+                weight,
+            } => arrive_lanes(self, view.bounds, point(target), &params, weight, kinematic),
+            _ => unreachable!("only seek and arrive plans are gathered"),
+        };
         let (ox, oy) = plan.adapter.finish_lanes(tx, ty, self.len);
         for l in 0..self.len {
             let (i, k) = (self.index[l], self.index[l] - base);
@@ -222,6 +227,36 @@ fn seek_lanes(
     (tx, ty)
 }
 
+/// The weighted arrive request of every lane: the target resolved as the scalar path resolves
+/// it (its nearest image), then `steering::arrive` / `kinematic_arrive` themselves, so the lanes
+/// equal the general plan bit for bit; the gain is the dispatch the general plan does per
+/// agent.
+#[multiversion::multiversion(targets("x86_64+avx2+fma", "x86_64+avx"))]
+fn arrive_lanes(
+    l: &SeekLanes,
+    bounds: crate::bounds::Bounds,
+    target: glam::Vec2,
+    params: &crate::steering::ArriveParams,
+    weight: f32,
+    kinematic: bool,
+) -> ([f32; LANES], [f32; LANES]) {
+    let (mut tx, mut ty) = ([0.0_f32; LANES], [0.0_f32; LANES]);
+    for k in 0..LANES {
+        let p = glam::Vec2::new(l.px[k], l.py[k]);
+        let resolved = p + bounds.offset(p, target);
+        let f = if kinematic {
+            crate::steering::kinematic_arrive(p, resolved, l.max_speed[k], params)
+        } else {
+            let v = glam::Vec2::new(l.vx[k], l.vy[k]);
+            crate::steering::arrive(p, v, resolved, l.max_speed[k], params)
+        };
+        // `Steering::ZERO + request * weight`, as the general plan sums it.
+        tx[k] = 0.0 + f.x * weight;
+        ty[k] = 0.0 + f.y * weight;
+    }
+    (tx, ty)
+}
+
 /// The steering of agent `i`, per agent: `(request, new wander angle, neighbours found)`, the
 /// request being a clamped acceleration (dynamic) or a desired velocity (kinematic).
 pub(crate) fn steer_agent(v: &SteerView, i: usize) -> (Steering, f32, f32) {
@@ -264,9 +299,10 @@ pub(crate) fn steer_agent(v: &SteerView, i: usize) -> (Steering, f32, f32) {
                 sums.count,
             )
         }
-        PlanKind::General | PlanKind::Vicsek { .. } | PlanKind::Seek { .. } => {
-            general(v, i, &adapter)
-        }
+        PlanKind::General
+        | PlanKind::Vicsek { .. }
+        | PlanKind::Seek { .. }
+        | PlanKind::Arrive { .. } => general(v, i, &adapter),
     }
 }
 

@@ -91,6 +91,17 @@ pub(crate) enum PlanKind {
         /// The behaviour's weight.
         weight: f32,
     },
+    /// One `arrive` at a fixed point or a target slot alone in a weighted sum: evaluated eight
+    /// agents at a time in lanes.
+    Arrive {
+        /// The point arrived at: a [`Target::Point`] or a [`Target::Slot`] (read when the step
+        /// runs).
+        target: Target,
+        /// Radii and timing.
+        params: crate::steering::ArriveParams,
+        /// The behaviour's weight.
+        weight: f32,
+    },
     /// One `vicsek` alone in a weighted sum. Evaluated in cell batches when the grid is ready.
     Vicsek {
         /// The noise width, radians.
@@ -228,6 +239,16 @@ impl Plan {
             PlanKind::Seek {
                 target,
                 threshold,
+                weight: w.weight,
+            }
+        } else if let [w] = &profile.steering.behaviours[..]
+            && let Behaviour::Arrive { target, params } = w.behaviour
+            && matches!(target, Target::Point(_) | Target::Slot(_))
+            && profile.steering.combine == Combine::WeightedSum
+        {
+            PlanKind::Arrive {
+                target,
+                params,
                 weight: w.weight,
             }
         } else if let [w] = &profile.steering.behaviours[..]
