@@ -653,4 +653,17 @@ fn exit_choices_resume_bit_for_bit_and_older_files_have_none() {
             .iter()
             .all(|&id| back.chosen_channel(id).is_none())
     );
+    // A file naming a channel the field does not have: those agents choose again.
+    let odd = crafted(&saved(&world), |v| {
+        for pair in entry(v, &["world", "chosen"]).as_array_mut().unwrap() {
+            pair.as_array_mut().unwrap()[1] = ciborium::Value::Integer(5.into());
+        }
+    });
+    let mut back = World::load(&odd[..]).unwrap();
+    let ids = back.agents().ids().to_vec();
+    assert!(ids.iter().all(|&id| back.chosen_channel(id) == Some(5)));
+    back.step(s.dt).unwrap();
+    for id in ids {
+        assert!(back.chosen_channel(id).is_some_and(|c| c < 2), "{id:?}");
+    }
 }

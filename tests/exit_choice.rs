@@ -222,6 +222,11 @@ fn bad_exit_choice_keys_are_errors_naming_them() {
             "channel 2",
         ),
         ("{ kind = \"choose_exit\", field = 1 }", "", "field"),
+        (
+            "{ kind = \"follow_field\" }, { kind = \"choose_exit\" }",
+            "",
+            "choose_exit",
+        ),
         (follow, "channels = [{ exit = 2 }]", "exit 2"),
     ] {
         let mut text = two_doors("quickest", 10, ([1.0, 2.0], [6.0, 8.0]), steering);

@@ -391,7 +391,7 @@ impl FieldSet {
             FollowChannel::Fixed(c) => c,
             FollowChannel::Chosen { channels, .. } => {
                 match self.chosen.get(id.0 as usize).copied() {
-                    Some(c) if c != UNCHOSEN => usize::from(c),
+                    Some(c) if c != UNCHOSEN && channels.contains(usize::from(c)) => usize::from(c),
                     _ => channels.iter(64).next().unwrap_or(0),
                 }
             }
@@ -444,9 +444,15 @@ impl FieldSet {
                 continue;
             };
             let k = agents.ids[i].0 as usize;
-            // A choice outside the set (the group's set has changed) counts as none.
+            // A choice outside the set or the field (the group's set has changed, or a
+            // checkpoint says so) counts as none.
             let current = match self.chosen[k] {
-                c if c != UNCHOSEN && !channels.contains(usize::from(c)) => UNCHOSEN,
+                c if c != UNCHOSEN
+                    && !(channels.contains(usize::from(c))
+                        && usize::from(c) < f.channels.len()) =>
+                {
+                    UNCHOSEN
+                }
                 c => c,
             };
             if current != UNCHOSEN && !due.get(fi).copied().unwrap_or(false) {
@@ -469,7 +475,16 @@ impl FieldSet {
                 .flatten();
             match own {
                 Some(o) if t >= (1.0 - switch_gain) * o => {}
-                _ => self.chosen[k] = c as u8,
+                _ => {
+                    // A new channel: whatever was reached before is not its goal.
+                    if current != UNCHOSEN
+                        && usize::from(current) != c
+                        && let Some(a) = self.arrived.get_mut(k)
+                    {
+                        *a = false;
+                    }
+                    self.chosen[k] = c as u8;
+                }
             }
         }
     }

@@ -358,7 +358,7 @@ fn speed_model_spacing(cf: &Cfsm, b: &Buffers, count: usize, n: usize, e: Vec2) 
 }
 
 /// At most this many obstacles near an agent's body are kept for its sidestep.
-const NEAR_WALLS: usize = 4;
+const NEAR_WALLS: usize = 8;
 
 /// The turns a blocked pedestrian tries, `(cos, sin)`: 45 degrees, then 90.
 const SIDESTEP_TURNS: [(f32, f32); 2] = [

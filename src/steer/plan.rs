@@ -149,7 +149,8 @@ impl Plan {
     /// [`Error::UnknownField`] for a `follow_field` naming a missing field or channel,
     /// [`Error::UnknownGroup`] for a nearest-agent target of a missing group,
     /// [`Error::UnknownPath`] for a `follow_path` naming a missing path,
-    /// [`Error::UnknownTarget`] for a target slot the world does not have.
+    /// [`Error::UnknownTarget`] for a target slot the world does not have,
+    /// [`Error::Invalid`] for a `choose_exit` beside another `choose_exit` or `follow_field`.
     pub(crate) fn compile(profile: &Profile, group: usize, refs: &References) -> Result<Plan> {
         let mut nearest: Vec<(usize, f32)> = Vec::new();
         let mut follow = None;
@@ -188,6 +189,26 @@ impl Plan {
                             switch_gain,
                         },
                     ));
+                    // An agent keeps one choice: it cannot serve a second field behaviour.
+                    let others = profile
+                        .steering
+                        .behaviours
+                        .iter()
+                        .filter(|o| {
+                            matches!(
+                                o.behaviour,
+                                Behaviour::FollowField { .. } | Behaviour::ChooseExit { .. }
+                            )
+                        })
+                        .count();
+                    if others > 1 {
+                        return Err(Error::Invalid {
+                            name: format!("groups[{group}].steering"),
+                            reason: "a profile with choose_exit may have no other choose_exit \
+                                     or follow_field behaviour (each agent keeps one choice)"
+                                .into(),
+                        });
+                    }
                 }
                 Behaviour::FollowPath { path, .. } if path.0 as usize >= refs.paths => {
                     return Err(Error::UnknownPath {

@@ -160,7 +160,6 @@ pub const CASES: &[Case] = &[
     },
 ];
 
-/// The crossing time of agent `id` at `line` (its first).
 /// The check that all `n` pedestrians left through the exits.
 fn all_out(o: &Outcome, n: usize) -> Check {
     Check::within(
@@ -172,6 +171,7 @@ fn all_out(o: &Outcome, n: usize) -> Check {
     )
 }
 
+/// The crossing time of agent `id` at `line` (its first).
 fn crossing(o: &Outcome, line: usize, id: u32) -> Option<f64> {
     o.crossings
         .iter()
