@@ -459,20 +459,23 @@ impl FieldSet {
                 continue;
             }
             let p = agents.position(i);
-            let mut best: Option<(usize, f32)> = None;
+            // The cheapest channel of the set, and the cost of the current one (which lies in
+            // the set) from the same lookups.
+            let (mut best, mut own): (Option<(usize, f32)>, Option<f32>) = (None, None);
             for c in channels.iter(f.channels.len()) {
-                if let Some(t) = f.channels.travel_cost(c, p)
-                    && best.is_none_or(|(_, b)| t < b)
-                {
+                let Some(t) = f.channels.travel_cost(c, p) else {
+                    continue;
+                };
+                if c == usize::from(current) {
+                    own = Some(t);
+                }
+                if best.is_none_or(|(_, b)| t < b) {
                     best = Some((c, t));
                 }
             }
             let Some((c, t)) = best else {
                 continue;
             };
-            let own = (current != UNCHOSEN)
-                .then(|| f.channels.travel_cost(usize::from(current), p))
-                .flatten();
             match own {
                 Some(o) if t >= (1.0 - switch_gain) * o => {}
                 _ => {
