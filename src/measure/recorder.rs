@@ -241,13 +241,19 @@ impl Measurements {
         let before = self.observations;
         let now = before + 1;
         self.crossings.clear();
-        let ids = agents
-            .ids()
-            .iter()
-            .chain(world.departures().iter().map(|d| &d.id))
-            .map(|id| id.0 as usize + 1)
-            .max()
-            .unwrap_or(0);
+        // Each agent's last position matters only to the lines it may cross.
+        let tracks = !self.spec.lines.is_empty();
+        let ids = if !tracks {
+            0
+        } else {
+            agents
+                .ids()
+                .iter()
+                .chain(world.departures().iter().map(|d| &d.id))
+                .map(|id| id.0 as usize + 1)
+                .max()
+                .unwrap_or(0)
+        };
         if self.prev.len() < ids {
             self.prev.resize(ids, Vec2::ZERO);
             self.seen.resize(ids, 0);
@@ -256,10 +262,12 @@ impl Measurements {
             let bounds = world.bounds();
             let live = (0..agents.len()).map(|i| (agents.id(i), agents.position(i)));
             let gone = world.departures().iter().map(|d| (d.id, d.position));
-            for (id, q) in live.chain(gone) {
-                let k = id.0 as usize;
-                if before > 0 && self.seen[k] == before {
-                    self.cross(id, self.prev[k], q, (t0, time), bounds);
+            if tracks {
+                for (id, q) in live.chain(gone) {
+                    let k = id.0 as usize;
+                    if before > 0 && self.seen[k] == before {
+                        self.cross(id, self.prev[k], q, (t0, time), bounds);
+                    }
                 }
             }
             let departed = world.departures().len();
@@ -268,10 +276,12 @@ impl Measurements {
                 self.last_exit_time = Some(time);
             }
         }
-        for i in 0..agents.len() {
-            let k = agents.id(i).0 as usize;
-            self.prev[k] = agents.position(i);
-            self.seen[k] = now;
+        if tracks {
+            for i in 0..agents.len() {
+                let k = agents.id(i).0 as usize;
+                self.prev[k] = agents.position(i);
+                self.seen[k] = now;
+            }
         }
         self.crossings.sort_by(|a, b| {
             a.time
