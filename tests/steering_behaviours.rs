@@ -319,20 +319,24 @@ fn face_turns_towards_the_target() {
 /// angular-only extra behaviour (the general loop) for 60 steps, in both models, on a torus and
 /// in a walled world, and asserts the same bits of every position and velocity.
 fn assert_lane_plan_equals_the_general_loop(behaviour: Behaviour) {
+    let extra = Behaviour::LookWhereYouAreGoing {
+        params: Default::default(),
+    };
+    assert_plan_equals_the_general_loop(behaviour, (extra, 1.0));
+}
+
+/// As [`assert_lane_plan_equals_the_general_loop`], with `extra` (a behaviour and its weight)
+/// beside `behaviour` to send it through the general loop.
+fn assert_plan_equals_the_general_loop(behaviour: Behaviour, extra: (Behaviour, f32)) {
     for bounds in [
         Bounds::bounded(80.0, 60.0).unwrap(),
         Bounds::torus(80.0, 60.0).unwrap(),
     ] {
         for model in [MovementModel::Dynamic, MovementModel::Kinematic] {
-            let run = |extra: bool| {
+            let run = |general: bool| {
                 let mut profile = SteeringProfile::single(behaviour.clone());
-                if extra {
-                    profile = profile.with(
-                        Behaviour::LookWhereYouAreGoing {
-                            params: Default::default(),
-                        },
-                        1.0,
-                    );
+                if general {
+                    profile = profile.with(extra.0.clone(), extra.1);
                 }
                 let g = GroupParams {
                     model,
@@ -394,4 +398,25 @@ fn the_arrive_plan_in_lanes_equals_the_general_loop_bit_for_bit() {
             time_to_target: 0.3,
         },
     });
+}
+
+#[test]
+fn the_wander_plan_equals_the_general_loop_bit_for_bit() {
+    // A lone wander runs without the general loop's dispatch. A seek of weight 0 beside it sends
+    // the same wander through the general loop (it draws nothing and adds zeros), so both runs
+    // draw the same numbers and turn the same way, kinematic orientations included.
+    let seek = Behaviour::Seek {
+        target: Target::Point(Vec2::new(70.0, 5.0)),
+        threshold: 0.0,
+    };
+    assert_plan_equals_the_general_loop(
+        Behaviour::Wander {
+            params: WanderParams {
+                radius: 2.0,
+                distance: 4.0,
+                jitter: 6.0,
+            },
+        },
+        (seek, 0.0),
+    );
 }

@@ -18,7 +18,7 @@ use super::neighbours::LANES;
 use super::plan::PlanKind;
 use super::view::SteerView;
 use crate::rng::{AgentRng, Stream};
-use crate::steering::{Combine, Steering, Target};
+use crate::steering::{self, Combine, Steering, Target};
 
 /// Agents per parallel steering task.
 pub(crate) const STEER_CHUNK: usize = 1024;
@@ -283,6 +283,37 @@ pub(crate) fn steer_agent(v: &SteerView, i: usize) -> (Steering, f32, f32) {
             // The general loop's sum without its dispatch (0 + f w, as there).
             let total = Steering::linear(glam::Vec2::ZERO + f * weight);
             (adapter.finish(total), a.wander[i], 0.0)
+        }
+        PlanKind::Wander { params, weight } => {
+            // The general loop's draws and sum without its dispatch (0 + s w, as there).
+            let mut rng = AgentRng::new(v.seed, a.ids[i].0, v.frame, Stream::Steer as u32);
+            let orientation = a.orientation[i];
+            let (s, angle) = if adapter.kinematic {
+                let profile = &v.profiles[g];
+                let (linear, angular) = steering::kinematic_wander(
+                    orientation,
+                    a.max_speed[i],
+                    profile.max_rotation,
+                    &mut rng,
+                );
+                (Steering { linear, angular }, a.wander[i])
+            } else {
+                let heading = velocity
+                    .try_normalize()
+                    .unwrap_or_else(|| glam::Vec2::from_angle(orientation));
+                let (f, angle) = steering::wander(
+                    velocity,
+                    heading,
+                    a.wander[i],
+                    a.max_speed[i],
+                    &params,
+                    v.dt,
+                    &mut rng,
+                );
+                (Steering::linear(f), angle)
+            };
+            let total = Steering::ZERO + s.scaled(weight);
+            (adapter.finish(total), angle, 0.0)
         }
         PlanKind::Flock { terms, len } => {
             let sums = v.sums(i, velocity, a.orientation[i]);

@@ -102,6 +102,14 @@ pub(crate) enum PlanKind {
         /// The behaviour's weight.
         weight: f32,
     },
+    /// One `wander` alone in a weighted sum: the behaviour itself per agent, without the
+    /// general loop's dispatch.
+    Wander {
+        /// The wander circle (dynamic agents).
+        params: crate::steering::WanderParams,
+        /// The behaviour's weight.
+        weight: f32,
+    },
     /// One `vicsek` alone in a weighted sum. Evaluated in cell batches when the grid is ready.
     Vicsek {
         /// The noise width, radians.
@@ -269,6 +277,14 @@ impl Plan {
         {
             PlanKind::Arrive {
                 target,
+                params,
+                weight: w.weight,
+            }
+        } else if let [w] = &profile.steering.behaviours[..]
+            && let Behaviour::Wander { params } = w.behaviour
+            && profile.steering.combine == Combine::WeightedSum
+        {
+            PlanKind::Wander {
                 params,
                 weight: w.weight,
             }
