@@ -6,8 +6,9 @@
 //! a contiguous, padded buffer, with the torus image already applied (a neighbour cell across a
 //! seam is shifted by the world's side), so the lane kernel needs neither run boundaries nor
 //! minimum-image arithmetic. Every agent of the cell then sums over the buffer in SIMD lanes
-//! (runtime dispatch: AVX2 + FMA where the processor has it, the baseline otherwise), and its
-//! flocking terms and the model adapter run right after, writing the outputs in the grid's order.
+//! (runtime dispatch: two agents per 16-lane vector on AVX-512, AVX2 + FMA where the processor
+//! has that, the baseline otherwise; the same bits on each), and its flocking terms and the model
+//! adapter run right after, writing the outputs in the grid's order.
 //!
 //! View cones are tested without a square root: for a cosine `c < 0` a neighbour at offset `d`
 //! is seen when `h . d >= 0` or `(h . d)^2 <= c^2 |d|^2`, for `c >= 0` when both `h . d >= 0`
