@@ -99,7 +99,8 @@ pub use field::{
 };
 pub use geometry::Walkable;
 pub use spatial::{
-    BruteIndex, GridIndex, IndexKind, KdTreeIndex, Neighbour, NeighbourIndex, SpatialIndex,
+    BruteIndex, GridIndex, HashGrid, IndexKind, KdTreeIndex, Neighbour, NeighbourIndex,
+    SpatialIndex,
 };
 pub use world::{GroupParams, StepStats, World, WorldBuilder};
 

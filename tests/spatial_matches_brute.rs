@@ -5,7 +5,8 @@
 use glam::Vec2;
 use proptest::prelude::*;
 use throng::{
-    Bounds, BruteIndex, GridIndex, IndexKind, KdTreeIndex, Neighbour, NeighbourIndex, SpatialIndex,
+    Bounds, BruteIndex, GridIndex, HashGrid, IndexKind, KdTreeIndex, Neighbour, NeighbourIndex,
+    SpatialIndex,
 };
 
 /// A neighbour list as bits, so that `-0.0` and `0.0` count as different.
@@ -63,6 +64,12 @@ fn check_all(
     tree.rebuild(xs, ys, bounds, max_radius);
     backends.push(("kdtree (clone)".into(), tree.clone().into()));
 
+    // The hashed grid (open and walled worlds): its runs, filtered by the plain difference.
+    let mut hash = HashGrid::default();
+    if !bounds.is_torus() {
+        hash.rebuild(xs, ys, max_radius.max(1e-3));
+    }
+
     let (mut want, mut got) = (Vec::new(), Vec::new());
     let points: Vec<Vec2> = xs
         .iter()
@@ -71,6 +78,29 @@ fn check_all(
         .chain(extra.iter().copied())
         .collect();
     for &r in radii {
+        for &p in points.iter().filter(|_| !bounds.is_torus()) {
+            brute.neighbours_at(p, r, &mut want);
+            got.clear();
+            hash.for_each_run(p, r, |run| {
+                for k in run {
+                    let q = Vec2::new(hash.sorted_x()[k], hash.sorted_y()[k]);
+                    let offset = q - p;
+                    if offset.length_squared() <= r * r {
+                        got.push(Neighbour {
+                            index: hash.order()[k],
+                            offset,
+                            dist_sq: offset.length_squared(),
+                        });
+                    }
+                }
+            });
+            got.sort_unstable_by_key(|n| n.index);
+            assert_eq!(
+                bits(&got),
+                bits(&want),
+                "hash: neighbours_at({p}, {r}) in {bounds:?}"
+            );
+        }
         for (name, ix) in &backends {
             for i in 0..xs.len() {
                 brute.neighbours_of(i, r, &mut want);

@@ -355,6 +355,11 @@ fn assert_plan_equals_the_general_loop(behaviour: Behaviour, extra: (Behaviour, 
                     });
                 }
                 let mut w = b.build().unwrap();
+                // Every agent's own target, for behaviours that name it.
+                for i in 0..w.len() {
+                    let t = Vec2::new(rng.unit() * 80.0, rng.unit() * 60.0);
+                    w.set_target(w.agents().id(i), t).unwrap();
+                }
                 for _ in 0..60 {
                     w.step(1.0 / 30.0).unwrap();
                 }
@@ -392,6 +397,23 @@ fn the_arrive_plan_in_lanes_equals_the_general_loop_bit_for_bit() {
     // Slow radius and target radius both reached within the 60 steps by part of the crowd.
     assert_lane_plan_equals_the_general_loop(Behaviour::Arrive {
         target: Target::Point(Vec2::new(70.0, 5.0)),
+        params: ArriveParams {
+            target_radius: 1.0,
+            slow_radius: 25.0,
+            time_to_target: 0.3,
+        },
+    });
+}
+
+#[test]
+fn the_lane_plans_of_each_agents_own_target_equal_the_general_loop_bit_for_bit() {
+    // Seek and arrive of `Target::Own` run in lanes with a target per lane.
+    assert_lane_plan_equals_the_general_loop(Behaviour::Seek {
+        target: Target::Own,
+        threshold: 2.0,
+    });
+    assert_lane_plan_equals_the_general_loop(Behaviour::Arrive {
+        target: Target::Own,
         params: ArriveParams {
             target_radius: 1.0,
             slow_radius: 25.0,

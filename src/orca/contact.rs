@@ -3,12 +3,12 @@
 //! ORCA guarantees collision-free velocities only while its linear program is feasible; in a
 //! dense crowd it is not, and the 3D program lets pairs overlap. This pass takes the positions
 //! after the move, lists the pairs near contact (within 1.5 times their summed radii, searched
-//! in parallel through a grid from the agents flagged as near, sorted), and then sweeps the list in that
-//! order, Gauss-Seidel fashion: each overlapping pair is moved apart along the line between its
+//! in parallel through a grid from the agents flagged as near, sorted by their ids), and then
+//! sweeps the list in that order, Gauss-Seidel fashion: each overlapping pair is moved apart along the line between its
 //! centres to exactly touching, each agent by its share (half when both take part, all of it
 //! when the other does not move). Sweeps stop when no pair overlaps by more than `tolerance` of
-//! its summed radii, or after `iterations`. The list and the sweep order do not depend on the
-//! thread count, so neither does the result.
+//! its summed radii, or after `iterations`. The list and the sweep order depend neither on the
+//! thread count nor on the agents' order in memory, so neither does the result.
 //!
 //! Invariants: only agents whose `moves` flag is set change position; a coincident pair
 //! separates along a direction fixed by the ids; velocities are left alone.
@@ -108,8 +108,14 @@ pub(crate) fn resolve(
     for c in &scratch.chunks {
         scratch.pairs.extend_from_slice(c);
     }
-    // A pair of two searching agents is found from both.
-    scratch.pairs.sort_unstable();
+    // Swept in the order of the pairs' ids, so that the result depends neither on the thread
+    // count nor on where agents sit in memory; a pair of two searching agents is found from
+    // both.
+    let ids = input.ids;
+    scratch.pairs.sort_unstable_by_key(|&(i, j)| {
+        let (a, b) = (ids[i as usize], ids[j as usize]);
+        (a.min(b), a.max(b))
+    });
     scratch.pairs.dedup();
     if scratch.pairs.is_empty() {
         return 0;

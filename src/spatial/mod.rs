@@ -8,6 +8,10 @@
 //! * [`KdTreeIndex`]: a k-d tree ([kiddo]), for very uneven densities.
 //! * [`BruteIndex`]: the O(N^2) reference every other backend is tested against.
 //!
+//! Beside them, [`HashGrid`] hashes cells of the query's size into a table of about `2 N`
+//! buckets for worlds far larger than the query (ORCA's candidates in a sparse open world);
+//! it hands out runs of candidates and is tested against brute force in the same way.
+//!
 //! # Invariants
 //!
 //! * The index is rebuilt from positions once per step ([`NeighbourIndex::rebuild`]); queries
@@ -38,10 +42,12 @@ use crate::error::Error;
 
 mod brute;
 mod grid;
+mod hash;
 mod kdtree;
 
 pub use brute::BruteIndex;
 pub use grid::GridIndex;
+pub use hash::HashGrid;
 pub use kdtree::KdTreeIndex;
 
 /// One neighbour found by a query.

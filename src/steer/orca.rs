@@ -23,7 +23,7 @@ use super::pass::{STEER_CHUNK, SteerOut};
 use super::view::SteerView;
 use crate::orca::{Line, Orca, WallChains, agent_line, solve};
 use crate::rng::{AgentRng, Stream};
-use crate::spatial::{GridIndex, Neighbour, NeighbourIndex, SpatialIndex};
+use crate::spatial::{HashGrid, Neighbour, NeighbourIndex};
 
 /// One worker's buffers.
 #[derive(Default)]
@@ -54,14 +54,54 @@ pub(crate) struct OrcaScratch {
     /// Per agent: whether it may touch another agent after this step's move (read by the
     /// contact pass).
     pub near: Vec<bool>,
+    /// Cells of the neighbour distance: the candidates in open and walled worlds.
+    hash: HashGrid,
+}
+
+/// The largest `neighbour_dist` of the plans that use ORCA (0 when none does).
+fn reach(plans: &[super::plan::Plan]) -> f32 {
+    plans
+        .iter()
+        .filter_map(|p| p.orca.map(|o| o.neighbour_dist))
+        .fold(0.0_f32, f32::max)
+}
+
+/// Sorts the agents by the cells of ORCA's hashed grid (when some plan uses ORCA), so that an
+/// agent's neighbours lie close together in memory. For open and walled worlds where nothing
+/// else builds the world's index, every few frames as the world's grid order does otherwise.
+pub(crate) fn reorder_by_cells(
+    plans: &[super::plan::Plan],
+    agents: &mut crate::agents::Agents,
+    scratch: &mut OrcaScratch,
+    perm: &mut Vec<u32>,
+) {
+    let reach = reach(plans);
+    if reach <= 0.0 {
+        return;
+    }
+    scratch.hash.rebuild(&agents.pos_x, &agents.pos_y, reach);
+    perm.clear();
+    perm.extend_from_slice(scratch.hash.order());
+    agents.reorder(perm);
+}
+
+/// Where the filter reads its neighbour candidates from.
+#[derive(Clone, Copy)]
+enum Source<'a> {
+    /// The pass's own hashed grid of cells as wide as the neighbour distance (open and walled
+    /// worlds, where the offset to a neighbour is the plain difference). The world's grid would
+    /// do at crowd densities, but its cells are capped at `4 N`, so in a large sparse world
+    /// they grow far wider than the neighbour distance.
+    Hash(&'a HashGrid),
+    /// The world's index through its query (a torus, where offsets take the minimum image).
+    Index,
 }
 
 /// What the filter needs besides the view.
 struct Context<'a> {
     walls: &'a WallChains,
-    /// The world's grid, when candidates are read from its cell-ordered copies (open and
-    /// walled worlds, where the offset to a neighbour is the plain difference).
-    grid: Option<&'a GridIndex>,
+    /// Where the candidates come from.
+    source: Source<'a>,
     /// The largest radius and speed of any agent: what bounds a pair's approach in one step.
     r_max: f32,
     v_max: f32,
@@ -77,13 +117,15 @@ pub(crate) fn run(
 ) {
     let a = view.agents;
     let n = a.len();
-    let grid = match view.index {
-        SpatialIndex::Grid(g) if !view.bounds.is_torus() && g.len() == n => Some(g),
-        _ => None,
+    let source = if view.bounds.is_torus() {
+        Source::Index
+    } else {
+        scratch.hash.rebuild(&a.pos_x, &a.pos_y, reach(view.plans));
+        Source::Hash(&scratch.hash)
     };
     let ctx = Context {
         walls,
-        grid,
+        source,
         r_max: a.radius.iter().copied().fold(0.0, f32::max),
         v_max: a.max_speed.iter().copied().fold(0.0, f32::max),
     };
@@ -135,8 +177,55 @@ fn offer(near: &mut Vec<(f32, u32, u32)>, k: usize, c: (f32, u32, u32)) {
     near.insert(at, c);
 }
 
+/// Offers the candidates of one run `(xs, ys, ids)` within `sqrt(r_sq)` of `pos` (agent `i`
+/// left out) to `near`, eight at a time: the distances in lanes, then the hits. `xs` and `ys`
+/// may run past `ids` (the hashed grid's padding): then every block reads eight lanes and
+/// masks off those past the run.
+#[inline(always)]
+fn scan(
+    (xs, ys, ids): (&[f32], &[f32], &[u32]),
+    pos: Vec2,
+    r_sq: f32,
+    i: usize,
+    k: usize,
+    agent_ids: &[crate::agents::AgentId],
+    near: &mut Vec<(f32, u32, u32)>,
+) {
+    let mut s = 0;
+    while s < ids.len() {
+        let len = (ids.len() - s).min(8);
+        let mut hits = 0u32;
+        let mut d = [0.0f32; 8];
+        if let (Some(x8), Some(y8)) = (xs.get(s..s + 8), ys.get(s..s + 8)) {
+            for l in 0..8 {
+                let (dx, dy) = (x8[l] - pos.x, y8[l] - pos.y);
+                d[l] = dx * dx + dy * dy;
+                hits |= u32::from(d[l] <= r_sq) << l;
+            }
+            hits &= (1u32 << len) - 1;
+        } else {
+            for l in 0..len {
+                let (dx, dy) = (xs[s + l] - pos.x, ys[s + l] - pos.y);
+                d[l] = dx * dx + dy * dy;
+                hits |= u32::from(d[l] <= r_sq) << l;
+            }
+        }
+        while hits != 0 {
+            let l = hits.trailing_zeros() as usize;
+            hits &= hits - 1;
+            let j = ids[s + l];
+            if j as usize != i {
+                offer(near, k, (d[l], agent_ids[j as usize].0, j));
+            }
+        }
+        s += len;
+    }
+}
+
 /// The `k` nearest agents within `r` of agent `i` at `pos` (itself left out) as
-/// `(dist_sq, id, index)`, sorted by `(dist_sq, id)`.
+/// `(dist_sq, id, index)`, sorted by `(dist_sq, id)`. Compiled for AVX2 too, where [`scan`]
+/// reads eight candidates in one vector (the same arithmetic, so the same bits).
+#[multiversion::multiversion(targets("x86_64+avx2+fma"))]
 fn candidates(
     view: &SteerView,
     ctx: &Context,
@@ -150,36 +239,16 @@ fn candidates(
     b.near.clear();
     b.near.reserve(k);
     let r_sq = r * r;
-    match ctx.grid {
-        Some(grid) => {
-            let (sx, sy, order) = (grid.sorted_x(), grid.sorted_y(), grid.order());
-            let near = &mut b.near;
-            grid.for_each_run(pos, r, |run| {
-                let (xs, ys, ids) = (&sx[run.clone()], &sy[run.clone()], &order[run]);
-                // Eight candidates at a time: the distances in lanes, then the hits.
-                let mut s = 0;
-                while s < xs.len() {
-                    let len = (xs.len() - s).min(8);
-                    let mut hits = 0u32;
-                    let mut d = [0.0f32; 8];
-                    for l in 0..len {
-                        let (dx, dy) = (xs[s + l] - pos.x, ys[s + l] - pos.y);
-                        d[l] = dx * dx + dy * dy;
-                        hits |= u32::from(d[l] <= r_sq) << l;
-                    }
-                    while hits != 0 {
-                        let l = hits.trailing_zeros() as usize;
-                        hits &= hits - 1;
-                        let j = ids[s + l];
-                        if j as usize != i {
-                            offer(near, k, (d[l], a.ids[j as usize].0, j));
-                        }
-                    }
-                    s += len;
-                }
+    let near = &mut b.near;
+    match ctx.source {
+        Source::Hash(hash) => {
+            let (sx, sy, order) = (hash.sorted_x(), hash.sorted_y(), hash.order());
+            hash.for_each_run(pos, r, |run| {
+                let run = (&sx[run.start..], &sy[run.start..], &order[run]);
+                scan(run, pos, r_sq, i, k, &a.ids, near);
             });
         }
-        None => {
+        Source::Index => {
             view.index.neighbours_at(pos, r, &mut b.found);
             for nb in b.found.iter().filter(|nb| nb.index as usize != i) {
                 offer(

@@ -129,6 +129,9 @@ struct SeekLanes {
     vx: [f32; LANES],
     vy: [f32; LANES],
     max_speed: [f32; LANES],
+    /// The point each lane seeks: the plan's point or slot, or the agent's own target.
+    tx: [f32; LANES],
+    ty: [f32; LANES],
 }
 
 impl SeekLanes {
@@ -140,6 +143,17 @@ impl SeekLanes {
         (self.px[l], self.py[l]) = (a.pos_x[i], a.pos_y[i]);
         (self.vx[l], self.vy[l]) = (a.vel_x[i], a.vel_y[i]);
         self.max_speed[l] = a.max_speed[i];
+        let target = match view.plans[group].kind {
+            PlanKind::Seek { target, .. } | PlanKind::Arrive { target, .. } => target,
+            _ => unreachable!("only seek and arrive plans are gathered"),
+        };
+        let t = match target {
+            Target::Point(p) => p,
+            Target::Slot(s) => view.targets[s.0 as usize].position,
+            Target::Own => glam::Vec2::new(a.target_x[i], a.target_y[i]),
+            _ => unreachable!("lane plans name a point, a slot or the own target"),
+        };
+        (self.tx[l], self.ty[l]) = (t.x, t.y);
         self.len += 1;
     }
 
@@ -149,30 +163,14 @@ impl SeekLanes {
             return;
         }
         let plan = &view.plans[self.group];
-        let point = |target: Target| match target {
-            Target::Point(p) => p,
-            Target::Slot(s) => view.targets[s.0 as usize].position,
-            _ => unreachable!("lane plans name a point or a slot"),
-        };
         let kinematic = plan.adapter.kinematic;
         let (tx, ty) = match plan.kind {
             PlanKind::Seek {
-                target,
-                threshold,
-                weight,
-            } => seek_lanes(
-                self,
-                view.bounds,
-                point(target),
-                threshold,
-                weight,
-                kinematic,
-            ),
-            PlanKind::Arrive {
-                target,
-                params,
-                weight,
-            } => arrive_lanes(self, view.bounds, point(target), &params, weight, kinematic),
+                threshold, weight, ..
+            } => seek_lanes(self, view.bounds, threshold, weight, kinematic),
+            PlanKind::Arrive { params, weight, .. } => {
+                arrive_lanes(self, view.bounds, &params, weight, kinematic)
+            }
             _ => unreachable!("only seek and arrive plans are gathered"),
         };
         let (ox, oy) = plan.adapter.finish_lanes(tx, ty, self.len);
@@ -191,7 +189,6 @@ impl SeekLanes {
 fn seek_lanes(
     l: &SeekLanes,
     bounds: crate::bounds::Bounds,
-    target: glam::Vec2,
     threshold: f32,
     weight: f32,
     kinematic: bool,
@@ -204,7 +201,7 @@ fn seek_lanes(
     let thr_sq = threshold * threshold;
     for k in 0..LANES {
         let (px, py) = (l.px[k], l.py[k]);
-        let (mut dx, mut dy) = (target.x - px, target.y - py);
+        let (mut dx, mut dy) = (l.tx[k] - px, l.ty[k] - py);
         if let Some(size) = torus {
             dx = crate::bounds::wrap_delta(dx, size.x);
             dy = crate::bounds::wrap_delta(dy, size.y);
@@ -235,7 +232,6 @@ fn seek_lanes(
 fn arrive_lanes(
     l: &SeekLanes,
     bounds: crate::bounds::Bounds,
-    target: glam::Vec2,
     params: &crate::steering::ArriveParams,
     weight: f32,
     kinematic: bool,
@@ -243,7 +239,7 @@ fn arrive_lanes(
     let (mut tx, mut ty) = ([0.0_f32; LANES], [0.0_f32; LANES]);
     for k in 0..LANES {
         let p = glam::Vec2::new(l.px[k], l.py[k]);
-        let resolved = p + bounds.offset(p, target);
+        let resolved = p + bounds.offset(p, glam::Vec2::new(l.tx[k], l.ty[k]));
         let f = if kinematic {
             crate::steering::kinematic_arrive(p, resolved, l.max_speed[k], params)
         } else {

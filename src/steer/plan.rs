@@ -81,21 +81,22 @@ pub(crate) enum PlanKind {
         /// The behaviour's weight.
         weight: f32,
     },
-    /// One `seek` of a fixed point or a target slot alone in a weighted sum: evaluated eight
-    /// agents at a time in lanes.
+    /// One `seek` of a fixed point, a target slot or each agent's own target alone in a
+    /// weighted sum: evaluated eight agents at a time in lanes.
     Seek {
-        /// The point sought: a [`Target::Point`] or a [`Target::Slot`] (read when the step runs).
+        /// The point sought: a [`Target::Point`], a [`Target::Slot`] (read when the step runs)
+        /// or [`Target::Own`].
         target: Target,
         /// Distance at which seeking stops.
         threshold: f32,
         /// The behaviour's weight.
         weight: f32,
     },
-    /// One `arrive` at a fixed point or a target slot alone in a weighted sum: evaluated eight
-    /// agents at a time in lanes.
+    /// One `arrive` at a fixed point, a target slot or each agent's own target alone in a
+    /// weighted sum: evaluated eight agents at a time in lanes.
     Arrive {
-        /// The point arrived at: a [`Target::Point`] or a [`Target::Slot`] (read when the step
-        /// runs).
+        /// The point arrived at: a [`Target::Point`], a [`Target::Slot`] (read when the step
+        /// runs) or [`Target::Own`].
         target: Target,
         /// Radii and timing.
         params: crate::steering::ArriveParams,
@@ -262,7 +263,7 @@ impl Plan {
             }
         } else if let [w] = &profile.steering.behaviours[..]
             && let Behaviour::Seek { target, threshold } = w.behaviour
-            && matches!(target, Target::Point(_) | Target::Slot(_))
+            && matches!(target, Target::Point(_) | Target::Slot(_) | Target::Own)
             && profile.steering.combine == Combine::WeightedSum
         {
             PlanKind::Seek {
@@ -272,7 +273,7 @@ impl Plan {
             }
         } else if let [w] = &profile.steering.behaviours[..]
             && let Behaviour::Arrive { target, params } = w.behaviour
-            && matches!(target, Target::Point(_) | Target::Slot(_))
+            && matches!(target, Target::Point(_) | Target::Slot(_) | Target::Own)
             && profile.steering.combine == Combine::WeightedSum
         {
             PlanKind::Arrive {

@@ -429,17 +429,31 @@ impl World {
     /// grid cell when due, and fills the grid kernel's cell-ordered copies. Returns whether the
     /// grid kernel is ready.
     fn prepare_index(&mut self) -> bool {
+        // ORCA reads its own hashed grid in open and walled worlds, the world's index on a torus.
+        let torus = self.bounds.is_torus();
         let query_r = self
             .plans
             .iter()
             .map(|p| {
                 let flock = if p.spec.active { p.spec.query_r } else { 0.0 };
+                let orca = p.orca.filter(|_| torus).map_or(0.0, |o| o.neighbour_dist);
                 flock
-                    .max(p.orca.map_or(0.0, |o| o.neighbour_dist))
+                    .max(orca)
                     .max(p.pedestrian.map_or(0.0, |m| m.cutoff()))
             })
             .fold(0.0_f32, f32::max);
+        let reorder_due =
+            self.reorder_every > 0 && self.frame.is_multiple_of(u64::from(self.reorder_every));
         if query_r <= 0.0 || self.agents.is_empty() {
+            if reorder_due && !torus && !self.agents.is_empty() {
+                // Nothing else sorts the agents: ORCA's cells keep its neighbours close in memory.
+                steer::orca::reorder_by_cells(
+                    &self.plans,
+                    &mut self.agents,
+                    &mut self.scratch.orca,
+                    &mut self.scratch.perm,
+                );
+            }
             return false;
         }
         let a = &self.agents;
@@ -447,7 +461,7 @@ impl World {
         let SpatialIndex::Grid(grid) = &self.index else {
             return false;
         };
-        if self.reorder_every > 0 && self.frame.is_multiple_of(u64::from(self.reorder_every)) {
+        if reorder_due {
             self.scratch.perm.clear();
             self.scratch.perm.extend_from_slice(grid.order());
             self.agents.reorder(&self.scratch.perm);

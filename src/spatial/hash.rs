@@ -1,0 +1,318 @@
+//! A hashed grid: cells of one fixed side, hashed by row into a table of about `2 N` buckets,
+//! for queries much shorter than the world is wide.
+//!
+//! The dense [`super::GridIndex`] caps its cells at `4 N`, so in a world that is large and
+//! sparse (RVO2's Circle at 100,000 agents spans 160,000 units while ORCA looks 15 units
+//! around) its cells grow far beyond the query radius and a query reads hundreds of candidates.
+//! Here the cells stay as small as the query radius however large the world is; only the
+//! occupied ones cost memory, through the hash.
+//!
+//! # Layout
+//!
+//! Cell `(cx, cy)` (`floor(x / side)`, `floor(y / side)`, saturating) goes to bucket
+//! `(cy * ROW + cx) mod T`, `T` a power of two: the cells `x0..=x1` of one row are a run of
+//! consecutive buckets (two runs when it wraps around the end of the table). `order` is the
+//! stable sort of the point indices by bucket, `start` its prefix sums (`T + 1` long), and
+//! `sorted_x` / `sorted_y` the positions in that order (then [`PAD`] more, so that eight lanes
+//! can be read from any point), so every run of buckets is one contiguous run of points.
+//!
+//! # Invariants
+//!
+//! * A query visits every bucket that can hold a point within reach, each at most once (the
+//!   runs of its rows are sorted and merged), so each point is offered once; other cells that
+//!   share a bucket only add candidates, which the caller's distance filter drops.
+//! * The rebuild is sequential and stable: the result does not depend on the thread count.
+//! * Offsets are plain differences: open and walled worlds only (the world's dense grid serves
+//!   a torus).
+//! * Buffers are reused: once warm, a rebuild of the same size allocates nothing.
+
+use std::ops::Range;
+
+use glam::Vec2;
+
+use super::to_u32;
+
+/// The row multiplier of the hash: odd, and far from every small multiple of a table size.
+const ROW: u32 = 0x9E37_79B1;
+/// Queries spanning more rows than this scan every point instead.
+const MAX_ROWS: usize = 8;
+/// Positions past the last point, so that a scan may read eight lanes from any point.
+pub const PAD: usize = 8;
+
+/// A hashed grid of query-sized cells (see the [module docs](self)).
+#[derive(Clone, Debug, Default)]
+pub struct HashGrid {
+    inv_side: f32,
+    /// Table size minus one (`T - 1`).
+    mask: u32,
+    /// Prefix sums of the points per bucket, `T + 1` long.
+    start: Vec<u32>,
+    /// Scratch: each point's bucket.
+    bucket: Vec<u32>,
+    order: Vec<u32>,
+    sorted_x: Vec<f32>,
+    sorted_y: Vec<f32>,
+}
+
+/// The cell coordinate of `x`: `floor(x * inv)`, saturating at the ends of `i32` (monotone, so a
+/// query's cell range still holds every point within reach). Written out rather than
+/// `f32::floor`, which the portable build calls as a library function.
+#[inline]
+fn cell(x: f32, inv: f32) -> i32 {
+    let v = x * inv;
+    let t = v as i32;
+    // Truncation rounds negative fractions up; saturated values are already the ends.
+    if (t as f32) > v {
+        t.saturating_sub(1)
+    } else {
+        t
+    }
+}
+
+impl HashGrid {
+    /// Rebuilds the grid from the positions `(xs[i], ys[i])` with cells of side `side` (> 0;
+    /// the radius most queries will use).
+    ///
+    /// # Panics
+    /// If `xs` and `ys` differ in length or hold more than `u32::MAX` points, or if `side` is
+    /// not positive and finite.
+    pub fn rebuild(&mut self, xs: &[f32], ys: &[f32], side: f32) {
+        assert_eq!(xs.len(), ys.len(), "xs and ys must have the same length");
+        assert!(
+            side > 0.0 && side.is_finite(),
+            "cell side must be positive, got {side}"
+        );
+        let n = xs.len();
+        to_u32(n);
+        let table = (2 * n).next_power_of_two().clamp(64, 1 << 31);
+        self.mask = (table - 1) as u32;
+        self.inv_side = side.recip();
+        let (inv, mask) = (self.inv_side, self.mask);
+        self.bucket.clear();
+        self.bucket.extend(xs.iter().zip(ys).map(|(&x, &y)| {
+            ((cell(y, inv) as u32).wrapping_mul(ROW)).wrapping_add(cell(x, inv) as u32) & mask
+        }));
+        self.start.clear();
+        self.start.resize(table + 1, 0);
+        for &b in &self.bucket {
+            self.start[b as usize + 1] += 1;
+        }
+        for b in 0..table {
+            self.start[b + 1] += self.start[b];
+        }
+        self.order.resize(n, 0);
+        self.sorted_x.resize(n + PAD, f32::MAX);
+        self.sorted_y.resize(n + PAD, f32::MAX);
+        // The starts double as write cursors, then are shifted back.
+        for (i, &b) in self.bucket.iter().enumerate() {
+            let slot = self.start[b as usize] as usize;
+            self.start[b as usize] += 1;
+            self.order[slot] = i as u32;
+            self.sorted_x[slot] = xs[i];
+            self.sorted_y[slot] = ys[i];
+        }
+        self.start.copy_within(0..table, 1);
+        self.start[0] = 0;
+    }
+
+    /// How many points the grid holds.
+    #[must_use]
+    pub fn len(&self) -> usize {
+        self.order.len()
+    }
+
+    /// Whether the grid holds no points.
+    #[must_use]
+    pub fn is_empty(&self) -> bool {
+        self.order.is_empty()
+    }
+
+    /// Point indices sorted by bucket.
+    #[must_use]
+    pub fn order(&self) -> &[u32] {
+        &self.order
+    }
+
+    /// x coordinates in [`order`](Self::order), followed by [`PAD`] entries of `f32::MAX`.
+    #[must_use]
+    pub fn sorted_x(&self) -> &[f32] {
+        &self.sorted_x
+    }
+
+    /// y coordinates in [`order`](Self::order), followed by [`PAD`] entries of `f32::MAX`.
+    #[must_use]
+    pub fn sorted_y(&self) -> &[f32] {
+        &self.sorted_y
+    }
+
+    /// Calls `visit` with ranges into [`order`](Self::order), [`sorted_x`](Self::sorted_x) and
+    /// [`sorted_y`](Self::sorted_y) that together hold every point within `r` of `p` (and
+    /// others), each point in at most one range. Callers filter by distance.
+    #[inline(always)]
+    pub fn for_each_run(&self, p: Vec2, r: f32, mut visit: impl FnMut(Range<usize>)) {
+        let n = self.order.len();
+        if n == 0 {
+            return;
+        }
+        let inv = self.inv_side;
+        let (x0, x1) = (cell(p.x - r, inv), cell(p.x + r, inv));
+        let (y0, y1) = (cell(p.y - r, inv), cell(p.y + r, inv));
+        let table = i64::from(self.mask) + 1;
+        let cols = i64::from(x1) - i64::from(x0) + 1;
+        let rows = i64::from(y1) - i64::from(y0) + 1;
+        if cols <= 0 || rows <= 0 {
+            // A NaN radius: nothing is within it.
+            return;
+        }
+        if rows > MAX_ROWS as i64 || cols * rows >= table {
+            visit(0..n);
+            return;
+        }
+        // Each row's run of buckets (two where it wraps), then sorted and merged.
+        let mut runs = [(0u32, 0u32); 2 * MAX_ROWS];
+        let mut len = 0;
+        for cy in y0..=y1 {
+            let b0 = (cy as u32).wrapping_mul(ROW).wrapping_add(x0 as u32) & self.mask;
+            let b1 = i64::from(b0) + cols - 1;
+            if b1 < table {
+                runs[len] = (b0, b1 as u32);
+                len += 1;
+            } else {
+                runs[len] = (b0, self.mask);
+                runs[len + 1] = (0, (b1 - table) as u32);
+                len += 2;
+            }
+        }
+        let runs = &mut runs[..len];
+        let disjoint = (1..len).all(|a| {
+            runs[..a]
+                .iter()
+                .all(|&(lo, hi)| runs[a].1 < lo || runs[a].0 > hi)
+        });
+        if disjoint {
+            // The common case: every run of buckets stands alone.
+            for &(lo, hi) in runs.iter() {
+                let (a, b) = (
+                    self.start[lo as usize] as usize,
+                    self.start[hi as usize + 1] as usize,
+                );
+                if a < b {
+                    visit(a..b);
+                }
+            }
+            return;
+        }
+        runs.sort_unstable();
+        let mut at = 0;
+        while at < runs.len() {
+            let (lo, mut hi) = runs[at];
+            at += 1;
+            while at < runs.len() && runs[at].0 <= hi + 1 {
+                hi = hi.max(runs[at].1);
+                at += 1;
+            }
+            let (a, b) = (
+                self.start[lo as usize] as usize,
+                self.start[hi as usize + 1] as usize,
+            );
+            if a < b {
+                visit(a..b);
+            }
+        }
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use crate::rng::AgentRng;
+
+    /// Every point within `r`, by the runs, against every point by brute force.
+    fn check(xs: &[f32], ys: &[f32], side: f32, queries: &[(Vec2, f32)]) {
+        let mut g = HashGrid::default();
+        g.rebuild(xs, ys, side);
+        for &(p, r) in queries {
+            let mut seen = vec![0u32; xs.len()];
+            let mut found = Vec::new();
+            g.for_each_run(p, r, |run| {
+                for k in run {
+                    let j = g.order()[k] as usize;
+                    seen[j] += 1;
+                    assert_eq!((g.sorted_x()[k], g.sorted_y()[k]), (xs[j], ys[j]));
+                    let d = Vec2::new(xs[j], ys[j]) - p;
+                    if d.length_squared() <= r * r {
+                        found.push(j);
+                    }
+                }
+            });
+            assert!(seen.iter().all(|&s| s <= 1), "a point offered twice");
+            found.sort_unstable();
+            let brute: Vec<usize> = (0..xs.len())
+                .filter(|&j| (Vec2::new(xs[j], ys[j]) - p).length_squared() <= r * r)
+                .collect();
+            assert_eq!(found, brute, "query {p} radius {r}");
+        }
+    }
+
+    #[test]
+    fn every_query_finds_exactly_the_points_brute_force_finds() {
+        let mut rng = AgentRng::new(9, 0, 0, 0);
+        for (n, extent, side) in [
+            (0, 10.0, 1.0),
+            (1, 10.0, 1.0),
+            (300, 50.0, 2.0),
+            (2000, 160_000.0, 15.0),
+            (500, 3.0, 15.0),
+        ] {
+            let (mut xs, mut ys) = (Vec::new(), Vec::new());
+            for k in 0..n {
+                // Half on a ring (the Circle's layout), half scattered, some negative.
+                let t = rng.unit() * std::f32::consts::TAU;
+                let p = if k % 2 == 0 {
+                    Vec2::from_angle(t) * extent * 0.5
+                } else {
+                    Vec2::new(rng.signed(), rng.signed()) * extent * 0.5
+                };
+                xs.push(p.x);
+                ys.push(p.y);
+            }
+            let mut queries = Vec::new();
+            for k in 0..200 {
+                let p = if n > 0 && k % 2 == 0 {
+                    Vec2::new(xs[k % n], ys[k % n])
+                } else {
+                    Vec2::new(rng.signed(), rng.signed()) * extent * 0.5
+                };
+                let r = side * [0.0, 0.5, 1.0, 1.5, 4.0, 9.0][k % 6];
+                queries.push((p, r));
+            }
+            queries.push((Vec2::ZERO, extent * 4.0));
+            queries.push((Vec2::ZERO, f32::NAN));
+            check(&xs, &ys, side, &queries);
+        }
+    }
+
+    #[test]
+    fn far_points_saturate_into_edge_cells_and_are_still_found() {
+        let xs = [1e30, -1e30, 3e9, 0.0];
+        let ys = [0.0, 1e30, -3e9, 0.0];
+        let queries = [
+            (Vec2::new(1e30, 0.0), 1.0),
+            (Vec2::new(-1e30, 1e30), 1e10),
+            (Vec2::new(3e9, -3e9), 100.0),
+            (Vec2::ZERO, 1e31),
+        ];
+        check(&xs, &ys, 15.0, &queries);
+    }
+
+    #[test]
+    fn a_rebuild_of_the_same_size_keeps_its_buffers() {
+        let xs: Vec<f32> = (0..100).map(|i| i as f32).collect();
+        let ys = vec![0.0; 100];
+        let mut g = HashGrid::default();
+        g.rebuild(&xs, &ys, 2.0);
+        let cap = (g.start.capacity(), g.order.capacity());
+        g.rebuild(&ys, &xs, 2.0);
+        assert_eq!(cap, (g.start.capacity(), g.order.capacity()));
+    }
+}
