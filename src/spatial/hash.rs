@@ -21,7 +21,8 @@
 //! * A query visits every bucket that can hold a point within reach, each at most once (the
 //!   runs of its rows are sorted and merged), so each point is offered once; other cells that
 //!   share a bucket only add candidates, which the caller's distance filter drops.
-//! * The rebuild is sequential and stable: the result does not depend on the thread count.
+//! * The rebuild is stable (each point's bucket is worked out in parallel for large N, the
+//!   counting sort is sequential): the result does not depend on the thread count.
 //! * Offsets are plain differences: open and walled worlds only (the world's dense grid serves
 //!   a torus).
 //! * Buffers are reused: once warm, a rebuild of the same size allocates nothing.
@@ -29,6 +30,7 @@
 use std::ops::Range;
 
 use glam::Vec2;
+use rayon::prelude::*;
 
 use super::to_u32;
 
@@ -36,6 +38,10 @@ use super::to_u32;
 const ROW: u32 = 0x9E37_79B1;
 /// Queries spanning more rows than this scan every point instead.
 const MAX_ROWS: usize = 8;
+/// From this many points on, the buckets are computed on the current rayon pool.
+const PARALLEL_MIN_POINTS: usize = 32 * 1024;
+/// Points per work item of that pass.
+const CHUNK: usize = 8 * 1024;
 /// Positions past the last point, so that a scan may read eight lanes from any point.
 pub const PAD: usize = 8;
 
@@ -88,10 +94,21 @@ impl HashGrid {
         self.mask = (table - 1) as u32;
         self.inv_side = side.recip();
         let (inv, mask) = (self.inv_side, self.mask);
-        self.bucket.clear();
-        self.bucket.extend(xs.iter().zip(ys).map(|(&x, &y)| {
-            ((cell(y, inv) as u32).wrapping_mul(ROW)).wrapping_add(cell(x, inv) as u32) & mask
-        }));
+        let fill = |out: &mut [u32], xs: &[f32], ys: &[f32]| {
+            for ((b, &x), &y) in out.iter_mut().zip(xs).zip(ys) {
+                *b = ((cell(y, inv) as u32).wrapping_mul(ROW)).wrapping_add(cell(x, inv) as u32)
+                    & mask;
+            }
+        };
+        self.bucket.resize(n, 0);
+        if n >= PARALLEL_MIN_POINTS {
+            self.bucket
+                .par_chunks_mut(CHUNK)
+                .zip(xs.par_chunks(CHUNK).zip(ys.par_chunks(CHUNK)))
+                .for_each(|(out, (xs, ys))| fill(out, xs, ys));
+        } else {
+            fill(&mut self.bucket, xs, ys);
+        }
         self.start.clear();
         self.start.resize(table + 1, 0);
         for &b in &self.bucket {

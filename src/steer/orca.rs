@@ -66,25 +66,6 @@ fn reach(plans: &[super::plan::Plan]) -> f32 {
         .fold(0.0_f32, f32::max)
 }
 
-/// Sorts the agents by the cells of ORCA's hashed grid (when some plan uses ORCA), so that an
-/// agent's neighbours lie close together in memory. For open and walled worlds where nothing
-/// else builds the world's index, every few frames as the world's grid order does otherwise.
-pub(crate) fn reorder_by_cells(
-    plans: &[super::plan::Plan],
-    agents: &mut crate::agents::Agents,
-    scratch: &mut OrcaScratch,
-    perm: &mut Vec<u32>,
-) {
-    let reach = reach(plans);
-    if reach <= 0.0 {
-        return;
-    }
-    scratch.hash.rebuild(&agents.pos_x, &agents.pos_y, reach);
-    perm.clear();
-    perm.extend_from_slice(scratch.hash.order());
-    agents.reorder(perm);
-}
-
 /// Where the filter reads its neighbour candidates from.
 #[derive(Clone, Copy)]
 enum Source<'a> {

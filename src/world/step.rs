@@ -445,14 +445,22 @@ impl World {
         let reorder_due =
             self.reorder_every > 0 && self.frame.is_multiple_of(u64::from(self.reorder_every));
         if query_r <= 0.0 || self.agents.is_empty() {
-            if reorder_due && !torus && !self.agents.is_empty() {
-                // Nothing else sorts the agents: ORCA's cells keep its neighbours close in memory.
-                steer::orca::reorder_by_cells(
-                    &self.plans,
-                    &mut self.agents,
-                    &mut self.scratch.orca,
-                    &mut self.scratch.perm,
-                );
+            let orca_r = self
+                .plans
+                .iter()
+                .filter_map(|p| p.orca.map(|o| o.neighbour_dist))
+                .fold(0.0_f32, f32::max);
+            if reorder_due && orca_r > 0.0 && !self.agents.is_empty() {
+                // Nothing else sorts the agents: the grid's cell order (rows of cells, the
+                // agents of a cell in their previous order) keeps ORCA's neighbours close in
+                // memory. The grid is built for that alone, every few frames.
+                let a = &self.agents;
+                self.index.rebuild(&a.pos_x, &a.pos_y, self.bounds, orca_r);
+                if let SpatialIndex::Grid(grid) = &self.index {
+                    self.scratch.perm.clear();
+                    self.scratch.perm.extend_from_slice(grid.order());
+                    self.agents.reorder(&self.scratch.perm);
+                }
             }
             return false;
         }
