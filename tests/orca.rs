@@ -61,6 +61,7 @@ fn the_circle_of_250_completes_within_rvo2s_steps_and_contact_keeps_pairs_apart(
     let mut w = s.build().unwrap();
     let (steps, closest) = run_to_completion(&mut w, s.dt, 6000);
     let steps = steps.expect("not every agent reached its goal in 6000 steps");
+    println!("circle 250: {steps} steps, closest pair {closest}");
     // RVO2 needs 3,718 steps on this start; its closest pair comes to 0.82 of the radii.
     assert!(steps as f64 <= 1.2 * 3718.0, "{steps} steps");
     // The contact pass holds this start at 0.90 (the aim is 0.95).
@@ -75,6 +76,7 @@ fn orca_alone_completes_the_circle_of_250_and_keeps_pairs_about_as_far_apart_as_
     let s = without_contact(circle(250));
     let mut w = s.build().unwrap();
     let (steps, closest) = run_to_completion(&mut w, s.dt, 6000);
+    println!("circle 250, ORCA alone: {steps:?} steps, closest pair {closest}");
     assert!(steps.is_some(), "not every agent arrived");
     // RVO2 comes to 0.82 on this start, this filter to 0.80.
     assert!(
@@ -92,7 +94,7 @@ fn the_circle_of_1000_completes_within_rvo2s_steps_and_keeps_pairs_farther_apart
     let steps = steps.expect("not every agent reached its goal in 20,000 steps");
     println!("circle 1000: {steps} steps, closest pair {closest}");
     // RVO2: 11,532 steps (9,300 to 12,500 for small changes of the start); closest 0.70.
-    // With contact this start comes to 0.79 (the aim is 0.95).
+    // With contact this start comes to 0.76 (the aim is 0.95).
     assert!(steps as f64 <= 1.2 * 11_532.0, "{steps} steps");
     assert!(
         closest >= 0.75,
