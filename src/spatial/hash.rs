@@ -45,7 +45,12 @@ const CHUNK: usize = 8 * 1024;
 /// Positions past the last point, so that a scan may read eight lanes from any point.
 pub const PAD: usize = 8;
 
-/// A hashed grid of query-sized cells (see the [module docs](self)).
+/// A hashed grid of query-sized cells: cell `(cx, cy)` (`floor(x / side)`, `floor(y / side)`)
+/// goes to bucket `(cy * ROW + cx) mod T`, `T` a power of two near `2 N`, so the cells of one
+/// row within reach are one run of consecutive buckets (two where the run wraps around the
+/// table). [`HashGrid::for_each_run`] hands out those runs as ranges of points, each point at
+/// most once; callers filter by distance. Offsets are plain differences: for open and walled
+/// worlds (the world's [`crate::GridIndex`] serves a torus).
 #[derive(Clone, Debug, Default)]
 pub struct HashGrid {
     inv_side: f32,
@@ -150,13 +155,13 @@ impl HashGrid {
         &self.order
     }
 
-    /// x coordinates in [`order`](Self::order), followed by [`PAD`] entries of `f32::MAX`.
+    /// x coordinates in [`order`](Self::order), followed by eight entries of `f32::MAX`.
     #[must_use]
     pub fn sorted_x(&self) -> &[f32] {
         &self.sorted_x
     }
 
-    /// y coordinates in [`order`](Self::order), followed by [`PAD`] entries of `f32::MAX`.
+    /// y coordinates in [`order`](Self::order), followed by eight entries of `f32::MAX`.
     #[must_use]
     pub fn sorted_y(&self) -> &[f32] {
         &self.sorted_y
