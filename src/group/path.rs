@@ -6,7 +6,7 @@
 //! `[0, length]`; on a looping path they are taken modulo the length. Paths live in world
 //! coordinates and are not wrapped on a torus: keep them inside the world.
 
-use glam::Vec2;
+use glam::{Vec2, Vec4};
 use serde::{Deserialize, Serialize};
 
 use crate::error::{Error, Result, finite_vec, non_negative, positive};
@@ -45,6 +45,52 @@ pub struct Path {
     /// `cumulative[k]` is the arc length at the start of segment `k`; one more entry than
     /// segments, the last being the total length.
     cumulative: Vec<f32>,
+    /// The segments in lanes, for [`Path::project`].
+    lanes: SegmentLanes,
+}
+
+/// Lanes per block of segments in [`Path::project`].
+const LANES: usize = 8;
+
+/// Every segment's start `a`, its direction `b - a` and that direction's squared length, as
+/// the scalar projection computes them, padded to whole blocks of [`LANES`] with segments at
+/// infinity (never the nearest).
+#[derive(Clone, Debug, Default, PartialEq)]
+struct SegmentLanes {
+    blocks: Vec<SegmentBlock>,
+}
+
+impl SegmentBlock {
+    /// Per lane: the squared distance from `p` to the nearest point of the segment, and that
+    /// point's parameter along it, by the scalar projection's operations four lanes at a time
+    /// (the clamp as its two comparisons, so a NaN stays a NaN as there).
+    #[inline]
+    fn distances(&self, p: Vec2) -> ([f32; LANES], [f32; LANES]) {
+        let (px, py) = (Vec4::splat(p.x), Vec4::splat(p.y));
+        let (mut d, mut t) = ([0.0_f32; LANES], [0.0_f32; LANES]);
+        for h in 0..LANES / 4 {
+            let (ax, ay, abx, aby) = (self.ax[h], self.ay[h], self.abx[h], self.aby[h]);
+            let len_sq = self.len_sq[h];
+            let q = ((px - ax) * abx + (py - ay) * aby) / len_sq;
+            let q = Vec4::select(q.cmplt(Vec4::ZERO), Vec4::ZERO, q);
+            let q = Vec4::select(q.cmpgt(Vec4::ONE), Vec4::ONE, q);
+            let th = Vec4::select(len_sq.cmpgt(Vec4::ZERO), q, Vec4::ZERO);
+            let (dx, dy) = ((ax + abx * th) - px, (ay + aby * th) - py);
+            d[4 * h..4 * h + 4].copy_from_slice(&(dx * dx + dy * dy).to_array());
+            t[4 * h..4 * h + 4].copy_from_slice(&th.to_array());
+        }
+        (d, t)
+    }
+}
+
+/// [`LANES`] segments, field by field.
+#[derive(Clone, Copy, Debug, Default, PartialEq)]
+struct SegmentBlock {
+    ax: [Vec4; LANES / 4],
+    ay: [Vec4; LANES / 4],
+    abx: [Vec4; LANES / 4],
+    aby: [Vec4; LANES / 4],
+    len_sq: [Vec4; LANES / 4],
 }
 
 /// Where a point projects onto a path.
@@ -121,12 +167,31 @@ impl Path {
             name: "path.points".into(),
             reason: "all points coincide: the path has zero length".into(),
         })?;
-        Ok(Path {
+        let mut path = Path {
             points,
             radius,
             looped,
             cumulative,
-        })
+            lanes: SegmentLanes::default(),
+        };
+        let mut blocks = vec![SegmentBlock::default(); path.segments().div_ceil(LANES)];
+        for (k, block) in blocks.iter_mut().enumerate() {
+            for l in 0..LANES {
+                let s = k * LANES + l;
+                let (a, ab) = if s < path.segments() {
+                    let (a, b) = path.segment(s);
+                    (a, b - a)
+                } else {
+                    (Vec2::splat(f32::INFINITY), Vec2::ZERO)
+                };
+                let (h, m) = (l / 4, l % 4);
+                (block.ax[h][m], block.ay[h][m]) = (a.x, a.y);
+                (block.abx[h][m], block.aby[h][m]) = (ab.x, ab.y);
+                block.len_sq[h][m] = ab.length_squared();
+            }
+        }
+        path.lanes = SegmentLanes { blocks };
+        Ok(path)
     }
 
     /// The points, in order.
@@ -212,35 +277,34 @@ impl Path {
     /// the earlier segment, so the result is deterministic.
     #[must_use]
     pub fn project(&self, p: Vec2) -> Projection {
-        let mut best = Projection {
-            arc: 0.0,
-            point: self.points[0],
-            distance: f32::INFINITY,
-        };
+        // Eight segments at a time: the same operations as the scalar form (`project_scalar`
+        // in the tests) in lanes, then the first strictly nearest in segment order.
         let mut best_sq = f32::INFINITY;
-        for k in 0..self.segments() {
-            let (a, b) = self.segment(k);
-            let ab = b - a;
-            let len_sq = ab.length_squared();
-            let t = if len_sq > 0.0 {
-                ((p - a).dot(ab) / len_sq).clamp(0.0, 1.0)
-            } else {
-                0.0
-            };
-            let q = a + ab * t;
-            let d_sq = q.distance_squared(p);
-            if d_sq < best_sq {
-                best_sq = d_sq;
-                best = Projection {
-                    arc: self.cumulative[k] + t * (self.cumulative[k + 1] - self.cumulative[k]),
-                    point: q,
-                    distance: 0.0,
-                };
+        let mut best: Option<(usize, f32)> = None;
+        for (b, block) in self.lanes.blocks.iter().enumerate() {
+            let (d, t) = block.distances(p);
+            for k in 0..LANES {
+                if d[k] < best_sq {
+                    best_sq = d[k];
+                    best = Some((b * LANES + k, t[k]));
+                }
             }
         }
-        best.distance = best_sq.sqrt();
-        best.arc = self.normalize_arc(best.arc);
-        best
+        let Some((k, t)) = best else {
+            return Projection {
+                arc: self.normalize_arc(0.0),
+                point: self.points[0],
+                distance: best_sq.sqrt(),
+            };
+        };
+        let (a, b) = self.segment(k);
+        Projection {
+            arc: self.normalize_arc(
+                self.cumulative[k] + t * (self.cumulative[k + 1] - self.cumulative[k]),
+            ),
+            point: a + (b - a) * t,
+            distance: best_sq.sqrt(),
+        }
     }
 }
 
@@ -356,6 +420,79 @@ pub fn follow_path(
 #[cfg(test)]
 mod tests {
     use super::*;
+
+    /// The scalar projection, one segment at a time: the reference of [`Path::project`].
+    fn project_scalar(path: &Path, p: Vec2) -> Projection {
+        let mut best = Projection {
+            arc: 0.0,
+            point: path.points[0],
+            distance: f32::INFINITY,
+        };
+        let mut best_sq = f32::INFINITY;
+        for k in 0..path.segments() {
+            let (a, b) = path.segment(k);
+            let ab = b - a;
+            let len_sq = ab.length_squared();
+            let t = if len_sq > 0.0 {
+                ((p - a).dot(ab) / len_sq).clamp(0.0, 1.0)
+            } else {
+                0.0
+            };
+            let q = a + ab * t;
+            let d_sq = q.distance_squared(p);
+            if d_sq < best_sq {
+                best_sq = d_sq;
+                best = Projection {
+                    arc: path.cumulative[k] + t * (path.cumulative[k + 1] - path.cumulative[k]),
+                    point: q,
+                    distance: 0.0,
+                };
+            }
+        }
+        best.distance = best_sq.sqrt();
+        best.arc = path.normalize_arc(best.arc);
+        best
+    }
+
+    fn bits(p: Projection) -> [u32; 4] {
+        [p.arc, p.point.x, p.point.y, p.distance].map(f32::to_bits)
+    }
+
+    #[test]
+    fn the_projection_in_lanes_equals_the_scalar_one_bit_for_bit() {
+        let mut rng = crate::rng::AgentRng::new(5, 0, 0, 0);
+        for (n, looped) in [
+            (2, false),
+            (2, true),
+            (7, false),
+            (8, true),
+            (9, false),
+            (24, true),
+            (40, false),
+        ] {
+            let mut points: Vec<Vec2> = (0..n)
+                .map(|_| Vec2::new(rng.signed(), rng.signed()) * 50.0)
+                .collect();
+            // Repeated points: zero-length segments, and ties between segments.
+            if n > 2 {
+                points[n / 2] = points[0];
+            }
+            let path = Path::new(points, 2.0, looped).unwrap();
+            for q in 0..400 {
+                let p = match q % 4 {
+                    0 => path.points()[q % n],
+                    1 => Vec2::new(rng.signed(), rng.signed()) * 80.0,
+                    2 => Vec2::new(rng.signed(), rng.signed()) * 1e30,
+                    _ => Vec2::new(rng.signed(), rng.signed()) * 5.0,
+                };
+                assert_eq!(
+                    bits(path.project(p)),
+                    bits(project_scalar(&path, p)),
+                    "path of {n} points, looped {looped}, query {p}"
+                );
+            }
+        }
+    }
 
     fn square() -> Path {
         Path::new(
