@@ -23,8 +23,8 @@
 //!   share a bucket only add candidates, which the caller's distance filter drops.
 //! * The rebuild is stable (each point's bucket is worked out in parallel for large N, the
 //!   counting sort is sequential): the result does not depend on the thread count.
-//! * Offsets are plain differences: open and walled worlds only (the world's dense grid serves
-//!   a torus).
+//! * Offsets are plain differences: open and walled worlds only (on a torus the world's own
+//!   index serves).
 //! * Buffers are reused: once warm, a rebuild of the same size allocates nothing.
 
 use std::ops::Range;
@@ -32,7 +32,7 @@ use std::ops::Range;
 use glam::Vec2;
 use rayon::prelude::*;
 
-use super::to_u32;
+use super::{gather_radius, to_u32};
 
 /// The row multiplier of the hash: odd, and far from every small multiple of a table size.
 const ROW: u32 = 0x9E37_79B1;
@@ -50,7 +50,7 @@ pub const PAD: usize = 8;
 /// row within reach are one run of consecutive buckets (two where the run wraps around the
 /// table). [`HashGrid::for_each_run`] hands out those runs as ranges of points, each point at
 /// most once; callers filter by distance. Offsets are plain differences: for open and walled
-/// worlds (the world's [`crate::GridIndex`] serves a torus).
+/// worlds (on a torus the world's own index serves).
 #[derive(Clone, Debug, Default)]
 pub struct HashGrid {
     inv_side: f32,
@@ -125,6 +125,8 @@ impl HashGrid {
         self.order.resize(n, 0);
         self.sorted_x.resize(n + PAD, f32::MAX);
         self.sorted_y.resize(n + PAD, f32::MAX);
+        self.sorted_x[n..].fill(f32::MAX);
+        self.sorted_y[n..].fill(f32::MAX);
         // The starts double as write cursors, then are shifted back.
         for (i, &b) in self.bucket.iter().enumerate() {
             let slot = self.start[b as usize] as usize;
@@ -177,13 +179,15 @@ impl HashGrid {
             return;
         }
         let inv = self.inv_side;
+        // Widened as the other backends widen it, so that rounding never loses a point the
+        // caller's distance filter accepts.
+        let r = gather_radius(r, p.x.abs().max(p.y.abs()));
         let (x0, x1) = (cell(p.x - r, inv), cell(p.x + r, inv));
         let (y0, y1) = (cell(p.y - r, inv), cell(p.y + r, inv));
         let table = i64::from(self.mask) + 1;
         let cols = i64::from(x1) - i64::from(x0) + 1;
         let rows = i64::from(y1) - i64::from(y0) + 1;
         if cols <= 0 || rows <= 0 {
-            // A NaN radius: nothing is within it.
             return;
         }
         if rows > MAX_ROWS as i64 || cols * rows >= table {
@@ -325,6 +329,26 @@ mod tests {
             (Vec2::ZERO, 1e31),
         ];
         check(&xs, &ys, 15.0, &queries);
+    }
+
+    #[test]
+    fn rounding_at_a_cell_edge_loses_no_point_the_filter_accepts() {
+        // `p.x - r` rounds to -15 (cell -1) while `q` lies in cell -2, yet `q - p` rounds to -15.
+        let p = Vec2::new(-(2.0_f32.powi(-21)), 0.0);
+        let q = -15.000_001_f32;
+        assert!((q - p.x) * (q - p.x) <= 15.0 * 15.0);
+        check(&[q, 40.0], &[0.0, 0.0], 15.0, &[(p, 15.0), (p, -15.0)]);
+    }
+
+    #[test]
+    fn the_padding_is_there_after_a_smaller_rebuild() {
+        let xs: Vec<f32> = (0..100).map(|i| i as f32).collect();
+        let mut g = HashGrid::default();
+        g.rebuild(&xs, &xs, 2.0);
+        g.rebuild(&xs[..10], &xs[..10], 2.0);
+        assert_eq!(g.sorted_x().len(), 10 + PAD);
+        assert!(g.sorted_x()[10..].iter().all(|&x| x == f32::MAX));
+        assert!(g.sorted_y()[10..].iter().all(|&y| y == f32::MAX));
     }
 
     #[test]

@@ -38,6 +38,8 @@ pub(crate) struct Scratch {
     prev_y: Vec<f32>,
     /// The reordering permutation.
     perm: Vec<u32>,
+    /// The grid that orders ORCA agents in memory when nothing else builds the world's grid.
+    order_grid: crate::spatial::GridIndex,
     /// The walls as ORCA edge chains, built for `orca_walls_of` walls.
     orca_walls: crate::orca::WallChains,
     orca_walls_of: usize,
@@ -425,9 +427,10 @@ impl World {
         }
     }
 
-    /// Rebuilds the neighbour index when some group needs neighbours, reorders the agents by
-    /// grid cell when due, and fills the grid kernel's cell-ordered copies. Returns whether the
-    /// grid kernel is ready.
+    /// Rebuilds the neighbour index when some group needs neighbours (ORCA in open and walled
+    /// worlds reads its own hashed grid instead), reorders the agents by grid cell when due
+    /// (by a grid of ORCA's neighbour distance when nothing else needs the world's index), and
+    /// fills the grid kernel's cell-ordered copies. Returns whether the grid kernel is ready.
     fn prepare_index(&mut self) -> bool {
         // ORCA reads its own hashed grid in open and walled worlds, the world's index on a torus.
         let torus = self.bounds.is_torus();
@@ -451,16 +454,16 @@ impl World {
                 .filter_map(|p| p.orca.map(|o| o.neighbour_dist))
                 .fold(0.0_f32, f32::max);
             if reorder_due && orca_r > 0.0 && !self.agents.is_empty() {
-                // Nothing else sorts the agents: the grid's cell order (rows of cells, the
-                // agents of a cell in their previous order) keeps ORCA's neighbours close in
-                // memory. The grid is built for that alone, every few frames.
+                // Nothing else sorts the agents: a grid's cell order (rows of cells, the agents
+                // of a cell in their previous order) keeps ORCA's neighbours close in memory.
+                // That grid is the step's own, built for this alone every few frames; the
+                // world's index is left as it is.
                 let a = &self.agents;
-                self.index.rebuild(&a.pos_x, &a.pos_y, self.bounds, orca_r);
-                if let SpatialIndex::Grid(grid) = &self.index {
-                    self.scratch.perm.clear();
-                    self.scratch.perm.extend_from_slice(grid.order());
-                    self.agents.reorder(&self.scratch.perm);
-                }
+                let grid = &mut self.scratch.order_grid;
+                grid.rebuild(&a.pos_x, &a.pos_y, self.bounds, orca_r);
+                self.scratch.perm.clear();
+                self.scratch.perm.extend_from_slice(grid.order());
+                self.agents.reorder(&self.scratch.perm);
             }
             return false;
         }
