@@ -59,7 +59,7 @@ pub(crate) struct OrcaScratch {
 }
 
 /// The largest `neighbour_dist` of the plans that use ORCA (0 when none does).
-fn reach(plans: &[super::plan::Plan]) -> f32 {
+pub(crate) fn reach(plans: &[super::plan::Plan]) -> f32 {
     plans
         .iter()
         .filter_map(|p| p.orca.map(|o| o.neighbour_dist))

@@ -448,12 +448,12 @@ impl World {
         let reorder_due =
             self.reorder_every > 0 && self.frame.is_multiple_of(u64::from(self.reorder_every));
         if query_r <= 0.0 || self.agents.is_empty() {
-            let orca_r = self
-                .plans
-                .iter()
-                .filter_map(|p| p.orca.map(|o| o.neighbour_dist))
-                .fold(0.0_f32, f32::max);
-            if reorder_due && orca_r > 0.0 && !self.agents.is_empty() {
+            let orca_r = if reorder_due && !self.agents.is_empty() {
+                steer::orca::reach(&self.plans)
+            } else {
+                0.0
+            };
+            if orca_r > 0.0 {
                 // Nothing else sorts the agents: a grid's cell order (rows of cells, the agents
                 // of a cell in their previous order) keeps ORCA's neighbours close in memory.
                 // That grid is the step's own, built for this alone every few frames; the
