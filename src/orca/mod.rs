@@ -32,7 +32,7 @@ use serde::{Deserialize, Serialize};
 
 use crate::error::{Error, Result, non_negative, positive};
 
-pub use lines::agent_line;
+pub use lines::{LineBlock, agent_line};
 pub use lp::{Line, solve};
 pub use obstacles::WallChains;
 

@@ -174,13 +174,22 @@ impl HashGrid {
     /// others), each point in at most one range. Callers filter by distance.
     #[inline(always)]
     pub fn for_each_run(&self, p: Vec2, r: f32, mut visit: impl FnMut(Range<usize>)) {
+        for run in self.runs(p, r).iter() {
+            visit(run);
+        }
+    }
+
+    /// The ranges [`for_each_run`](Self::for_each_run) visits, as a value: a caller compiled for
+    /// other target features can loop over them in its own code instead of a closure.
+    #[inline(always)]
+    #[must_use]
+    pub fn runs(&self, p: Vec2, r: f32) -> Runs {
+        let mut out = Runs::default();
         let n = self.order.len();
         if n == 0 {
-            return;
+            return out;
         }
         let inv = self.inv_side;
-        // Widened as the other backends widen it, so that rounding never loses a point the
-        // caller's distance filter accepts.
         let r = gather_radius(r, p.x.abs().max(p.y.abs()));
         let (x0, x1) = (cell(p.x - r, inv), cell(p.x + r, inv));
         let (y0, y1) = (cell(p.y - r, inv), cell(p.y + r, inv));
@@ -188,13 +197,12 @@ impl HashGrid {
         let cols = i64::from(x1) - i64::from(x0) + 1;
         let rows = i64::from(y1) - i64::from(y0) + 1;
         if cols <= 0 || rows <= 0 {
-            return;
+            return out;
         }
         if rows > MAX_ROWS as i64 || cols * rows >= table {
-            visit(0..n);
-            return;
+            out.push(0, n);
+            return out;
         }
-        // Each row's run of buckets (two where it wraps), then sorted and merged.
         let mut runs = [(0u32, 0u32); 2 * MAX_ROWS];
         let mut len = 0;
         for cy in y0..=y1 {
@@ -216,17 +224,13 @@ impl HashGrid {
                 .all(|&(lo, hi)| runs[a].1 < lo || runs[a].0 > hi)
         });
         if disjoint {
-            // The common case: every run of buckets stands alone.
             for &(lo, hi) in runs.iter() {
-                let (a, b) = (
+                out.push(
                     self.start[lo as usize] as usize,
                     self.start[hi as usize + 1] as usize,
                 );
-                if a < b {
-                    visit(a..b);
-                }
             }
-            return;
+            return out;
         }
         runs.sort_unstable();
         let mut at = 0;
@@ -237,14 +241,38 @@ impl HashGrid {
                 hi = hi.max(runs[at].1);
                 at += 1;
             }
-            let (a, b) = (
+            out.push(
                 self.start[lo as usize] as usize,
                 self.start[hi as usize + 1] as usize,
             );
-            if a < b {
-                visit(a..b);
-            }
         }
+        out
+    }
+}
+
+/// The ranges of points of one query of a [`HashGrid`] (at most two per row of cells), empty
+/// ones left out.
+#[derive(Clone, Copy, Debug, Default)]
+pub struct Runs {
+    ranges: [(u32, u32); 2 * MAX_ROWS],
+    len: usize,
+}
+
+impl Runs {
+    #[inline(always)]
+    fn push(&mut self, a: usize, b: usize) {
+        if a < b {
+            self.ranges[self.len] = (a as u32, b as u32);
+            self.len += 1;
+        }
+    }
+
+    /// The ranges in order of the query.
+    #[inline(always)]
+    pub fn iter(&self) -> impl Iterator<Item = Range<usize>> + '_ {
+        self.ranges[..self.len]
+            .iter()
+            .map(|&(a, b)| a as usize..b as usize)
     }
 }
 

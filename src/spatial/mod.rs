@@ -47,7 +47,7 @@ mod kdtree;
 
 pub use brute::BruteIndex;
 pub use grid::GridIndex;
-pub use hash::HashGrid;
+pub use hash::{HashGrid, Runs};
 pub use kdtree::KdTreeIndex;
 
 /// One neighbour found by a query.

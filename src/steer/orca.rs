@@ -21,7 +21,8 @@ use rayon::prelude::*;
 
 use super::pass::{STEER_CHUNK, SteerOut};
 use super::view::SteerView;
-use crate::orca::{Line, Orca, WallChains, agent_line, solve};
+use crate::orca::lines::LANES;
+use crate::orca::{Line, LineBlock, Orca, WallChains, agent_line, solve};
 use crate::rng::{AgentRng, Stream};
 use crate::spatial::{HashGrid, Neighbour, NeighbourIndex};
 
@@ -29,8 +30,12 @@ use crate::spatial::{HashGrid, Neighbour, NeighbourIndex};
 #[derive(Default)]
 struct Buffers {
     found: Vec<Neighbour>,
-    /// `(dist_sq, id, index)` of the candidates.
-    near: Vec<(f32, u32, u32)>,
+    /// `(dist_sq, index)` of the candidates within reach, written eight lanes at a time: only
+    /// the first `count` entries of a scan are hits, the rest is room.
+    hits: Vec<(f32, u32)>,
+    /// The nearest candidates as `(dist_sq bits << 32 | id, index)`, ascending: the key orders
+    /// by distance, then id, as an integer.
+    near: Vec<(u64, u32)>,
     lines: Vec<Line>,
     projected: Vec<Line>,
     walls: Vec<u32>,
@@ -114,6 +119,12 @@ pub(crate) fn run(
     scratch.near.resize(n, false);
     let chunk = |base: usize, lx: &mut [f32], ly: &mut [f32], near: &mut [bool]| {
         BUFFERS.with_borrow_mut(|b| {
+            // Room for every agent as a candidate: a warm step allocates nothing however
+            // crowded a neighbourhood becomes.
+            if b.hits.len() < n + 8 {
+                b.hits.resize(n + 8, (0.0, 0));
+            }
+            b.near.reserve(n.saturating_sub(b.near.len()));
             for k in 0..lx.len() {
                 let i = base + k;
                 let g = a.group[i] as usize;
@@ -139,74 +150,52 @@ pub(crate) fn run(
     }
 }
 
-/// Keeps `near` the `k` smallest `(dist_sq, id, index)` offered so far, in ascending order.
-#[inline]
-fn offer(near: &mut Vec<(f32, u32, u32)>, k: usize, c: (f32, u32, u32)) {
-    let before = |x: &(f32, u32, u32), y: &(f32, u32, u32)| (x.0, x.1) < (y.0, y.1);
-    if near.len() == k {
-        match near.last() {
-            Some(last) if before(&c, last) => {
-                near.pop();
-            }
-            _ => return,
-        }
-    }
-    let mut at = near.len();
-    while at > 0 && before(&c, &near[at - 1]) {
-        at -= 1;
-    }
-    near.insert(at, c);
-}
-
-/// Offers the candidates of one run `(xs, ys, ids)` within `sqrt(r_sq)` of `pos` (agent `i`
-/// left out) to `near`, eight at a time: the distances in lanes, then the hits. `xs` and `ys`
-/// may run past `ids` (the hashed grid's padding): then every block reads eight lanes and
-/// masks off those past the run.
+/// Writes the candidates of one run `(xs, ys, ids)` within `sqrt(r_sq)` of `pos` (agent `i`
+/// left out) to `hits[count..]` as `(dist_sq, index)`, eight at a time: the distances in lanes,
+/// then every lane written and the count advanced by the hits only, without a branch per
+/// candidate. `xs` and `ys` may run past `ids` (the hashed grid's padding): then every block
+/// reads eight lanes.
 #[inline(always)]
 fn scan(
     (xs, ys, ids): (&[f32], &[f32], &[u32]),
     pos: Vec2,
     r_sq: f32,
     i: usize,
-    k: usize,
-    agent_ids: &[crate::agents::AgentId],
-    near: &mut Vec<(f32, u32, u32)>,
+    hits: &mut Vec<(f32, u32)>,
+    count: &mut usize,
 ) {
     let mut s = 0;
     while s < ids.len() {
         let len = (ids.len() - s).min(8);
-        let mut hits = 0u32;
+        if hits.len() < *count + 8 {
+            hits.resize((*count + 8).max(2 * hits.len()), (0.0, 0));
+        }
         let mut d = [0.0f32; 8];
         if let (Some(x8), Some(y8)) = (xs.get(s..s + 8), ys.get(s..s + 8)) {
             for l in 0..8 {
                 let (dx, dy) = (x8[l] - pos.x, y8[l] - pos.y);
                 d[l] = dx * dx + dy * dy;
-                hits |= u32::from(d[l] <= r_sq) << l;
             }
-            hits &= (1u32 << len) - 1;
         } else {
             for l in 0..len {
                 let (dx, dy) = (xs[s + l] - pos.x, ys[s + l] - pos.y);
                 d[l] = dx * dx + dy * dy;
-                hits |= u32::from(d[l] <= r_sq) << l;
             }
         }
-        while hits != 0 {
-            let l = hits.trailing_zeros() as usize;
-            hits &= hits - 1;
-            let j = ids[s + l];
-            if j as usize != i {
-                offer(near, k, (d[l], agent_ids[j as usize].0, j));
-            }
+        let out = &mut hits[*count..*count + 8];
+        let mut n = 0;
+        for (l, &j) in ids[s..s + len].iter().enumerate() {
+            out[n] = (d[l], j);
+            n += usize::from(d[l] <= r_sq && j as usize != i);
         }
+        *count += n;
         s += len;
     }
 }
 
-/// The `k` nearest agents within `r` of agent `i` at `pos` (itself left out) as
-/// `(dist_sq, id, index)`, sorted by `(dist_sq, id)`. Compiled for AVX2 too, where [`scan`]
-/// reads eight candidates in one vector (the same arithmetic, so the same bits).
-#[multiversion::multiversion(targets("x86_64+avx2+fma"))]
+/// The `k` nearest agents within `r` of agent `i` at `pos` (itself left out) in `b.near`,
+/// sorted by `(dist_sq, id)`.
+#[inline(always)]
 fn candidates(
     view: &SteerView,
     ctx: &Context,
@@ -217,32 +206,56 @@ fn candidates(
     b: &mut Buffers,
 ) {
     let a = view.agents;
-    b.near.clear();
-    b.near.reserve(k);
     let r_sq = r * r;
-    let near = &mut b.near;
+    let mut count = 0;
     match ctx.source {
         Source::Hash(hash) => {
             let (sx, sy, order) = (hash.sorted_x(), hash.sorted_y(), hash.order());
-            hash.for_each_run(pos, r, |run| {
+            for run in hash.runs(pos, r).iter() {
                 let run = (&sx[run.start..], &sy[run.start..], &order[run]);
-                scan(run, pos, r_sq, i, k, &a.ids, near);
-            });
+                scan(run, pos, r_sq, i, &mut b.hits, &mut count);
+            }
         }
         Source::Index => {
             view.index.neighbours_at(pos, r, &mut b.found);
             for nb in b.found.iter().filter(|nb| nb.index as usize != i) {
-                offer(
-                    &mut b.near,
-                    k,
-                    (nb.dist_sq, a.ids[nb.index as usize].0, nb.index),
-                );
+                b.hits[count] = (nb.dist_sq, nb.index);
+                count += 1;
             }
         }
+    }
+    b.near.clear();
+    b.near.extend(b.hits[..count].iter().map(|&(d, j)| {
+        let key = (u64::from(d.to_bits()) << 32) | u64::from(a.ids[j as usize].0);
+        (key, j)
+    }));
+    // Keys are distinct (ids are), so the nearest `k` and their order are unique.
+    if b.near.len() > k {
+        b.near.select_nth_unstable(k - 1);
+        b.near.truncate(k);
+    }
+    insertion_sort(&mut b.near);
+}
+
+/// Sorts a handful of distinct keys in place (the library sort's call and set-up cost more than
+/// the sorting at ten entries).
+#[inline(always)]
+fn insertion_sort(v: &mut [(u64, u32)]) {
+    for a in 1..v.len() {
+        let x = v[a];
+        let mut at = a;
+        while at > 0 && v[at - 1].0 > x.0 {
+            v[at] = v[at - 1];
+            at -= 1;
+        }
+        v[at] = x;
     }
 }
 
 /// One agent's filtered request, and whether it may touch another agent after the move.
+/// Compiled for AVX2 too, where the candidate scan and the agent lines run in vectors (the
+/// same arithmetic, so the same bits).
+#[multiversion::multiversion(targets("x86_64+avx2+fma"))]
 fn filter(
     view: &SteerView,
     ctx: &Context,
@@ -329,36 +342,51 @@ fn filter(
     // neighbours out of sight could be that close when the neighbourhood is tiny).
     let reach = |other_r: f32| (max_speed + ctx.v_max) * dt + 1.25 * (radius + other_r);
     let mut close = r < reach(ctx.r_max);
-    if let Some(&(d_sq, _, j)) = b.near.first() {
+    if let Some(&(key, j)) = b.near.first() {
+        let d_sq = f32::from_bits((key >> 32) as u32);
         let limit = reach(a.radius[j as usize]);
         close |= d_sq < limit * limit;
     }
-    for &(_, other_id, j) in &b.near {
-        let j = j as usize;
-        let rel = view.bounds.offset(pos, a.position(j));
-        let other_vel = a.velocity(j);
-        let share = match view.plans[a.group[j] as usize].orca {
-            Some(o) => {
-                let sum = orca.responsibility + o.responsibility;
-                if sum > 0.0 {
-                    orca.responsibility / sum
-                } else {
-                    0.5
+    let own_share = {
+        let sum = orca.responsibility + orca.responsibility;
+        if sum > 0.0 {
+            orca.responsibility / sum
+        } else {
+            0.5
+        }
+    };
+    for block in b.near.chunks(LANES) {
+        let mut lanes = LineBlock::default();
+        for (k, &(key, j)) in block.iter().enumerate() {
+            let j = j as usize;
+            let rel = view.bounds.offset(pos, a.position(j));
+            let rel_vel = vel - a.velocity(j);
+            let gj = a.group[j] as usize;
+            let share = if gj == g {
+                own_share
+            } else {
+                match view.plans[gj].orca {
+                    Some(o) => {
+                        let sum = orca.responsibility + o.responsibility;
+                        if sum > 0.0 {
+                            orca.responsibility / sum
+                        } else {
+                            0.5
+                        }
+                    }
+                    None => 1.0,
                 }
-            }
-            None => 1.0,
-        };
-        let tie = if id < other_id { 1.0 } else { -1.0 };
-        b.lines.push(agent_line(
-            vel,
-            rel,
-            vel - other_vel,
-            radius + a.radius[j],
-            inv_tau,
-            inv_dt,
-            share,
-            tie,
-        ));
+            };
+            lanes.rel_x[k] = rel.x;
+            lanes.rel_y[k] = rel.y;
+            lanes.rel_vx[k] = rel_vel.x;
+            lanes.rel_vy[k] = rel_vel.y;
+            lanes.radius[k] = radius + a.radius[j];
+            lanes.share[k] = share;
+            lanes.tie[k] = if id < key as u32 { 1.0 } else { -1.0 };
+        }
+        let lines = lanes.lines(vel, inv_tau, inv_dt);
+        b.lines.extend_from_slice(&lines[..block.len()]);
     }
 
     let chosen = solve(&b.lines, hard, max_speed, pref, &mut b.projected);
