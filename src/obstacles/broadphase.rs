@@ -1,4 +1,11 @@
-//! A static uniform grid over obstacles, so that an agent only looks at the obstacles near it.
+//! A static uniform grid over obstacles, so that an agent only looks at the obstacles near it,
+//! and a finer grid of clearances, so that an agent in open space does not look at all.
+//!
+//! Invariants: a query returns every obstacle within its radius (possibly more, never fewer);
+//! a clearance is a lower bound on the distance from any point of its cell (or, for the edge
+//! cells, of the region that clamps to it) to the nearest obstacle.
+
+use std::sync::OnceLock;
 
 use glam::Vec2;
 
@@ -16,6 +23,21 @@ pub struct ObstacleGrid {
     starts: Vec<u32>,
     /// Ids, circles as `id`, walls as `id | WALL`.
     items: Vec<u32>,
+    /// Built on the first query after a rebuild (obstacles are often added one at a time).
+    clearance: OnceLock<Clearance>,
+    /// What the clearance is built from.
+    shapes: Shapes,
+    /// The size of the obstacles' bounding box.
+    extent: Vec2,
+}
+
+/// The obstacles' outlines as the clearance rasterises them.
+#[derive(Clone, Debug, Default)]
+struct Shapes {
+    /// Bounding boxes of the circles, `(lo, hi)`.
+    boxes: Vec<(Vec2, Vec2)>,
+    /// The walls' end points.
+    segments: Vec<(Vec2, Vec2)>,
 }
 
 const WALL: u32 = 1 << 31;
@@ -47,6 +69,7 @@ impl ObstacleGrid {
         let min_cell = (extent.x * extent.y / (4.0 * count as f32).max(1.0)).sqrt();
         let cell = (2.0 * mean).max(min_cell).max(1e-3);
         self.origin = lo;
+        self.extent = extent;
         self.cell = cell;
         self.cols = ((extent.x / cell).ceil() as usize).clamp(1, 4096);
         self.rows = ((extent.y / cell).ceil() as usize).clamp(1, 4096);
@@ -70,21 +93,34 @@ impl ObstacleGrid {
             self.items.extend_from_slice(l);
             self.starts.push(self.items.len() as u32);
         }
+        self.shapes.boxes.clear();
+        self.shapes.boxes.extend(
+            circles
+                .iter()
+                .map(|c| (c.center - c.radius, c.center + c.radius)),
+        );
+        self.shapes.segments.clear();
+        self.shapes
+            .segments
+            .extend(walls.iter().map(|w| (w.a, w.b)));
+        self.clearance = OnceLock::new();
+    }
+
+    /// Whether no obstacle lies within `r` of `p`, by the clearance grid alone (`false` when it
+    /// cannot tell).
+    #[inline]
+    #[must_use]
+    pub fn clear(&self, p: Vec2, r: f32) -> bool {
+        !self.items.is_empty()
+            && self
+                .clearance
+                .get_or_init(|| Clearance::build(self.origin, self.extent, &self.shapes))
+                .at(p)
+                > r
     }
 
     fn cell_of(&self, p: Vec2) -> (usize, usize) {
-        let f = (p - self.origin) / self.cell;
-        let cx = if f.x > 0.0 {
-            (f.x as usize).min(self.cols - 1)
-        } else {
-            0
-        };
-        let cy = if f.y > 0.0 {
-            (f.y as usize).min(self.rows - 1)
-        } else {
-            0
-        };
-        (cx, cy)
+        clamped_cell(p, self.origin, self.cell, self.cols, self.rows)
     }
 
     fn for_cells(&self, lo: Vec2, hi: Vec2, mut f: impl FnMut(usize)) {
@@ -119,7 +155,7 @@ impl ObstacleGrid {
     /// Calls `circle(id)` / `wall(id)` for every obstacle that may lie within `r` of `p` (an id
     /// may come more than once).
     pub fn visit(&self, p: Vec2, r: f32, mut circle: impl FnMut(u32), mut wall: impl FnMut(u32)) {
-        if self.items.is_empty() {
+        if self.items.is_empty() || self.clear(p, r) {
             return;
         }
         self.for_cells(p - r, p + r, |k| {
@@ -132,6 +168,154 @@ impl ObstacleGrid {
             }
         });
     }
+}
+
+/// Lower bounds on the distance to the nearest obstacle, per cell of a grid finer than the
+/// broad phase's over the same box: the Chebyshev distance `k` in cells from a cell to the
+/// nearest cell an obstacle touches bounds the distance from below by `(k - 1)` cells.
+#[derive(Clone, Debug, Default)]
+struct Clearance {
+    origin: Vec2,
+    cell: f32,
+    cols: usize,
+    rows: usize,
+    /// Chebyshev distances in cells, saturating.
+    steps: Vec<u16>,
+}
+
+impl Clearance {
+    /// About this many cells (at least), and this many per obstacle.
+    const MIN_CELLS: f32 = 65_536.0;
+    const CELLS_PER_OBSTACLE: f32 = 256.0;
+    const MAX_CELLS: f32 = 1_048_576.0;
+    /// At most this many cells along each side.
+    const MAX_SIDE: f32 = 4_096.0;
+
+    fn build(origin: Vec2, extent: Vec2, shapes: &Shapes) -> Self {
+        let count = (shapes.boxes.len() + shapes.segments.len()) as f32;
+        let budget = (count * Self::CELLS_PER_OBSTACLE).clamp(Self::MIN_CELLS, Self::MAX_CELLS);
+        let cell = (extent.x * extent.y / budget)
+            .sqrt()
+            .max(extent.x / Self::MAX_SIDE)
+            .max(extent.y / Self::MAX_SIDE)
+            .max(1e-6);
+        // `cols * cell` covers the extent, so no cell but the edges' is stretched by clamping.
+        let cols = ((extent.x / cell).ceil() as usize + 1).max(1);
+        let rows = ((extent.y / cell).ceil() as usize + 1).max(1);
+        let mut c = Self {
+            origin,
+            cell,
+            cols,
+            rows,
+            steps: vec![u16::MAX; cols * rows],
+        };
+        // Touched cells, widened by a hundredth of a cell against rounding.
+        let pad = Vec2::splat(0.01 * cell);
+        for &(lo, hi) in &shapes.boxes {
+            c.mark(lo - pad, hi + pad);
+        }
+        for &(a, b) in &shapes.segments {
+            c.mark_segment(a, b, pad.x);
+        }
+        c.chebyshev();
+        c
+    }
+
+    fn cell_of(&self, p: Vec2) -> (usize, usize) {
+        clamped_cell(p, self.origin, self.cell, self.cols, self.rows)
+    }
+
+    /// Marks every cell of the box `lo..hi` as touched.
+    fn mark(&mut self, lo: Vec2, hi: Vec2) {
+        let (c0, r0) = self.cell_of(lo);
+        let (c1, r1) = self.cell_of(hi);
+        for r in r0..=r1 {
+            self.steps[r * self.cols + c0..=r * self.cols + c1].fill(0);
+        }
+    }
+
+    /// Marks the cells the segment `a..b` passes through: per row of cells, the box of the part
+    /// of the segment inside the row, widened by `pad`.
+    fn mark_segment(&mut self, a: Vec2, b: Vec2, pad: f32) {
+        let (lo, hi) = (a.min(b), a.max(b));
+        let (_, r0) = self.cell_of(lo - pad);
+        let (_, r1) = self.cell_of(hi + pad);
+        let d = b - a;
+        for r in r0..=r1 {
+            let y0 = (self.origin.y + r as f32 * self.cell - pad).max(lo.y);
+            let y1 = (self.origin.y + (r + 1) as f32 * self.cell + pad).min(hi.y);
+            let (x0, x1) = if d.y.abs() <= 1e-6 * d.x.abs() || y0 > y1 {
+                (lo.x, hi.x)
+            } else {
+                let at = |y: f32| a.x + (y - a.y) * (d.x / d.y);
+                let (u, v) = (at(y0), at(y1));
+                (u.min(v).max(lo.x), u.max(v).min(hi.x))
+            };
+            let (c0, _) = self.cell_of(Vec2::new(x0 - pad, 0.0));
+            let (c1, _) = self.cell_of(Vec2::new(x1 + pad, 0.0));
+            self.steps[r * self.cols + c0..=r * self.cols + c1].fill(0);
+        }
+    }
+
+    /// Turns the marks into Chebyshev distances: a forward and a backward pass over the
+    /// 8-neighbourhood.
+    fn chebyshev(&mut self) {
+        let (cols, rows) = (self.cols, self.rows);
+        let s = &mut self.steps;
+        for r in 0..rows {
+            for c in 0..cols {
+                let mut best = s[r * cols + c];
+                if c > 0 {
+                    best = best.min(s[r * cols + c - 1].saturating_add(1));
+                }
+                if r > 0 {
+                    for cc in c.saturating_sub(1)..(c + 2).min(cols) {
+                        best = best.min(s[(r - 1) * cols + cc].saturating_add(1));
+                    }
+                }
+                s[r * cols + c] = best;
+            }
+        }
+        for r in (0..rows).rev() {
+            for c in (0..cols).rev() {
+                let mut best = s[r * cols + c];
+                if c + 1 < cols {
+                    best = best.min(s[r * cols + c + 1].saturating_add(1));
+                }
+                if r + 1 < rows {
+                    for cc in c.saturating_sub(1)..(c + 2).min(cols) {
+                        best = best.min(s[(r + 1) * cols + cc].saturating_add(1));
+                    }
+                }
+                s[r * cols + c] = best;
+            }
+        }
+    }
+
+    /// A lower bound on the distance from `p` to the nearest obstacle (a hundredth of a cell
+    /// less, against rounding; negative next to an obstacle).
+    #[inline]
+    fn at(&self, p: Vec2) -> f32 {
+        let (c, r) = self.cell_of(p);
+        (f32::from(self.steps[r * self.cols + c]) - 1.01) * self.cell
+    }
+}
+
+/// The cell of `p` in a grid of `cols` x `rows` square cells of side `cell` from `origin`,
+/// clamped to the grid (a point outside it, or NaN, belongs to the nearest edge cell).
+fn clamped_cell(p: Vec2, origin: Vec2, cell: f32, cols: usize, rows: usize) -> (usize, usize) {
+    let f = (p - origin) / cell;
+    let cx = if f.x > 0.0 {
+        (f.x as usize).min(cols - 1)
+    } else {
+        0
+    };
+    let cy = if f.y > 0.0 {
+        (f.y as usize).min(rows - 1)
+    } else {
+        0
+    };
+    (cx, cy)
 }
 
 #[cfg(test)]
@@ -159,6 +343,59 @@ mod tests {
                 v.dedup();
             }
             assert_eq!((&c, &w), (&want_c, &want_w), "at {q} within {r}");
+        }
+    }
+
+    /// The clearance never claims open space where an obstacle lies within the radius (walls at
+    /// every slope, long thin worlds, points outside the box), and does find open space.
+    #[test]
+    fn clearance_is_a_lower_bound_and_finds_open_space() {
+        let mut rng = AgentRng::new(5, 0, 0, 0);
+        for (case, size) in [Vec2::new(60.0, 40.0), Vec2::new(1000.0, 10.0)]
+            .into_iter()
+            .enumerate()
+        {
+            let mut p = || Vec2::new(size.x * rng.unit(), size.y * rng.unit());
+            let circles: Vec<Circle> = (0..6).map(|_| Circle::new(p(), 0.7)).collect();
+            let mut walls: Vec<Wall> = (0..10)
+                .map(|k| {
+                    let a = p();
+                    let b = match k % 3 {
+                        0 => Vec2::new(a.x + 5.0, a.y),
+                        1 => Vec2::new(a.x, a.y - 3.0),
+                        _ => p(),
+                    };
+                    Wall { a, b }
+                })
+                .collect();
+            walls.push(Wall {
+                a: Vec2::ZERO,
+                b: Vec2::new(size.x, 0.0),
+            });
+            let mut grid = ObstacleGrid::default();
+            grid.rebuild(&circles, &walls);
+            let (mut open, mut queries) = (0, 0);
+            for k in 0..20_000 {
+                let q = p() * 1.1 - size * 0.05;
+                let r = [0.0, 0.01, 0.5, 2.0][k % 4];
+                let nearest = walls
+                    .iter()
+                    .map(|w| w.closest_point(q).distance(q))
+                    .chain(circles.iter().map(|c| c.center.distance(q) - c.radius))
+                    .fold(f32::INFINITY, f32::min);
+                queries += 1;
+                if grid.clear(q, r) {
+                    open += 1;
+                    assert!(
+                        nearest > r,
+                        "case {case}: {q} within {r}: nearest at {nearest}"
+                    );
+                }
+            }
+            assert!(
+                open > queries / 3,
+                "case {case}: only {open} of {queries} open"
+            );
         }
     }
 }

@@ -15,6 +15,7 @@
 //! - [`neighbours`]: the fused neighbour traversal (scalar reference and per-agent grid kernel);
 //! - [`cells`]: flocking evaluated in cell batches by a SIMD kernel;
 //! - [`pass`]: the steering pass that runs each agent by its plan into SoA outputs;
+//! - [`pack`]: left-packing the candidates within a radius, eight lanes at a time;
 //! - [`ped`]: the pedestrian models, which replace the requests of pedestrian groups by the
 //!   social force model's accelerations or the collision-free speed model's velocities;
 //! - [`orca`]: the ORCA filter, which replaces the requests of ORCA groups by collision-free
@@ -28,6 +29,7 @@ pub(crate) mod cells;
 pub(crate) mod eval;
 pub(crate) mod neighbours;
 pub(crate) mod orca;
+pub(crate) mod pack;
 pub(crate) mod pass;
 pub(crate) mod ped;
 pub(crate) mod plan;

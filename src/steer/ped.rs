@@ -25,6 +25,9 @@ use glam::Vec2;
 use multiversion::multiversion;
 use rayon::prelude::*;
 
+#[cfg(target_arch = "x86_64")]
+use super::pack::pack_avx2;
+use super::pack::{Block, Packed, pack_scalar};
 use super::pass::{STEER_CHUNK, SteerOut};
 use super::view::SteerView;
 use crate::ped::cfsm::{BLOCKED_SPACING, SIDESTEP_WALL_MARGIN};
@@ -78,8 +81,12 @@ pub(crate) fn run(view: &SteerView, out: &mut SteerOut, parallel: bool) {
         SpatialIndex::Grid(g) if !view.bounds.is_torus() && g.len() == n => Some(g),
         _ => None,
     };
+    #[cfg(target_arch = "x86_64")]
+    let avx2 = std::arch::is_x86_feature_detected!("avx2");
+    #[cfg(not(target_arch = "x86_64"))]
+    let avx2 = false;
     let chunk = |base: usize, lx: &mut [f32], ly: &mut [f32]| {
-        BUFFERS.with_borrow_mut(|b| requests(view, grid, base, lx, ly, b));
+        BUFFERS.with_borrow_mut(|b| requests(view, grid, avx2, base, lx, ly, b));
     };
     let (lx, ly) = (&mut out.lin_x[..n], &mut out.lin_y[..n]);
     if parallel {
@@ -97,6 +104,7 @@ pub(crate) fn run(view: &SteerView, out: &mut SteerOut, parallel: bool) {
 fn requests(
     view: &SteerView,
     grid: Option<&GridIndex>,
+    avx2: bool,
     base: usize,
     lx: &mut [f32],
     ly: &mut [f32],
@@ -106,7 +114,7 @@ fn requests(
         let i = base + k;
         let g = view.agents.group[i] as usize;
         if let Some(ped) = &view.plans[g].pedestrian {
-            let r = agent(view, grid, ped, i, Vec2::new(lx[k], ly[k]), b);
+            let r = agent(view, grid, avx2, ped, i, Vec2::new(lx[k], ly[k]), b);
             lx[k] = r.x;
             ly[k] = r.y;
         }
@@ -170,9 +178,11 @@ fn at_least<T: Copy + Default>(v: &mut Vec<T>, n: usize) {
 /// `ry`, `js`), padded to a whole number of blocks with lanes of `i` itself; returns their count
 /// and the padded length.
 #[inline(always)]
+#[allow(clippy::too_many_arguments)]
 fn gather(
     view: &SteerView,
     grid: Option<&GridIndex>,
+    avx2: bool,
     i: usize,
     pos: Vec2,
     r: f32,
@@ -191,21 +201,12 @@ fn gather(
             let (rx, ry, js) = (&mut b.rx[..], &mut b.ry[..], &mut b.js[..]);
             let order = grid.order();
             let r_sq = r * r;
-            // Writes the hits of a block (offsets `dx`, `dy`) at `count`, in order.
-            let mut keep = |mut hits: u32, dx: &[f32; LANES], dy: &[f32; LANES], at: usize| {
-                while hits != 0 {
-                    let l = hits.trailing_zeros() as usize;
-                    hits &= hits - 1;
-                    let j = order[at + l];
-                    (rx[count], ry[count], js[count]) = (dx[l], dy[l], j);
-                    count += usize::from(j as usize != i);
-                }
-            };
             for run in &b.runs {
                 let len = run.len();
                 match view.sorted {
                     // The kernels' copies are padded with a block of zeros, so every block of
-                    // a run is read whole, in lanes, and its tail masked off.
+                    // a run is read whole, in lanes, its tail masked off, and the lanes within
+                    // the cut-off packed without a branch per lane (`steer::pack`).
                     Some(s) => {
                         let end = run.start + len.div_ceil(LANES) * LANES;
                         let blocks = s.x[run.start..end]
@@ -214,21 +215,53 @@ fn gather(
                         for (c, (xs, ys)) in blocks.enumerate() {
                             let xs: &[f32; LANES] = xs.try_into().expect("a block");
                             let ys: &[f32; LANES] = ys.try_into().expect("a block");
-                            let left = (len - c * LANES) as f32;
-                            let (mut dx, mut dy) = ([0.0f32; LANES], [0.0f32; LANES]);
-                            let mut hits = [0u32; LANES];
-                            for l in 0..LANES {
-                                dx[l] = xs[l] - pos.x;
-                                dy[l] = ys[l] - pos.y;
-                                let near =
-                                    (dx[l] * dx[l] + dy[l] * dy[l] <= r_sq) & ((l as f32) < left);
-                                hits[l] = if near { 1 << l } else { 0 };
+                            let at = run.start + c * LANES;
+                            // The order past its end (a run's last block) reads as `i`,
+                            // which is never kept.
+                            let mut tail = [i as u32; LANES];
+                            let whole = order.get(at..at + LANES).and_then(|o| o.try_into().ok());
+                            let ids = whole.unwrap_or_else(|| {
+                                tail[..order.len() - at].copy_from_slice(&order[at..]);
+                                &tail
+                            });
+                            let block = Block {
+                                xs,
+                                ys,
+                                js: ids,
+                                left: len - c * LANES,
+                            };
+                            let mut out = Packed {
+                                rx,
+                                ry,
+                                js,
+                                p: (pos.x, pos.y),
+                                r_sq,
+                                me: i as u32,
+                            };
+                            #[cfg(target_arch = "x86_64")]
+                            if avx2 {
+                                // SAFETY: `avx2` is the CPU's; the buffers have `LANES` slots
+                                // past every candidate (`pack_avx2` asserts it).
+                                #[expect(unsafe_code, reason = "see `steer::pack`")]
+                                let packed = unsafe { pack_avx2(&block, &mut out, count) };
+                                count = packed;
+                                continue;
                             }
-                            let hits = hits.iter().fold(0, |m, h| m | h);
-                            keep(hits, &dx, &dy, run.start + c * LANES);
+                            count = pack_scalar(&block, &mut out, count);
                         }
                     }
                     None => {
+                        // Writes the hits of a block (offsets `dx`, `dy`) at `count`, in order.
+                        let mut keep =
+                            |mut hits: u32, dx: &[f32; LANES], dy: &[f32; LANES], at: usize| {
+                                while hits != 0 {
+                                    let l = hits.trailing_zeros() as usize;
+                                    hits &= hits - 1;
+                                    let j = order[at + l];
+                                    (rx[count], ry[count], js[count]) = (dx[l], dy[l], j);
+                                    count += usize::from(j as usize != i);
+                                }
+                            };
                         let (sx, sy) = (grid.sorted_x(), grid.sorted_y());
                         for k in run.clone().step_by(LANES) {
                             let n = LANES.min(run.end - k);
@@ -371,9 +404,11 @@ const SIDESTEP_TURNS: [(f32, f32); 2] = [
 
 /// Agent `i`'s request under its pedestrian model, given the behaviours' request.
 #[inline(always)]
+#[allow(clippy::too_many_arguments)]
 fn agent(
     view: &SteerView,
     grid: Option<&GridIndex>,
+    avx2: bool,
     ped: &Pedestrian,
     i: usize,
     request: Vec2,
@@ -411,7 +446,7 @@ fn agent(
     } else {
         (e0, v0)
     };
-    let (count, n) = gather(view, grid, i, pos, ped.cutoff(), b);
+    let (count, n) = gather(view, grid, avx2, i, pos, ped.cutoff(), b);
 
     let chosen_velocity = match ped.model {
         Model::SocialForce => {
