@@ -150,10 +150,10 @@ fn choices_change_only_for_an_exit_quicker_by_the_switching_gain() {
     assert!(high < low, "{high} switches with gain 0.6, {low} with 0.1");
 }
 
-#[test]
-fn allocated_escape_routes_are_kept() {
-    // Two groups, each allocated to the door at the other end of the room: each pedestrian
-    // crosses the room and its crowd and leaves through its own door.
+/// Two groups, each allocated to the door at the other end of the room, with the scenario's
+/// seed replaced by `seed` when given: `Err` names what went wrong when anybody stays inside or
+/// leaves through the other door.
+fn allocated_escape_routes(seed: Option<u64>) -> Result<(), String> {
     let text = two_doors(
         "euclidean",
         40,
@@ -169,7 +169,11 @@ radius = 0.2
 steering = { behaviours = [{ kind = "follow_field", channel = 0 }] }
 pedestrian = {}
 "#;
-    let (mut world, dt) = build(&text);
+    let mut s = Scenario::from_toml(&text, "t.toml").unwrap();
+    if let Some(seed) = seed {
+        s.seed = seed;
+    }
+    let (mut world, dt) = (s.build().unwrap(), s.dt);
     let mut last: HashMap<AgentId, (usize, Vec2)> = HashMap::new();
     for _ in 0..6000 {
         for i in 0..world.len() {
@@ -181,15 +185,38 @@ pedestrian = {}
             break;
         }
     }
-    assert!(world.is_empty(), "{} still inside", world.len());
+    if !world.is_empty() {
+        return Err(format!("{} still inside", world.len()));
+    }
     assert_eq!(last.len(), 80);
     for (id, (group, p)) in last {
         let door = if group == 0 { 14.0..=15.0 } else { 2.0..=3.0 };
-        assert!(
-            door.contains(&p.x) && p.y < 1.5,
-            "{id:?} of group {group} left at {p}"
-        );
+        if !(door.contains(&p.x) && p.y < 1.5) {
+            return Err(format!("{id:?} of group {group} left at {p}"));
+        }
     }
+    Ok(())
+}
+
+#[test]
+fn allocated_escape_routes_are_kept() {
+    // Each pedestrian crosses the room and the other crowd and leaves through its own door.
+    allocated_escape_routes(None).unwrap();
+}
+
+/// The same over ten seeds. Fails today: two pedestrians of opposite streams can lock each
+/// other in a door (docs/VALIDATION.md, "Known weakness").
+#[test]
+#[ignore = "the door lock of opposing streams is open (docs/VALIDATION.md)"]
+fn allocated_escape_routes_are_kept_for_every_seed() {
+    let failed: Vec<String> = (4..14)
+        .filter_map(|seed| {
+            allocated_escape_routes(Some(seed))
+                .err()
+                .map(|e| format!("seed {seed}: {e}"))
+        })
+        .collect();
+    assert!(failed.is_empty(), "{}", failed.join("; "));
 }
 
 #[test]
