@@ -10,8 +10,15 @@
 //! its summed radii, or after `iterations`. The list and the sweep order depend neither on the
 //! thread count nor on the agents' order in memory, so neither does the result.
 //!
+//! The sweeps need not converge in a crowd pressed together from all sides, so [`guard`] runs
+//! last in the step: agents of pairs that still end closer than [`FLOOR`] of their summed radii
+//! (and closer than they started) go back to where they stood at the frame's start, which kept
+//! the bound. By induction no step brings two agents that take part closer than `FLOOR` of
+//! their summed radii, unless they started closer.
+//!
 //! Invariants: only agents whose `moves` flag is set change position; a coincident pair
-//! separates along a direction fixed by the ids; velocities are left alone.
+//! separates along a direction fixed by the ids; the sweeps leave velocities alone, and an
+//! agent the guard sends back has zero velocity.
 
 use glam::Vec2;
 use rayon::prelude::*;
@@ -31,7 +38,22 @@ pub(crate) struct ContactScratch {
     /// Near pairs per search chunk, then all of them in order.
     chunks: Vec<Vec<(u32, u32)>>,
     pairs: Vec<(u32, u32)>,
+    /// The positions [`resolve`] started from (after integration).
+    after_x: Vec<f32>,
+    after_y: Vec<f32>,
+    /// Per agent: sent back to its frame-start position by the guard.
+    back: Vec<bool>,
+    /// The agents the guard's current round sends back.
+    fresh: Vec<u32>,
 }
+
+/// The fraction of `ri + rj` below which [`guard`] takes a pair's moves back.
+pub(crate) const FLOOR: f32 = 0.96;
+/// Agents not flagged `near` stay farther than this many times their summed radii from every
+/// other agent after the move.
+pub(crate) const REACH: f32 = 1.25;
+/// Rounds of [`guard`] after which every agent still moved goes back at once.
+const MAX_ROUNDS: u32 = 64;
 
 /// What the contact pass reads besides positions.
 pub(crate) struct ContactInput<'a> {
@@ -41,7 +63,8 @@ pub(crate) struct ContactInput<'a> {
     /// Whether each agent takes part (its group has contact on).
     pub moves: &'a [bool],
     /// Whether each agent may be near contact after the move (pairs are searched from these;
-    /// every agent that may touch another must have it set).
+    /// every agent that may come closer to another than [`REACH`] times their summed radii
+    /// must have it set).
     pub near: &'a [bool],
     pub iterations: u32,
     /// Overlaps below this fraction of `ri + rj` end the sweeps early.
@@ -61,6 +84,11 @@ pub(crate) fn resolve(
     parallel: bool,
 ) -> u32 {
     let n = xs.len();
+    scratch.after_x.clear();
+    scratch.after_x.extend_from_slice(xs);
+    scratch.after_y.clear();
+    scratch.after_y.extend_from_slice(ys);
+    scratch.pairs.clear();
     if n < 2 || !input.moves.iter().zip(input.near).any(|(&m, &c)| m && c) {
         return 0;
     }
@@ -68,46 +96,9 @@ pub(crate) fn resolve(
     if max_r <= 0.0 {
         return 0;
     }
-    scratch
-        .grid
-        .rebuild(xs, ys, input.bounds, NEAR * 2.0 * max_r);
-    let chunks = n.div_ceil(CHUNK);
-    scratch.chunks.resize_with(chunks, Vec::new);
-    let grid = &scratch.grid;
-    let search = |c: usize, out: &mut Vec<(u32, u32)>| {
-        out.clear();
-        FOUND.with_borrow_mut(|found| {
-            for i in c * CHUNK..((c + 1) * CHUNK).min(n) {
-                if !(input.moves[i] && input.near[i]) {
-                    continue;
-                }
-                let ri = input.radius[i];
-                grid.neighbours_of(i, NEAR * (ri + max_r), found);
-                for nb in found.iter() {
-                    let j = nb.index as usize;
-                    let near = NEAR * (ri + input.radius[j]);
-                    if nb.dist_sq < near * near {
-                        out.push((i.min(j) as u32, i.max(j) as u32));
-                    }
-                }
-            }
-        });
-    };
-    if parallel {
-        scratch
-            .chunks
-            .par_iter_mut()
-            .enumerate()
-            .for_each(|(c, out)| search(c, out));
-    } else {
-        for (c, out) in scratch.chunks.iter_mut().enumerate() {
-            search(c, out);
-        }
-    }
-    scratch.pairs.clear();
-    for c in &scratch.chunks {
-        scratch.pairs.extend_from_slice(c);
-    }
+    list_pairs(input, xs, ys, scratch, parallel, NEAR, |i| {
+        input.moves[i] && input.near[i]
+    });
     // Swept in the order of the pairs' ids, so that the result depends neither on the thread
     // count nor on where agents sit in memory; a pair of two searching agents is found from
     // both.
@@ -160,9 +151,177 @@ pub(crate) fn resolve(
     input.iterations
 }
 
+/// The guard after every other position change of the step. A pair of agents that ends closer
+/// than [`FLOOR`] of its summed radii and closer than it was at the frame's start is not
+/// allowed: of its agents that take part, the one that moved farther this step goes back to
+/// its frame-start position with zero velocity, and the search repeats with it in place (a
+/// pushed crowd goes back agent by agent, each round one rank further) until no such pair is
+/// left; after [`MAX_ROUNDS`] rounds every agent that takes part and still moved goes back at
+/// once. Two agents sent back stand as they stood at the frame's start, so a step never brings
+/// two taking-part agents closer than `FLOOR` unless they started closer. Each round decides
+/// from the positions the round began with, so the result depends neither on the thread count
+/// nor on the order of the pairs. Returns the agents sent back.
+#[allow(clippy::too_many_arguments)]
+pub(crate) fn guard(
+    input: &ContactInput,
+    start: (&[f32], &[f32]),
+    xs: &mut [f32],
+    ys: &mut [f32],
+    vx: &mut [f32],
+    vy: &mut [f32],
+    scratch: &mut ContactScratch,
+    parallel: bool,
+) -> usize {
+    let n = xs.len();
+    let max_r = input.radius.iter().copied().fold(0.0_f32, f32::max);
+    if n < 2 || max_r <= 0.0 || !input.moves.iter().any(|&m| m) {
+        return 0;
+    }
+    let mut back = std::mem::take(&mut scratch.back);
+    back.clear();
+    back.resize(n, false);
+    // The first round's candidates. A pair [`resolve`] did not list was at least `REACH` times
+    // its summed radii apart after integration (farther than `NEAR` when both searched), so it
+    // cannot have come within `FLOOR` when no agent has moved by more than
+    // `(REACH - FLOOR) * r_min` since; then the listed pairs are all there is to check.
+    let r_min = input.radius.iter().copied().fold(f32::INFINITY, f32::min);
+    let slack = 0.5 * (REACH - FLOOR) * 2.0 * r_min;
+    let listed = scratch.after_x.len() == n
+        && (0..n).all(|k| {
+            let after = Vec2::new(scratch.after_x[k], scratch.after_y[k]);
+            input
+                .bounds
+                .offset(after, Vec2::new(xs[k], ys[k]))
+                .length_squared()
+                < slack * slack
+        });
+    if !listed {
+        list_pairs(input, xs, ys, scratch, parallel, FLOOR, |i| input.moves[i]);
+    }
+    let mut sent = 0;
+    for round in 0.. {
+        scratch.fresh.clear();
+        for &(i, j) in &scratch.pairs {
+            let (i, j) = (i as usize, j as usize);
+            let now = input
+                .bounds
+                .offset(Vec2::new(xs[i], ys[i]), Vec2::new(xs[j], ys[j]))
+                .length_squared();
+            let floor = FLOOR * (input.radius[i] + input.radius[j]);
+            let then = input
+                .bounds
+                .offset(
+                    Vec2::new(start.0[i], start.1[i]),
+                    Vec2::new(start.0[j], start.1[j]),
+                )
+                .length_squared();
+            if now >= floor * floor || now >= then {
+                continue;
+            }
+            // The agent that moved farther goes back first (ties by the larger id); the other
+            // only when that is not enough, which the next round finds.
+            let moved = |k: usize| {
+                let from = Vec2::new(start.0[k], start.1[k]);
+                let d = input.bounds.offset(from, Vec2::new(xs[k], ys[k]));
+                (d.length_squared(), input.ids[k])
+            };
+            let (first, second) = if moved(i) > moved(j) { (i, j) } else { (j, i) };
+            let free = |k: usize| input.moves[k] && !back[k];
+            if free(first) {
+                scratch.fresh.push(first as u32);
+            } else if free(second) {
+                scratch.fresh.push(second as u32);
+            }
+        }
+        if scratch.fresh.is_empty() {
+            break;
+        }
+        if round + 1 >= MAX_ROUNDS {
+            scratch.fresh.clear();
+            scratch
+                .fresh
+                .extend((0..n as u32).filter(|&k| input.moves[k as usize] && !back[k as usize]));
+        }
+        for &k in &scratch.fresh {
+            let k = k as usize;
+            if !back[k] {
+                back[k] = true;
+                sent += 1;
+                xs[k] = start.0[k];
+                ys[k] = start.1[k];
+                vx[k] = 0.0;
+                vy[k] = 0.0;
+            }
+        }
+        // Pairs of two agents that stayed were decided this round; a new one has an agent sent
+        // back in it.
+        let back = &back;
+        list_pairs(input, xs, ys, scratch, parallel, FLOOR, |i| back[i]);
+    }
+    scratch.back = back;
+    sent
+}
+
+/// Lists in `scratch.pairs` (unordered) the pairs of agents closer than `factor` times their
+/// summed radii at `xs`, `ys`, searched from the agents where `from` holds (a pair of two of
+/// them is listed twice).
+fn list_pairs(
+    input: &ContactInput,
+    xs: &[f32],
+    ys: &[f32],
+    scratch: &mut ContactScratch,
+    parallel: bool,
+    factor: f32,
+    from: impl Fn(usize) -> bool + Sync,
+) {
+    let n = xs.len();
+    let max_r = input.radius.iter().copied().fold(0.0_f32, f32::max);
+    scratch
+        .grid
+        .rebuild(xs, ys, input.bounds, factor * 2.0 * max_r);
+    let chunks = n.div_ceil(CHUNK);
+    scratch.chunks.resize_with(chunks, Vec::new);
+    let grid = &scratch.grid;
+    let search = |c: usize, out: &mut Vec<(u32, u32)>| {
+        out.clear();
+        FOUND.with_borrow_mut(|found| {
+            for i in c * CHUNK..((c + 1) * CHUNK).min(n) {
+                if !from(i) {
+                    continue;
+                }
+                let ri = input.radius[i];
+                grid.neighbours_of(i, factor * (ri + max_r), found);
+                for nb in found.iter() {
+                    let j = nb.index as usize;
+                    let near = factor * (ri + input.radius[j]);
+                    if nb.dist_sq < near * near {
+                        out.push((i.min(j) as u32, i.max(j) as u32));
+                    }
+                }
+            }
+        });
+    };
+    if parallel {
+        scratch
+            .chunks
+            .par_iter_mut()
+            .enumerate()
+            .for_each(|(c, out)| search(c, out));
+    } else {
+        for (c, out) in scratch.chunks.iter_mut().enumerate() {
+            search(c, out);
+        }
+    }
+    scratch.pairs.clear();
+    for c in &scratch.chunks {
+        scratch.pairs.extend_from_slice(c);
+    }
+}
+
 #[cfg(test)]
 mod tests {
     use super::*;
+    use proptest::prelude::*;
 
     fn min_gap(xs: &[f32], ys: &[f32], r: f32) -> f32 {
         let mut best = f32::MAX;
@@ -214,6 +373,193 @@ mod tests {
         assert_eq!(y1, y2);
         let gap = min_gap(&x1, &y1, 0.5);
         assert!(gap > 0.95, "closest pair at {gap} of the summed radii");
+    }
+
+    /// Every pair of agents, as `(distance / (ri + rj), i, j)`, on `bounds`.
+    fn gaps(bounds: Bounds, xs: &[f32], ys: &[f32], r: &[f32]) -> Vec<(f32, usize, usize)> {
+        let mut out = Vec::new();
+        for i in 0..xs.len() {
+            for j in i + 1..xs.len() {
+                let d = bounds.offset(Vec2::new(xs[i], ys[i]), Vec2::new(xs[j], ys[j]));
+                out.push((d.length() / (r[i] + r[j]), i, j));
+            }
+        }
+        out
+    }
+
+    /// A step's moves on a start that keeps the floor, the sweeps, then the guard: returns the
+    /// positions and velocities after both.
+    #[allow(clippy::type_complexity)]
+    fn guarded_step(
+        input: &ContactInput,
+        start: (&[f32], &[f32]),
+        moves: &[(f32, f32)],
+        parallel: bool,
+    ) -> (Vec<f32>, Vec<f32>, Vec<f32>, Vec<f32>) {
+        let mut xs: Vec<f32> = start.0.iter().zip(moves).map(|(x, m)| x + m.0).collect();
+        let mut ys: Vec<f32> = start.1.iter().zip(moves).map(|(y, m)| y + m.1).collect();
+        let (mut vx, mut vy): (Vec<f32>, Vec<f32>) = moves.iter().copied().unzip();
+        let mut scratch = ContactScratch::default();
+        resolve(input, &mut xs, &mut ys, &mut scratch, parallel);
+        guard(
+            input,
+            start,
+            &mut xs,
+            &mut ys,
+            &mut vx,
+            &mut vy,
+            &mut scratch,
+            parallel,
+        );
+        (xs, ys, vx, vy)
+    }
+
+    #[test]
+    fn a_crowd_pressed_together_from_all_sides_keeps_the_floor_where_the_sweeps_alone_do_not() {
+        // A packed square of 15 x 15 agents touching at the start, each moving a third of a
+        // diameter towards the centre (one sweep cannot spread the press), and a lone agent
+        // walking in open space.
+        let side = 15;
+        let n = side * side + 1;
+        let (mut sx, mut sy, mut mv) = (Vec::new(), Vec::new(), Vec::new());
+        for k in 0..side * side {
+            let p = Vec2::new((k % side) as f32, (k / side) as f32) * 1.02;
+            let to = (Vec2::splat(7.0 * 1.02) - p).normalize_or_zero() * 0.33;
+            sx.push(p.x);
+            sy.push(p.y);
+            mv.push((to.x, to.y));
+        }
+        sx.push(100.0);
+        sy.push(100.0);
+        mv.push((0.3, 0.0));
+        let radius = vec![0.5; n];
+        let ids: Vec<u32> = (0..n as u32).rev().collect();
+        let all = vec![true; n];
+        let input = ContactInput {
+            bounds: Bounds::Open,
+            radius: &radius,
+            ids: &ids,
+            moves: &all,
+            near: &all,
+            iterations: 1,
+            tolerance: 0.03,
+        };
+        let (mut xs, mut ys) = (sx.clone(), sy.clone());
+        for k in 0..n {
+            xs[k] += mv[k].0;
+            ys[k] += mv[k].1;
+        }
+        resolve(
+            &input,
+            &mut xs,
+            &mut ys,
+            &mut ContactScratch::default(),
+            false,
+        );
+        let swept = gaps(Bounds::Open, &xs, &ys, &radius);
+        assert!(
+            swept.iter().any(|g| g.0 < FLOOR),
+            "the sweeps alone kept the floor"
+        );
+
+        let (xs, ys, vx, vy) = guarded_step(&input, (&sx, &sy), &mv, false);
+        let worst = gaps(Bounds::Open, &xs, &ys, &radius)
+            .into_iter()
+            .fold(f32::MAX, |m, g| m.min(g.0));
+        assert!(worst >= FLOOR * (1.0 - 1e-5), "closest pair at {worst}");
+        let sent: Vec<usize> = (0..n)
+            .filter(|&k| (xs[k], ys[k]) == (sx[k], sy[k]))
+            .collect();
+        assert!(!sent.is_empty(), "none sent back");
+        assert_eq!((xs[n - 1], ys[n - 1], vx[n - 1]), (100.3, 100.0, 0.3));
+        for &k in &sent {
+            assert_eq!((vx[k], vy[k]), (0.0, 0.0));
+        }
+        assert_eq!(
+            guarded_step(&input, (&sx, &sy), &mv, true),
+            (xs, ys, vx, vy)
+        );
+    }
+
+    /// An agent's start `(x, y)`, radius and whether it takes part.
+    type Start = (f32, f32, f32, bool);
+
+    fn start_strategy() -> impl Strategy<Value = (Vec<Start>, u32, bool)> {
+        (
+            prop::collection::vec(
+                (
+                    0.0f32..12.0,
+                    0.0f32..12.0,
+                    0.3f32..0.8,
+                    prop::bool::weighted(0.8),
+                ),
+                2..60,
+            ),
+            0u32..4,
+            any::<bool>(),
+        )
+    }
+
+    proptest! {
+        #![proptest_config(ProptestConfig::with_cases(300))]
+
+        /// After any moves from any start (agents of random sizes, some that do not take part
+        /// and stand still, an open plane or a torus), no pair ends closer than `FLOOR` of its
+        /// summed radii unless it started closer, and then no closer than it started.
+        #[test]
+        fn no_pair_ends_closer_than_the_floor_or_its_start(
+            (agents, iterations, torus) in start_strategy(),
+            seed in 0u64..1000,
+        ) {
+            let n = agents.len();
+            let bounds = if torus {
+                Bounds::Torus { size: Vec2::splat(12.0) }
+            } else {
+                Bounds::Open
+            };
+            let sx: Vec<f32> = agents.iter().map(|a| a.0).collect();
+            let sy: Vec<f32> = agents.iter().map(|a| a.1).collect();
+            let radius: Vec<f32> = agents.iter().map(|a| a.2).collect();
+            let takes_part: Vec<bool> = agents.iter().map(|a| a.3).collect();
+            let ids: Vec<u32> = (0..n as u32).collect();
+            let mut rng = crate::rng::AgentRng::new(seed, 0, 0, 0);
+            let mv: Vec<(f32, f32)> = (0..n)
+                .map(|k| {
+                    let step = 0.4 * radius[k];
+                    let (dx, dy) = ((rng.unit() - 0.5) * 2.0 * step, (rng.unit() - 0.5) * 2.0 * step);
+                    if takes_part[k] { (dx, dy) } else { (0.0, 0.0) }
+                })
+                .collect();
+            let input = ContactInput {
+                bounds,
+                radius: &radius,
+                ids: &ids,
+                moves: &takes_part,
+                near: &takes_part,
+                iterations,
+                tolerance: 0.03,
+            };
+            let (mut xs, mut ys, _, _) = guarded_step(&input, (&sx, &sy), &mv, false);
+            if torus {
+                for k in 0..n {
+                    xs[k] = xs[k].rem_euclid(12.0);
+                    ys[k] = ys[k].rem_euclid(12.0);
+                }
+            }
+            let before = gaps(bounds, &sx, &sy, &radius);
+            for (after, then) in gaps(bounds, &xs, &ys, &radius).into_iter().zip(before) {
+                let bound = FLOOR.min(then.0) * (1.0 - 1e-4);
+                prop_assert!(
+                    after.0 >= bound,
+                    "pair {:?} at {} (started at {})", (after.1, after.2), after.0, then.0
+                );
+            }
+            for k in 0..n {
+                if !takes_part[k] {
+                    prop_assert_eq!((xs[k], ys[k]), (sx[k], sy[k]));
+                }
+            }
+        }
     }
 
     #[test]

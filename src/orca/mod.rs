@@ -68,7 +68,9 @@ pub struct Orca {
     pub perturbation: f32,
     /// Hard contact resolution after integration: agents of ORCA groups with it on that overlap
     /// by more than 3% of their summed radii are pushed apart (deterministically, in up to
-    /// `contact_iterations` sweeps). Default: false.
+    /// `contact_iterations` sweeps); where the sweeps leave a pair closer than 0.96 of its
+    /// summed radii, agents go back to their frame-start positions, so that no step brings two
+    /// of them closer than that. Default: false.
     pub contact: bool,
     /// Sweeps of contact resolution per step (1 ..= 64). Default: 8.
     pub contact_iterations: u32,

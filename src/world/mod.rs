@@ -6,7 +6,7 @@
 //! nearest-agent indices); the subsystems' prepare hooks (**fields**, **formations**);
 //! **steer** (the steering layer's pass); **integrate** (the vectorised integrator of
 //! [`crate::movement`]); **bounds** (contact between ORCA agents, torus wrap or wall clamp, obstacle
-//! non-penetration); the fields' constrain hook; arrivals counted and agents in exits removed. No per-agent logic lives here.
+//! non-penetration); the fields' constrain hook; contact's guard; arrivals counted and agents in exits removed. No per-agent logic lives here.
 //!
 //! Determinism: per-agent randomness is keyed by (seed, [`crate::AgentId`], frame), steering has
 //! no cross-agent writes and the integrator is element-wise, so the state after any number of

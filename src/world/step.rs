@@ -128,7 +128,8 @@ impl World {
 
         // integrate (with the frame-start positions the constrain hooks compare against)
         let t = Instant::now();
-        let keep_start = !self.obstacles.is_empty() || self.fields.is_active();
+        let contact = self.contact_on();
+        let keep_start = contact || !self.obstacles.is_empty() || self.fields.is_active();
         if keep_start {
             self.scratch.prev_x.clone_from(&self.agents.pos_x);
             self.scratch.prev_y.clone_from(&self.agents.pos_y);
@@ -155,6 +156,13 @@ impl World {
             exec == Execution::Parallel,
         );
         phases.fields += t.elapsed();
+
+        // contact's guard, after every position change of the step
+        if contact {
+            let t = Instant::now();
+            self.guard_contacts(exec);
+            phases.bounds += t.elapsed();
+        }
 
         self.frame += 1;
         self.time += f64::from(dt);
@@ -262,6 +270,20 @@ impl World {
         }
     }
 
+    /// Whether some ORCA group has hard contact resolution on.
+    fn contact_on(&self) -> bool {
+        self.groups
+            .iter()
+            .any(|g| g.orca.is_some_and(|o| o.contact))
+    }
+
+    /// The last word on contact, after every other position change: pairs that still end
+    /// closer than [`crate::orca::contact::FLOOR`] of their summed radii go back to the
+    /// frame-start positions (the flags of [`World::resolve_contacts`] this step).
+    fn guard_contacts(&mut self, exec: Execution) {
+        self.contact_pass(exec, None);
+    }
+
     /// Hard contact resolution among the agents of ORCA groups with `contact` on.
     fn resolve_contacts(&mut self, exec: Execution) {
         let iterations = self
@@ -272,7 +294,7 @@ impl World {
         let Some(iterations) = iterations else {
             return;
         };
-        let a = &mut self.agents;
+        let a = &self.agents;
         let groups = &self.groups;
         self.scratch.moves.clear();
         self.scratch.moves.extend(
@@ -282,22 +304,37 @@ impl World {
         );
         self.scratch.ids.clear();
         self.scratch.ids.extend(a.ids.iter().map(|id| id.0));
+        self.contact_pass(exec, Some(iterations));
+    }
+
+    /// The contact sweeps (`Some(iterations)`) or the guard (`None`) on this step's flags.
+    fn contact_pass(&mut self, exec: Execution, sweeps: Option<u32>) {
+        let a = &mut self.agents;
         let input = crate::orca::contact::ContactInput {
             bounds: self.bounds,
             radius: &a.radius,
             ids: &self.scratch.ids,
             moves: &self.scratch.moves,
             near: &self.scratch.orca.near,
-            iterations,
+            iterations: sweeps.unwrap_or(0),
             tolerance: 0.03,
         };
-        crate::orca::contact::resolve(
-            &input,
-            &mut a.pos_x,
-            &mut a.pos_y,
-            &mut self.scratch.contact,
-            exec == Execution::Parallel,
-        );
+        let parallel = exec == Execution::Parallel;
+        let contact = &mut self.scratch.contact;
+        if sweeps.is_some() {
+            crate::orca::contact::resolve(&input, &mut a.pos_x, &mut a.pos_y, contact, parallel);
+        } else {
+            crate::orca::contact::guard(
+                &input,
+                (&self.scratch.prev_x, &self.scratch.prev_y),
+                &mut a.pos_x,
+                &mut a.pos_y,
+                &mut a.vel_x,
+                &mut a.vel_y,
+                contact,
+                parallel,
+            );
+        }
     }
 
     /// `(arrived, with_goal)`: agents of groups with an arrival radius, and those of them within
