@@ -1,5 +1,5 @@
 //! The validation suite at its quick size with the default pedestrian parameters: the cases
-//! that pass (RiMEA 1, 4, 5, 6, 7, 12, 15 and the bottleneck's flow at 1.2 and 2 m), and the
+//! that pass (RiMEA 1, 4, 5, 6, 7, 10, 12, 15 and the bottleneck's flow at 1.2 and 2 m), and the
 //! same report on 1 and 2 threads. RiMEA 9 (about 2 minutes even at its quick size) runs with
 //! `throng validate rimea-09`, and RiMEA 11 (whose split between two equal doors stays near one
 //! half whatever the exit choice: docs/VALIDATION.md) with `throng validate rimea-11`.
@@ -45,6 +45,11 @@ fn rimea_06_twenty_pedestrians_go_round_the_corner() {
 #[test]
 fn rimea_07_walked_speeds_follow_the_distribution() {
     passes("rimea-07");
+}
+
+#[test]
+fn rimea_10_everyone_leaves_through_the_exit_allocated_to_them() {
+    passes("rimea-10");
 }
 
 #[test]

@@ -16,6 +16,7 @@ fn list_names_every_case() {
         "rimea-06",
         "rimea-07",
         "rimea-09",
+        "rimea-10",
         "rimea-11",
         "rimea-12",
         "rimea-15",

@@ -39,6 +39,10 @@ pub(super) const SCENARIOS: &[(&str, &str)] = &[
         include_str!("../../scenarios/validation/rimea-09-2-exits.toml"),
     ),
     (
+        "rimea-10-escape-routes",
+        include_str!("../../scenarios/validation/rimea-10-escape-routes.toml"),
+    ),
+    (
         "rimea-11-route-choice",
         include_str!("../../scenarios/validation/rimea-11-route-choice.toml"),
     ),
@@ -117,6 +121,17 @@ pub const CASES: &[Case] = &[
                 (JuPedSim's test) 1.6 to 2.4 times. Quick: 500 pedestrians (the doors still \
                 jam, which is what the ratio is about).",
         run: rimea_09,
+    },
+    Case {
+        id: "rimea-10",
+        title: "RiMEA 10: allocated escape routes",
+        about: "23 pedestrians in twelve rooms on both sides of a corridor 1 m wide (doors \
+                0.9 m) leave by two exits: the occupants of the four rooms on each side nearest \
+                the main exit are allocated to it, the others to the secondary exit at the \
+                corridor's end, even where the other exit is nearer (JuPedSim's geometry of the \
+                guideline's floor). RiMEA: each uses the exit allocated to it; here: everyone \
+                out, and every pedestrian through its own exit and not the other.",
+        run: rimea_10,
     },
     Case {
         id: "rimea-11",
@@ -497,6 +512,42 @@ fn crossed(o: &Outcome, line: usize) -> usize {
     ids.sort_unstable();
     ids.dedup();
     ids.len()
+}
+
+fn rimea_10(opt: &Options, runs: &mut Runs) -> Result<Vec<Check>> {
+    let s = scenario("rimea-10-escape-routes")?;
+    // Agents are numbered in the order of the groups; a group's name ends in its exit (line 0
+    // crosses the main exit, line 1 the secondary).
+    let allocated: Vec<usize> = s
+        .groups
+        .iter()
+        .flat_map(|g| {
+            let line = usize::from(!g.params.name.ends_with("-main"));
+            std::iter::repeat_n(line, g.count)
+        })
+        .collect();
+    let o = Run::new(runs, opt).run(s)?;
+    let mut checks = vec![all_out(&o, allocated.len())];
+    for (line, exit) in [(0, "main"), (1, "secondary")] {
+        let mine: Vec<u32> = (0..allocated.len() as u32)
+            .filter(|&id| allocated[id as usize] == line)
+            .collect();
+        let kept = mine
+            .iter()
+            .filter(|&&id| crossing(&o, line, id).is_some() && crossing(&o, 1 - line, id).is_none())
+            .count();
+        checks.push(Check::within(
+            &format!(
+                "allocated to the {exit} exit and left through it ({kept} of {})",
+                mine.len()
+            ),
+            Some(kept as f64),
+            mine.len() as f64,
+            mine.len() as f64,
+            "",
+        ));
+    }
+    Ok(checks)
 }
 
 fn rimea_11(opt: &Options, runs: &mut Runs) -> Result<Vec<Check>> {
