@@ -466,3 +466,94 @@ fn crossing_streams_pass_through_each_other() {
     );
     assert!(closest >= 0.88, "closest pair at {closest}");
 }
+
+/// An ORCA group with contact on: radius 1, maximum speed 1, arriving at the agents' own targets.
+fn contact_group(model: MovementModel, max_neighbours: u32) -> GroupParams {
+    let g = orca_group(true);
+    GroupParams {
+        model,
+        max_speed: 1.0,
+        max_acceleration: 8.0,
+        orca: g.orca.map(|o| Orca {
+            max_neighbours,
+            pref_speed: None,
+            ..o
+        }),
+        arrival_radius: None,
+        ..g
+    }
+}
+
+/// The smallest `distance / (ri + rj)` over all pairs, by brute force.
+fn closest_of_all(w: &World) -> f32 {
+    let a = w.agents();
+    let mut best = f32::MAX;
+    for i in 0..a.len() {
+        for j in i + 1..a.len() {
+            let d = w.bounds().offset(a.position(i), a.position(j)).length();
+            best = best.min(d / (a.radii()[i] + a.radii()[j]));
+        }
+    }
+    best
+}
+
+/// A world of `inits` in one group, each agent's target `targets[k]`.
+fn contact_world(g: GroupParams, inits: Vec<AgentInit>, targets: &[Vec2]) -> World {
+    let mut w = World::builder().group(g).agents(inits).build().unwrap();
+    for (k, &t) in targets.iter().enumerate() {
+        w.set_target(AgentId(k as u32), t).unwrap();
+    }
+    w
+}
+
+#[test]
+fn contact_keeps_its_floor_beside_smaller_neighbours_and_for_agents_started_too_fast() {
+    // Two agents closing head-on, each with a tiny agent nearer to it than the other: the
+    // nearest neighbour alone does not flag them as near.
+    let tiny = |x: f32| AgentInit {
+        radius: Some(0.01),
+        ..AgentInit::at(Vec2::new(x, 0.0), 0)
+    };
+    for (model, max_neighbours) in [(MovementModel::Dynamic, 10), (MovementModel::Kinematic, 1)] {
+        let inits = vec![
+            AgentInit {
+                velocity: Vec2::new(1.0, 0.0),
+                ..AgentInit::at(Vec2::new(0.0, 0.0), 0)
+            },
+            AgentInit {
+                velocity: Vec2::new(-1.0, 0.0),
+                ..AgentInit::at(Vec2::new(2.0, 0.0), 0)
+            },
+            tiny(-1.6),
+            tiny(3.6),
+        ];
+        let targets = [
+            Vec2::new(10.0, 0.0),
+            Vec2::new(-10.0, 0.0),
+            Vec2::new(-1.6, 0.0),
+            Vec2::new(3.6, 0.0),
+        ];
+        let mut w = contact_world(contact_group(model, max_neighbours), inits, &targets);
+        w.step(0.1).unwrap();
+        let c = closest_of_all(&w);
+        assert!(c >= 0.96 * 0.9999, "{model:?}: closest pair at {c}");
+    }
+    // An agent given a velocity above its maximum speed is truncated to it, so the dynamic
+    // model's first move stays within what the near flags allow for.
+    let inits = vec![
+        AgentInit {
+            velocity: Vec2::new(15.0, 0.0),
+            ..AgentInit::at(Vec2::new(0.0, 0.0), 0)
+        },
+        AgentInit::at(Vec2::new(3.0, 0.0), 0),
+    ];
+    let targets = [Vec2::new(0.0, 0.0), Vec2::new(3.0, 0.0)];
+    let mut w = contact_world(contact_group(MovementModel::Dynamic, 10), inits, &targets);
+    assert!(w.agents().velocity(0).length() <= 1.0 + 1e-6);
+    w.step(0.1).unwrap();
+    let c = closest_of_all(&w);
+    assert!(c >= 0.96 * 0.9999, "closest pair at {c}");
+    // Lowering the maximum speed truncates the velocity too.
+    w.set_max_speed(AgentId(0), 0.1).unwrap();
+    assert!(w.agents().velocity(0).length() <= 0.1 + 1e-6);
+}

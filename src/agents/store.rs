@@ -20,7 +20,8 @@ impl fmt::Display for AgentId {
 pub struct AgentInit {
     /// Position in world units. Default: the origin.
     pub position: Vec2,
-    /// Velocity in units per second. Default: zero.
+    /// Velocity in units per second (truncated to the agent's maximum speed when it is added).
+    /// Default: zero.
     pub velocity: Vec2,
     /// Orientation in radians, counter-clockwise from +x. Default: 0.
     pub orientation: f32,

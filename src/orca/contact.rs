@@ -153,7 +153,8 @@ pub(crate) fn resolve(
 
 /// The guard after every other position change of the step. A pair of agents that ends closer
 /// than [`FLOOR`] of its summed radii and closer than it was at the frame's start is not
-/// allowed: of its agents that take part, the one that moved farther this step goes back to
+/// allowed (unless one of them does not take part and moved this step, which sending the other
+/// back cannot undo): of its agents that take part, the one that moved farther this step goes back to
 /// its frame-start position with zero velocity, and the search repeats with it in place (a
 /// pushed crowd goes back agent by agent, each round one rank further) until no such pair is
 /// left; after [`MAX_ROUNDS`] rounds every agent that takes part and still moved goes back at
@@ -182,19 +183,16 @@ pub(crate) fn guard(
     back.resize(n, false);
     // The first round's candidates. A pair [`resolve`] did not list was at least `REACH` times
     // its summed radii apart after integration (farther than `NEAR` when both searched), so it
-    // cannot have come within `FLOOR` when no agent has moved by more than
-    // `(REACH - FLOOR) * r_min` since; then the listed pairs are all there is to check.
-    let r_min = input.radius.iter().copied().fold(f32::INFINITY, f32::min);
-    let slack = 0.5 * (REACH - FLOOR) * 2.0 * r_min;
+    // cannot have come within `FLOOR` when no agent `k` has moved by `(REACH - FLOOR) * r_k` or
+    // more since; then the listed pairs are all there is to check.
     let listed = scratch.after_x.len() == n
         && (0..n).all(|k| {
             let after = Vec2::new(scratch.after_x[k], scratch.after_y[k]);
-            input
-                .bounds
-                .offset(after, Vec2::new(xs[k], ys[k]))
-                .length_squared()
-                < slack * slack
+            let slack = (REACH - FLOOR) * input.radius[k];
+            let moved = input.bounds.offset(after, Vec2::new(xs[k], ys[k]));
+            moved == Vec2::ZERO || moved.length_squared() < slack * slack
         });
+    scratch.fresh.reserve(n);
     if !listed {
         list_pairs(input, xs, ys, scratch, parallel, FLOOR, |i| input.moves[i]);
     }
@@ -216,6 +214,12 @@ pub(crate) fn guard(
                 )
                 .length_squared();
             if now >= floor * floor || now >= then {
+                continue;
+            }
+            // An agent that does not take part and moved in cannot be undone by sending the
+            // other back: such a pair is not the guard's to keep.
+            let stays = |k: usize| input.moves[k] || (xs[k], ys[k]) == (start.0[k], start.1[k]);
+            if !(stays(i) && stays(j)) {
                 continue;
             }
             // The agent that moved farther goes back first (ties by the larger id); the other

@@ -340,11 +340,12 @@ fn filter(
     // Whether the agent may touch another after the move: its nearest neighbour is closer than
     // the most both can close in one step, with a margin for the contact pass's pushes (and
     // neighbours out of sight could be that close when the neighbourhood is tiny).
-    let reach = |other_r: f32| (max_speed + ctx.v_max) * dt + 1.25 * (radius + other_r);
-    let mut close = r < reach(ctx.r_max);
-    if let Some(&(key, j)) = b.near.first() {
+    // Measured against the largest radius: a farther but larger neighbour may be within reach
+    // when the nearest is not, and every other candidate is at least as far as the nearest.
+    let limit = (max_speed + ctx.v_max) * dt + crate::orca::contact::REACH * (radius + ctx.r_max);
+    let mut close = r < limit;
+    if let Some(&(key, _)) = b.near.first() {
         let d_sq = f32::from_bits((key >> 32) as u32);
-        let limit = reach(a.radius[j as usize]);
         close |= d_sq < limit * limit;
     }
     let own_share = {

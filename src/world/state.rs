@@ -353,7 +353,7 @@ impl World {
     }
 
     /// Replaces a group's profile. Agents without their own maximum speed or radius take the new
-    /// values.
+    /// values (and have their velocities truncated to the new maximum speed).
     ///
     /// # Errors
     /// [`Error::UnknownGroup`], or the variant naming the first bad parameter of `params`.
@@ -366,6 +366,7 @@ impl World {
                 let o = self.agents.overrides[i];
                 if o & crate::agents::store_flags::OVERRIDE_SPEED == 0 {
                     self.agents.max_speed[i] = params.max_speed;
+                    self.clamp_velocity(i);
                 }
                 if o & crate::agents::store_flags::OVERRIDE_RADIUS == 0 {
                     self.agents.radius[i] = params.radius;
@@ -418,8 +419,11 @@ impl World {
             Some(r) => non_negative("radius", r)?,
             None => g.radius,
         };
+        // No agent is faster than its maximum speed, whatever it starts with: the integrator and
+        // the contact guard count on it.
         let init = AgentInit {
             orientation: wrap_orientation(init.orientation),
+            velocity: crate::steering::truncate(init.velocity, max_speed),
             ..init
         };
         // The initial wander angle is random but keyed by the id the agent will get.
@@ -502,7 +506,7 @@ impl World {
         Ok(())
     }
 
-    /// Sets an agent's own maximum speed.
+    /// Sets an agent's own maximum speed (its velocity is truncated to it).
     ///
     /// # Errors
     /// [`Error::UnknownAgent`], [`Error::NotPositive`], [`Error::NonFinite`].
@@ -511,6 +515,15 @@ impl World {
         let i = self.index(id)?;
         self.agents.max_speed[i] = max_speed;
         self.agents.overrides[i] |= crate::agents::store_flags::OVERRIDE_SPEED;
+        self.clamp_velocity(i);
         Ok(())
+    }
+
+    /// Truncates agent `i`'s velocity to its maximum speed.
+    fn clamp_velocity(&mut self, i: usize) {
+        let a = &mut self.agents;
+        let v = crate::steering::truncate(glam::Vec2::new(a.vel_x[i], a.vel_y[i]), a.max_speed[i]);
+        a.vel_x[i] = v.x;
+        a.vel_y[i] = v.y;
     }
 }
