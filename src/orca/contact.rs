@@ -96,7 +96,7 @@ pub(crate) fn resolve(
     if max_r <= 0.0 {
         return 0;
     }
-    list_pairs(input, xs, ys, scratch, parallel, NEAR, |i| {
+    list_pairs(input, xs, ys, scratch, parallel, (NEAR, max_r), |i| {
         input.moves[i] && input.near[i]
     });
     // Swept in the order of the pairs' ids, so that the result depends neither on the thread
@@ -194,7 +194,9 @@ pub(crate) fn guard(
         });
     scratch.fresh.reserve(n);
     if !listed {
-        list_pairs(input, xs, ys, scratch, parallel, FLOOR, |i| input.moves[i]);
+        list_pairs(input, xs, ys, scratch, parallel, (FLOOR, max_r), |i| {
+            input.moves[i]
+        });
     }
     let mut sent = 0;
     for round in 0.. {
@@ -206,6 +208,9 @@ pub(crate) fn guard(
                 .offset(Vec2::new(xs[i], ys[i]), Vec2::new(xs[j], ys[j]))
                 .length_squared();
             let floor = FLOOR * (input.radius[i] + input.radius[j]);
+            if now >= floor * floor {
+                continue;
+            }
             let then = input
                 .bounds
                 .offset(
@@ -213,7 +218,7 @@ pub(crate) fn guard(
                     Vec2::new(start.0[j], start.1[j]),
                 )
                 .length_squared();
-            if now >= floor * floor || now >= then {
+            if now >= then {
                 continue;
             }
             // An agent that does not take part and moved in cannot be undone by sending the
@@ -260,7 +265,9 @@ pub(crate) fn guard(
         // Pairs of two agents that stayed were decided this round; a new one has an agent sent
         // back in it.
         let back = &back;
-        list_pairs(input, xs, ys, scratch, parallel, FLOOR, |i| back[i]);
+        list_pairs(input, xs, ys, scratch, parallel, (FLOOR, max_r), |i| {
+            back[i]
+        });
     }
     scratch.back = back;
     sent
@@ -268,18 +275,17 @@ pub(crate) fn guard(
 
 /// Lists in `scratch.pairs` (unordered) the pairs of agents closer than `factor` times their
 /// summed radii at `xs`, `ys`, searched from the agents where `from` holds (a pair of two of
-/// them is listed twice).
+/// them is listed twice); `max_r` is the largest radius.
 fn list_pairs(
     input: &ContactInput,
     xs: &[f32],
     ys: &[f32],
     scratch: &mut ContactScratch,
     parallel: bool,
-    factor: f32,
+    (factor, max_r): (f32, f32),
     from: impl Fn(usize) -> bool + Sync,
 ) {
     let n = xs.len();
-    let max_r = input.radius.iter().copied().fold(0.0_f32, f32::max);
     scratch
         .grid
         .rebuild(xs, ys, input.bounds, factor * 2.0 * max_r);
