@@ -17,6 +17,8 @@ use super::{Circle, Wall};
 pub struct ObstacleGrid {
     origin: Vec2,
     cell: f32,
+    /// `1 / cell`: cells are found by a product rather than a division.
+    inv: f32,
     cols: usize,
     rows: usize,
     /// `starts[c]..starts[c + 1]` indexes `items` for cell `c`.
@@ -71,6 +73,7 @@ impl ObstacleGrid {
         self.origin = lo;
         self.extent = extent;
         self.cell = cell;
+        self.inv = 1.0 / cell;
         self.cols = ((extent.x / cell).ceil() as usize).clamp(1, 4096);
         self.rows = ((extent.y / cell).ceil() as usize).clamp(1, 4096);
         let n = self.cols * self.rows;
@@ -119,8 +122,9 @@ impl ObstacleGrid {
                 > r
     }
 
+    #[inline]
     fn cell_of(&self, p: Vec2) -> (usize, usize) {
-        clamped_cell(p, self.origin, self.cell, self.cols, self.rows)
+        clamped_cell(p, self.origin, self.inv, self.cols, self.rows)
     }
 
     fn for_cells(&self, lo: Vec2, hi: Vec2, mut f: impl FnMut(usize)) {
@@ -138,13 +142,24 @@ impl ObstacleGrid {
     pub fn near(&self, p: Vec2, r: f32, circles: &mut Vec<u32>, walls: &mut Vec<u32>) {
         circles.clear();
         walls.clear();
-        if self.items.is_empty() {
+        if self.items.is_empty() || self.clear(p, r) {
             return;
         }
-        self.visit(p, r, |c| circles.push(c), |w| walls.push(w));
+        let (lo, hi) = (self.cell_of(p - r), self.cell_of(p + r));
+        for row in lo.1..=hi.1 {
+            let cells = row * self.cols + lo.0..=row * self.cols + hi.0;
+            let items = self.starts[*cells.start()] as usize..self.starts[cells.end() + 1] as usize;
+            for &id in &self.items[items] {
+                if id & WALL == 0 {
+                    circles.push(id);
+                } else {
+                    walls.push(id & !WALL);
+                }
+            }
+        }
         // A cell lists each obstacle once, circles and walls each ascending (`rebuild` adds
         // them in id order), so only a query over several cells needs sorting.
-        if self.cell_of(p - r) != self.cell_of(p + r) {
+        if lo != hi {
             for v in [circles, walls] {
                 v.sort_unstable();
                 v.dedup();
@@ -177,6 +192,8 @@ impl ObstacleGrid {
 struct Clearance {
     origin: Vec2,
     cell: f32,
+    /// `1 / cell`.
+    inv: f32,
     cols: usize,
     rows: usize,
     /// Chebyshev distances in cells, saturating.
@@ -205,6 +222,7 @@ impl Clearance {
         let mut c = Self {
             origin,
             cell,
+            inv: 1.0 / cell,
             cols,
             rows,
             steps: vec![u16::MAX; cols * rows],
@@ -221,8 +239,9 @@ impl Clearance {
         c
     }
 
+    #[inline]
     fn cell_of(&self, p: Vec2) -> (usize, usize) {
-        clamped_cell(p, self.origin, self.cell, self.cols, self.rows)
+        clamped_cell(p, self.origin, self.inv, self.cols, self.rows)
     }
 
     /// Marks every cell of the box `lo..hi` as touched.
@@ -301,10 +320,11 @@ impl Clearance {
     }
 }
 
-/// The cell of `p` in a grid of `cols` x `rows` square cells of side `cell` from `origin`,
+/// The cell of `p` in a grid of `cols` x `rows` square cells of side `1 / inv` from `origin`,
 /// clamped to the grid (a point outside it, or NaN, belongs to the nearest edge cell).
-fn clamped_cell(p: Vec2, origin: Vec2, cell: f32, cols: usize, rows: usize) -> (usize, usize) {
-    let f = (p - origin) / cell;
+#[inline]
+fn clamped_cell(p: Vec2, origin: Vec2, inv: f32, cols: usize, rows: usize) -> (usize, usize) {
+    let f = (p - origin) * inv;
     let cx = if f.x > 0.0 {
         (f.x as usize).min(cols - 1)
     } else {

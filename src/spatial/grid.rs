@@ -14,7 +14,7 @@ use super::{Neighbour, NeighbourIndex, exact, gather_radius, to_u32};
 use crate::bounds::Bounds;
 
 /// Below this many points the rebuild runs on the calling thread.
-const PARALLEL_MIN_POINTS: usize = 32 * 1024;
+const PARALLEL_MIN_POINTS: usize = 8 * 1024;
 /// Points per work item in the parallel cell-id pass.
 const CHUNK: usize = 8 * 1024;
 /// The largest number of cells a grid ever has.
@@ -226,6 +226,7 @@ impl GridIndex {
     /// separate ranges). Callers filter the candidates by
     /// `bounds.offset(p, q).length_squared() <= r * r`; this is how the grid's own queries work,
     /// and how a vectorised kernel can read neighbour cells as contiguous slices.
+    #[inline]
     pub fn for_each_run(&self, p: Vec2, r: f32, mut visit: impl FnMut(Range<usize>)) {
         if self.order.is_empty() {
             return;

@@ -30,6 +30,7 @@ use super::pack::pack_avx2;
 use super::pack::{Block, Packed, pack_scalar};
 use super::pass::{STEER_CHUNK, SteerOut};
 use super::view::SteerView;
+use crate::agents::Agents;
 use crate::ped::cfsm::{BLOCKED_SPACING, SIDESTEP_WALL_MARGIN};
 use crate::ped::lanes::{LANES, Neighbours, lane_sum};
 use crate::ped::{Cfsm, Model, Pedestrian, SocialForce};
@@ -85,8 +86,9 @@ pub(crate) fn run(view: &SteerView, out: &mut SteerOut, parallel: bool) {
     let avx2 = std::arch::is_x86_feature_detected!("avx2");
     #[cfg(not(target_arch = "x86_64"))]
     let avx2 = false;
+    let radii = Radii::of(&view.agents.radius);
     let chunk = |base: usize, lx: &mut [f32], ly: &mut [f32]| {
-        BUFFERS.with_borrow_mut(|b| requests(view, grid, avx2, base, lx, ly, b));
+        BUFFERS.with_borrow_mut(|b| requests(view, grid, avx2, radii, base, lx, ly, b));
     };
     let (lx, ly) = (&mut out.lin_x[..n], &mut out.lin_y[..n]);
     if parallel {
@@ -101,10 +103,12 @@ pub(crate) fn run(view: &SteerView, out: &mut SteerOut, parallel: bool) {
 
 /// The requests of agents `base..base + lx.len()`, replaced where the group has a model.
 #[multiversion(targets("x86_64+avx2+fma", "x86_64+avx"))]
+#[allow(clippy::too_many_arguments)]
 fn requests(
     view: &SteerView,
     grid: Option<&GridIndex>,
     avx2: bool,
+    radii: Radii,
     base: usize,
     lx: &mut [f32],
     ly: &mut [f32],
@@ -114,7 +118,7 @@ fn requests(
         let i = base + k;
         let g = view.agents.group[i] as usize;
         if let Some(ped) = &view.plans[g].pedestrian {
-            let r = agent(view, grid, avx2, ped, i, Vec2::new(lx[k], ly[k]), b);
+            let r = agent(view, grid, avx2, radii, ped, i, Vec2::new(lx[k], ly[k]), b);
             lx[k] = r.x;
             ly[k] = r.y;
         }
@@ -300,31 +304,85 @@ fn gather(
     (count, padded)
 }
 
-/// Fills the pair inputs of the first `n` gathered neighbours (padding included) that the
-/// lanes read: `r_i + r_j`, the direction at zero distance, and (`with_velocity`) `j`'s
-/// velocity.
+/// The agents' radii as the pair inputs need them: the largest, and the one every agent has
+/// when they are all equal.
+#[derive(Clone, Copy, Debug)]
+struct Radii {
+    uniform: Option<f32>,
+    max: f32,
+}
+
+impl Radii {
+    fn of(radius: &[f32]) -> Radii {
+        let (lo, hi) = radius
+            .iter()
+            .fold((f32::INFINITY, f32::NEG_INFINITY), |(lo, hi), &r| {
+                (lo.min(r), hi.max(r))
+            });
+        Radii {
+            uniform: (lo == hi).then_some(hi),
+            max: hi.max(0.0),
+        }
+    }
+}
+
+/// Whether some of the first `count` gathered neighbours lies within `sqrt(r_sq)`.
 #[inline(always)]
-fn fill(view: &SteerView, i: usize, b: &mut Buffers, n: usize, with_velocity: bool) {
-    let a = view.agents;
+fn any_within(b: &Buffers, count: usize, r_sq: f32) -> bool {
+    let mut hit = false;
+    for (&x, &y) in b.rx[..count].iter().zip(&b.ry[..count]) {
+        hit |= x * x + y * y <= r_sq;
+    }
+    hit
+}
+
+/// Fills the pair inputs of the first `n` gathered neighbours (`count` of them real, the rest
+/// padding) that the lanes read: `r_i + r_j`, the direction at zero distance, and
+/// (`with_velocity`) `j`'s velocity.
+///
+/// Only what a lane's result can depend on is read from the agents: the direction at zero
+/// distance only when some neighbour is that close (elsewhere the lanes never select it), the
+/// velocities only when some neighbour may touch (the friction scales them by the contact,
+/// zero elsewhere; the stale finite values left in the buffers then change at most the sign of
+/// a zero term, which the sums starting at `+0` never see), and `r_i + r_j` as one number when
+/// every agent has the same radius.
+#[inline(always)]
+fn fill(
+    a: &Agents,
+    radii: Radii,
+    i: usize,
+    b: &mut Buffers,
+    (count, n): (usize, usize),
+    with_velocity: bool,
+) {
     let (radius, id) = (a.radius[i], a.ids[i].0);
     at_least(&mut b.reach, n);
     at_least(&mut b.side, n);
-    let slots = b.js[..n]
-        .iter()
-        .zip(&mut b.reach[..n])
-        .zip(&mut b.side[..n]);
-    for ((&j, reach), side) in slots {
-        let j = j as usize;
-        *reach = radius + a.radius[j];
-        *side = if id < a.ids[j].0 { 1.0 } else { -1.0 };
+    match radii.uniform {
+        Some(r) => b.reach[..n].fill(radius + r),
+        None => {
+            for (&j, reach) in b.js[..n].iter().zip(&mut b.reach[..n]) {
+                *reach = radius + a.radius[j as usize];
+            }
+        }
+    }
+    // `d > 1e-6` in the lanes holds wherever `d^2` exceeds 1e-10.
+    if any_within(b, count, 1e-10) {
+        for (&j, side) in b.js[..n].iter().zip(&mut b.side[..n]) {
+            *side = if id < a.ids[j as usize].0 { 1.0 } else { -1.0 };
+        }
     }
     if with_velocity {
         at_least(&mut b.vx, n);
         at_least(&mut b.vy, n);
-        let slots = b.js[..n].iter().zip(&mut b.vx[..n]).zip(&mut b.vy[..n]);
-        for ((&j, vx), vy) in slots {
-            *vx = a.vel_x[j as usize];
-            *vy = a.vel_y[j as usize];
+        // A margin over `r_i + r_max` for the rounding of the lanes' square root.
+        let touch = (radius + radii.max) * 1.001;
+        if any_within(b, count, touch * touch) {
+            let slots = b.js[..n].iter().zip(&mut b.vx[..n]).zip(&mut b.vy[..n]);
+            for ((&j, vx), vy) in slots {
+                *vx = a.vel_x[j as usize];
+                *vy = a.vel_y[j as usize];
+            }
         }
     }
 }
@@ -409,6 +467,7 @@ fn agent(
     view: &SteerView,
     grid: Option<&GridIndex>,
     avx2: bool,
+    radii: Radii,
     ped: &Pedestrian,
     i: usize,
     request: Vec2,
@@ -451,7 +510,7 @@ fn agent(
     let chosen_velocity = match ped.model {
         Model::SocialForce => {
             let sf = &ped.social_force;
-            fill(view, i, b, n, true);
+            fill(a, radii, i, b, (count, n), true);
             let force = social_force_sum(sf, b, count, n, vel, e0, dt);
             let mut walls = Vec2::ZERO;
             for_each_wall(view, pos, sf.cutoff, b, |d, normal| {
@@ -465,7 +524,7 @@ fn agent(
         }
         Model::Cfsm => {
             let cf = &ped.cfsm;
-            fill(view, i, b, n, false);
+            fill(a, radii, i, b, (count, n), false);
             let mut dir = e0 + speed_model_sum(cf, b, count, n);
             // The obstacles touching the body or nearly: the sidestep does not turn into them.
             let mut near = [Vec2::ZERO; NEAR_WALLS];
@@ -512,4 +571,105 @@ fn agent(
 #[inline]
 fn finite_or_zero(v: Vec2) -> Vec2 {
     if v.is_finite() { v } else { Vec2::ZERO }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use crate::agents::AgentInit;
+    use crate::rng::AgentRng;
+
+    /// The pair inputs of every neighbour read from the agents, as before the reads were
+    /// skipped: the reference the skipping fill is held to.
+    fn fill_all(a: &Agents, i: usize, b: &mut Buffers, n: usize) {
+        let (radius, id) = (a.radius[i], a.ids[i].0);
+        for k in 0..n {
+            let j = b.js[k] as usize;
+            b.reach[k] = radius + a.radius[j];
+            b.side[k] = if id < a.ids[j].0 { 1.0 } else { -1.0 };
+            b.vx[k] = a.vel_x[j];
+            b.vy[k] = a.vel_y[j];
+        }
+    }
+
+    /// Agents in a small box: some on top of each other, some overlapping, the rest apart;
+    /// equal radii or a spread of them.
+    fn crowd(seed: u64, uniform: bool) -> Agents {
+        let mut rng = AgentRng::new(seed, 0, 0, 0);
+        let mut a = Agents::new();
+        for k in 0..48 {
+            let position = if k % 9 == 4 {
+                Vec2::new(a.pos_x[k - 1], a.pos_y[k - 1])
+            } else {
+                Vec2::new(rng.unit(), rng.unit()) * 3.0
+            };
+            let init = AgentInit {
+                velocity: Vec2::new(rng.signed(), rng.signed()),
+                ..AgentInit::at(position, 0)
+            };
+            let radius = if uniform {
+                0.2
+            } else {
+                0.15 + 0.1 * rng.unit()
+            };
+            a.push(&init, 2.0, radius, 0.0, 1.3);
+        }
+        a
+    }
+
+    #[test]
+    fn pair_inputs_read_only_where_they_matter_give_the_same_bits() {
+        let (sf, cf) = (SocialForce::default(), Cfsm::default());
+        for (seed, uniform) in [(1, true), (2, false), (3, true), (4, false)] {
+            let a = crowd(seed, uniform);
+            let radii = Radii::of(&a.radius);
+            assert_eq!(radii.uniform.is_some(), uniform);
+            let mut rng = AgentRng::new(seed, 1, 0, 0);
+            for i in 0..a.len() {
+                // The neighbours within the cut-off in index order, padded with `i`, as
+                // `gather` leaves them; the velocities and directions left from an earlier agent.
+                let (mut lazy, mut full) = (Buffers::default(), Buffers::default());
+                for j in (0..a.len()).filter(|&j| j != i) {
+                    let rel = a.position(j) - a.position(i);
+                    if rel.length() <= sf.cutoff {
+                        lazy.rx.push(rel.x);
+                        lazy.ry.push(rel.y);
+                        lazy.js.push(j as u32);
+                    }
+                }
+                let count = lazy.js.len();
+                let n = count.div_ceil(LANES) * LANES;
+                lazy.rx.resize(n, 0.0);
+                lazy.ry.resize(n, 0.0);
+                lazy.js.resize(n, i as u32);
+                for v in [&mut lazy.vx, &mut lazy.vy, &mut lazy.side] {
+                    v.extend((0..n).map(|_| 5.0 * rng.signed()));
+                }
+                (full.rx, full.ry, full.js) = (lazy.rx.clone(), lazy.ry.clone(), lazy.js.clone());
+                for v in [&mut full.reach, &mut full.side, &mut full.vx, &mut full.vy] {
+                    v.resize(n, 0.0);
+                }
+                fill(&a, radii, i, &mut lazy, (count, n), true);
+                fill_all(&a, i, &mut full, n);
+                let (v, e) = (a.velocity(i), Vec2::new(0.6, 0.8));
+                let bits = |f: Vec2| (f.x.to_bits(), f.y.to_bits());
+                let want = social_force_sum(&sf, &mut full, count, n, v, e, 0.01);
+                let got = social_force_sum(&sf, &mut lazy, count, n, v, e, 0.01);
+                assert_eq!(
+                    bits(got),
+                    bits(want),
+                    "social force, agent {i}, seed {seed}"
+                );
+                let want = speed_model_sum(&cf, &mut full, count, n);
+                let got = speed_model_sum(&cf, &mut lazy, count, n);
+                assert_eq!(bits(got), bits(want), "speed model, agent {i}, seed {seed}");
+                let want = speed_model_spacing(&cf, &full, count, n, e);
+                let got = speed_model_spacing(&cf, &lazy, count, n, e);
+                assert_eq!(
+                    (got.0.to_bits(), got.1.to_bits()),
+                    (want.0.to_bits(), want.1.to_bits())
+                );
+            }
+        }
+    }
 }
