@@ -414,16 +414,17 @@ fn longest_wait(width: f32, seed: u64, sidestep: bool) -> (f32, usize) {
 
 #[test]
 fn a_sidestep_breaks_the_arch_that_clogs_a_narrow_door() {
-    // At 0.8 m (two bodies' width) and this seed the speed model clogs the door for about a
-    // minute: an arch of pedestrians at its mouth, each at contact in another's way. Blocked
-    // pedestrians that step sideways break it up within seconds.
-    let (off, left_off) = longest_wait(0.8, 2, false);
-    let (on, left_on) = longest_wait(0.8, 2, true);
-    assert_eq!((left_off, left_on), (0, 0));
+    // At 0.8 m (two bodies' width) and this seed the speed model clogs the door: an arch of
+    // pedestrians at its mouth, each at contact in another's way, that holds for good (or for
+    // more than half a minute at other seeds). Blocked pedestrians that step sideways break it
+    // up within seconds.
+    let (off, left_off) = longest_wait(0.8, 21, false);
+    let (on, left_on) = longest_wait(0.8, 21, true);
     assert!(
-        off > 30.0,
-        "without the sidestep the longest wait is {off} s"
+        left_off > 0 || off > 30.0,
+        "without the sidestep the longest wait is {off} s and {left_off} are left"
     );
+    assert_eq!(left_on, 0, "with the sidestep {left_on} are left");
     assert!(on < 10.0, "with the sidestep the longest wait is {on} s");
 }
 

@@ -40,6 +40,7 @@
 use glam::Vec2;
 use serde::{Deserialize, Serialize};
 
+use super::lanes::tanh_poly;
 use super::{away, check_cutoff, exp_capped};
 use crate::error::{Result, in_range, non_negative, positive};
 
@@ -291,7 +292,7 @@ impl Cfsm {
     fn speed_with_gap(&self, s: f32, v0: f32, time_gap: f32) -> f32 {
         match self.speed_function {
             SpeedFunction::Linear => (s / time_gap).clamp(0.0, v0),
-            SpeedFunction::Smooth if v0 > 0.0 => v0 * (s.max(0.0) / (v0 * time_gap)).tanh(),
+            SpeedFunction::Smooth if v0 > 0.0 => v0 * tanh_poly(s.max(0.0) / (v0 * time_gap)),
             SpeedFunction::Smooth => 0.0,
         }
     }
