@@ -338,7 +338,8 @@ fn any_within(b: &Buffers, count: usize, r_sq: f32) -> bool {
 
 /// Fills the pair inputs of the first `n` gathered neighbours (`count` of them real, the rest
 /// padding) that the lanes read: `r_i + r_j`, the direction at zero distance, and
-/// (`with_velocity`) `j`'s velocity.
+/// (`with_velocity`) `j`'s velocity. Returns whether some neighbour may touch the agent (with
+/// `with_velocity` only; false otherwise).
 ///
 /// Only what a lane's result can depend on is read from the agents: the direction at zero
 /// distance only when some neighbour is that close (elsewhere the lanes never select it), the
@@ -354,7 +355,7 @@ fn fill(
     b: &mut Buffers,
     (count, n): (usize, usize),
     with_velocity: bool,
-) {
+) -> bool {
     let (radius, id) = (a.radius[i], a.ids[i].0);
     at_least(&mut b.reach, n);
     at_least(&mut b.side, n);
@@ -383,8 +384,10 @@ fn fill(
                 *vx = a.vel_x[j as usize];
                 *vy = a.vel_y[j as usize];
             }
+            return true;
         }
     }
+    false
 }
 
 /// The first `n` filled neighbours, `count` of them real, as the lanes read them.
@@ -400,7 +403,8 @@ fn neighbours(b: &Buffers, count: usize, n: usize) -> Neighbours<'_> {
 }
 
 /// The social force model's pair forces on an agent with velocity `v` and preferred direction
-/// `e` from its `count` filled neighbours (`n` with the padding).
+/// `e` from its `count` filled neighbours (`n` with the padding); without the contact terms
+/// when no neighbour may touch (`touching` false, as [`fill`] finds it).
 #[multiversion(targets("x86_64+avx2+fma", "x86_64+avx"))]
 #[allow(clippy::too_many_arguments)]
 fn social_force_sum(
@@ -411,6 +415,7 @@ fn social_force_sum(
     v: Vec2,
     e: Vec2,
     dt: f32,
+    touching: bool,
 ) -> Vec2 {
     // The outputs leave the buffers while the lanes read the inputs.
     let (mut fx, mut fy) = (std::mem::take(&mut b.fx), std::mem::take(&mut b.fy));
@@ -419,7 +424,12 @@ fn social_force_sum(
     let vel = (&b.vx[..n], &b.vy[..n]);
     let (v, e) = ((v.x, v.y), (e.x, e.y));
     let (sx, sy) = (&mut fx[..n], &mut fy[..n]);
-    sf.pair_lanes(&neighbours(b, count, n), vel, v, e, dt, sx, sy);
+    let nb = neighbours(b, count, n);
+    if touching {
+        sf.pair_lanes::<true>(&nb, vel, v, e, dt, sx, sy);
+    } else {
+        sf.pair_lanes::<false>(&nb, vel, v, e, dt, sx, sy);
+    }
     let sum = Vec2::new(lane_sum(sx), lane_sum(sy));
     (b.fx, b.fy) = (fx, fy);
     sum
@@ -510,8 +520,8 @@ fn agent(
     let chosen_velocity = match ped.model {
         Model::SocialForce => {
             let sf = &ped.social_force;
-            fill(a, radii, i, b, (count, n), true);
-            let force = social_force_sum(sf, b, count, n, vel, e0, dt);
+            let touching = fill(a, radii, i, b, (count, n), true);
+            let force = social_force_sum(sf, b, count, n, vel, e0, dt, touching);
             let mut walls = Vec2::ZERO;
             for_each_wall(view, pos, sf.cutoff, b, |d, normal| {
                 walls += sf.wall(d, vel, radius, normal, dt);
@@ -649,12 +659,12 @@ mod tests {
                 for v in [&mut full.reach, &mut full.side, &mut full.vx, &mut full.vy] {
                     v.resize(n, 0.0);
                 }
-                fill(&a, radii, i, &mut lazy, (count, n), true);
+                let touching = fill(&a, radii, i, &mut lazy, (count, n), true);
                 fill_all(&a, i, &mut full, n);
                 let (v, e) = (a.velocity(i), Vec2::new(0.6, 0.8));
                 let bits = |f: Vec2| (f.x.to_bits(), f.y.to_bits());
-                let want = social_force_sum(&sf, &mut full, count, n, v, e, 0.01);
-                let got = social_force_sum(&sf, &mut lazy, count, n, v, e, 0.01);
+                let want = social_force_sum(&sf, &mut full, count, n, v, e, 0.01, true);
+                let got = social_force_sum(&sf, &mut lazy, count, n, v, e, 0.01, touching);
                 assert_eq!(
                     bits(got),
                     bits(want),
