@@ -186,7 +186,18 @@ pedestrian = {}
         }
     }
     if !world.is_empty() {
-        return Err(format!("{} still inside", world.len()));
+        let a = world.agents();
+        let left: Vec<String> = (0..world.len())
+            .map(|i| {
+                format!(
+                    "g{} at {} v {}",
+                    a.groups()[i],
+                    a.position(i),
+                    a.velocity(i)
+                )
+            })
+            .collect();
+        return Err(format!("{} still inside: {}", world.len(), left.join(", ")));
     }
     assert_eq!(last.len(), 80);
     for (id, (group, p)) in last {
