@@ -142,7 +142,8 @@ impl ObstacleGrid {
     pub fn near(&self, p: Vec2, r: f32, circles: &mut Vec<u32>, walls: &mut Vec<u32>) {
         circles.clear();
         walls.clear();
-        if self.items.is_empty() || self.clear(p, r) {
+        // Nothing lies within a negative (or NaN) radius.
+        if self.items.is_empty() || r.is_nan() || r < 0.0 || self.clear(p, r) {
             return;
         }
         let (lo, hi) = (self.cell_of(p - r), self.cell_of(p + r));
@@ -211,10 +212,15 @@ impl Clearance {
     fn build(origin: Vec2, extent: Vec2, shapes: &Shapes) -> Self {
         let count = (shapes.boxes.len() + shapes.segments.len()) as f32;
         let budget = (count * Self::CELLS_PER_OBSTACLE).clamp(Self::MIN_CELLS, Self::MAX_CELLS);
+        // Far from the origin a cell must stay wide against the coordinates' spacing (2^-23 of
+        // their size), so that the hundredth of a cell the marks and the bound keep in hand
+        // covers the rounding of cell indices and row edges there.
+        let far = origin.abs().max((origin + extent).abs()).max_element();
         let cell = (extent.x * extent.y / budget)
             .sqrt()
             .max(extent.x / Self::MAX_SIDE)
             .max(extent.y / Self::MAX_SIDE)
+            .max(far * 512.0 * f32::EPSILON)
             .max(1e-6);
         // `cols * cell` covers the extent, so no cell but the edges' is stretched by clamping.
         let cols = ((extent.x / cell).ceil() as usize + 1).max(1);
@@ -342,6 +348,77 @@ fn clamped_cell(p: Vec2, origin: Vec2, inv: f32, cols: usize, rows: usize) -> (u
 mod tests {
     use super::*;
     use crate::rng::AgentRng;
+
+    /// The distance from `p` to the segment `a..b`, in f64.
+    fn segment_distance(p: Vec2, a: Vec2, b: Vec2) -> f64 {
+        let (p, a, b) = (p.as_dvec2(), a.as_dvec2(), b.as_dvec2());
+        let ab = b - a;
+        let t = if ab.length_squared() > 0.0 {
+            ((p - a).dot(ab) / ab.length_squared()).clamp(0.0, 1.0)
+        } else {
+            0.0
+        };
+        p.distance(a + ab * t)
+    }
+
+    #[test]
+    fn clearance_stays_a_lower_bound_far_from_the_origin() {
+        // A few short, shallow walls, some far out: there the clearance cells would be finer
+        // than the coordinates' spacing (cells of 5 mm at 1e5, where floats are 8 mm apart).
+        let mut rng = AgentRng::new(5, 0, 0, 0);
+        let mut misses = std::collections::BTreeMap::new();
+        for case in 0..200 {
+            let offset = Vec2::splat([3e4, 1e5, 5e3, 0.0][case % 4]);
+            let size = [2.0_f32, 8.0, 20.0][case % 3];
+            let walls: Vec<Wall> = (0..3)
+                .map(|_| {
+                    let a = offset + Vec2::new(size * rng.unit(), size * rng.unit());
+                    let b = a + Vec2::new(size * (0.5 + rng.unit()), 0.05 * size * rng.signed());
+                    Wall { a, b }
+                })
+                .collect();
+            let mut grid = ObstacleGrid::default();
+            grid.rebuild(&[], &walls);
+            for _ in 0..20_000 {
+                let w = walls[(rng.unit() * 3.0) as usize % 3];
+                let q = w.a.lerp(w.b, rng.unit()) + Vec2::new(0.0, 0.05 * rng.signed());
+                let truth = walls
+                    .iter()
+                    .map(|w| segment_distance(q, w.a, w.b))
+                    .fold(f64::INFINITY, f64::min);
+                if truth < 0.05 && grid.clear(q, 0.05) {
+                    *misses.entry(case).or_insert(0) += 1;
+                }
+            }
+        }
+        assert!(
+            misses.is_empty(),
+            "clear within 0.05 m of a wall, per case: {misses:?}"
+        );
+    }
+
+    #[test]
+    fn a_negative_or_nan_radius_finds_nothing() {
+        // Many short walls along a thin line: clearance cells wider than the grid's.
+        let walls: Vec<Wall> = (0..2000)
+            .map(|k| {
+                let x = 5.0 * k as f32;
+                Wall {
+                    a: Vec2::new(x, 0.0),
+                    b: Vec2::new(x + 0.01, 0.0),
+                }
+            })
+            .collect();
+        let mut grid = ObstacleGrid::default();
+        grid.rebuild(&[], &walls);
+        let (mut c, mut w) = (vec![7], vec![7]);
+        for r in [-2.0, -1e-3, f32::NAN] {
+            grid.near(Vec2::new(50.0, 0.0), r, &mut c, &mut w);
+            assert!(c.is_empty() && w.is_empty());
+        }
+        grid.near(Vec2::new(50.0, 0.0), 0.5, &mut c, &mut w);
+        assert_eq!(w, [10]);
+    }
 
     #[test]
     fn near_lists_each_candidate_once_ascending_in_one_cell_or_many() {

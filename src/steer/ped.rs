@@ -343,10 +343,9 @@ fn any_within(b: &Buffers, count: usize, r_sq: f32) -> bool {
 ///
 /// Only what a lane's result can depend on is read from the agents: the direction at zero
 /// distance only when some neighbour is that close (elsewhere the lanes never select it), the
-/// velocities only when some neighbour may touch (the friction scales them by the contact,
-/// zero elsewhere; the stale finite values left in the buffers then change at most the sign of
-/// a zero term, which the sums starting at `+0` never see), and `r_i + r_j` as one number when
-/// every agent has the same radius.
+/// velocities only when some neighbour may touch (the friction scales them by the contact, zero
+/// elsewhere, and without a touch the lanes leave the contact terms out and do not read them),
+/// and `r_i + r_j` as one number when every agent has the same radius.
 #[inline(always)]
 fn fill(
     a: &Agents,
