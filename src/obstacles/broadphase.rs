@@ -147,17 +147,7 @@ impl ObstacleGrid {
             return;
         }
         let (lo, hi) = (self.cell_of(p - r), self.cell_of(p + r));
-        for row in lo.1..=hi.1 {
-            let cells = row * self.cols + lo.0..=row * self.cols + hi.0;
-            let items = self.starts[*cells.start()] as usize..self.starts[cells.end() + 1] as usize;
-            for &id in &self.items[items] {
-                if id & WALL == 0 {
-                    circles.push(id);
-                } else {
-                    walls.push(id & !WALL);
-                }
-            }
-        }
+        self.visit_cells(lo, hi, |c| circles.push(c), |w| walls.push(w));
         // A cell lists each obstacle once, circles and walls each ascending (`rebuild` adds
         // them in id order), so only a query over several cells needs sorting.
         if lo != hi {
@@ -170,19 +160,36 @@ impl ObstacleGrid {
 
     /// Calls `circle(id)` / `wall(id)` for every obstacle that may lie within `r` of `p` (an id
     /// may come more than once).
-    pub fn visit(&self, p: Vec2, r: f32, mut circle: impl FnMut(u32), mut wall: impl FnMut(u32)) {
+    pub fn visit(&self, p: Vec2, r: f32, circle: impl FnMut(u32), wall: impl FnMut(u32)) {
         if self.items.is_empty() || self.clear(p, r) {
             return;
         }
-        self.for_cells(p - r, p + r, |k| {
-            for &id in &self.items[self.starts[k] as usize..self.starts[k + 1] as usize] {
+        self.visit_cells(self.cell_of(p - r), self.cell_of(p + r), circle, wall);
+    }
+
+    /// Calls `circle(id)` / `wall(id)` for every obstacle the cells `lo..=hi` (column, row)
+    /// list, row by row (a row's cells hold one run of `items`); nothing for an empty range.
+    fn visit_cells(
+        &self,
+        lo: (usize, usize),
+        hi: (usize, usize),
+        mut circle: impl FnMut(u32),
+        mut wall: impl FnMut(u32),
+    ) {
+        if lo.0 > hi.0 {
+            return;
+        }
+        for row in lo.1..=hi.1 {
+            let first = row * self.cols;
+            let run = self.starts[first + lo.0] as usize..self.starts[first + hi.0 + 1] as usize;
+            for &id in &self.items[run] {
                 if id & WALL == 0 {
-                    circle(id)
+                    circle(id);
                 } else {
-                    wall(id & !WALL)
+                    wall(id & !WALL);
                 }
             }
-        });
+        }
     }
 }
 

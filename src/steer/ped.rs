@@ -326,14 +326,16 @@ impl Radii {
     }
 }
 
-/// Whether some of the first `count` gathered neighbours lies within `sqrt(r_sq)`.
+/// The smallest squared distance of the first `count` gathered neighbours (infinity for none).
 #[inline(always)]
-fn any_within(b: &Buffers, count: usize, r_sq: f32) -> bool {
-    let mut hit = false;
+fn nearest_sq(b: &Buffers, count: usize) -> f32 {
+    let mut nearest = f32::INFINITY;
     for (&x, &y) in b.rx[..count].iter().zip(&b.ry[..count]) {
-        hit |= x * x + y * y <= r_sq;
+        let d = x * x + y * y;
+        // `f32::min` for finite offsets, in a form that stays in lanes.
+        nearest = if d < nearest { d } else { nearest };
     }
-    hit
+    nearest
 }
 
 /// Fills the pair inputs of the first `n` gathered neighbours (`count` of them real, the rest
@@ -366,8 +368,9 @@ fn fill(
             }
         }
     }
+    let nearest = nearest_sq(b, count);
     // `d > 1e-6` in the lanes holds wherever `d^2` exceeds 1e-10.
-    if any_within(b, count, 1e-10) {
+    if nearest <= 1e-10 {
         for (&j, side) in b.js[..n].iter().zip(&mut b.side[..n]) {
             *side = if id < a.ids[j as usize].0 { 1.0 } else { -1.0 };
         }
@@ -377,7 +380,7 @@ fn fill(
         at_least(&mut b.vy, n);
         // A margin over `r_i + r_max` for the rounding of the lanes' square root.
         let touch = (radius + radii.max) * 1.001;
-        if any_within(b, count, touch * touch) {
+        if nearest <= touch * touch {
             let slots = b.js[..n].iter().zip(&mut b.vx[..n]).zip(&mut b.vy[..n]);
             for ((&j, vx), vy) in slots {
                 *vx = a.vel_x[j as usize];
