@@ -162,6 +162,10 @@ pub(crate) fn resolve(
 /// two taking-part agents closer than `FLOOR` unless they started closer. Each round decides
 /// from the positions the round began with, so the result depends neither on the thread count
 /// nor on the order of the pairs. Returns the agents sent back.
+///
+/// On a torus the positions must lie in the world (wrapped, as the step's bounds phase leaves
+/// them): the grid that finds the pairs places a point outside it in an edge cell, where a
+/// neighbour across the seam can be missed.
 #[allow(clippy::too_many_arguments)]
 pub(crate) fn guard(
     input: &ContactInput,
@@ -411,6 +415,12 @@ mod tests {
         let (mut vx, mut vy): (Vec<f32>, Vec<f32>) = moves.iter().copied().unzip();
         let mut scratch = ContactScratch::default();
         resolve(input, &mut xs, &mut ys, &mut scratch, parallel);
+        // As the step does: the world's bounds wrap the positions between the two.
+        if let Bounds::Torus { size } = input.bounds {
+            for (x, y) in xs.iter_mut().zip(ys.iter_mut()) {
+                (*x, *y) = (x.rem_euclid(size.x), y.rem_euclid(size.y));
+            }
+        }
         guard(
             input,
             start,
