@@ -640,16 +640,13 @@ fn gather(
                     v.resize(need.max(MIN_CELL_BUF), 0.0);
                 }
             }
-            append::<true>(&mut buf.x, len, &s.x, a, b, shift_x);
-            append::<true>(&mut buf.y, len, &s.y, a, b, shift_y);
-            append::<false>(&mut buf.vx, len, &s.vx, a, b, 0.0);
-            append::<false>(&mut buf.vy, len, &s.vy, a, b, 0.0);
+            append_motion(buf, len, s, a, b, (shift_x, shift_y));
             if groups {
-                append::<false>(&mut buf.g, len, &s.g, a, b, 0.0);
+                append(&mut buf.g, len, &s.g, a, b);
             }
             if headings {
-                append::<false>(&mut buf.hx, len, &s.hx, a, b, 0.0);
-                append::<false>(&mut buf.hy, len, &s.hy, a, b, 0.0);
+                append(&mut buf.hx, len, &s.hx, a, b);
+                append(&mut buf.hy, len, &s.hy, a, b);
             }
             buf.len += b - a;
         }
@@ -666,30 +663,54 @@ fn gather(
     buf.len = padded;
 }
 
-/// Writes `src[a..b]` (plus `shift` when `SHIFT`) at `dst[len..]` in whole blocks of lanes: up to
-/// `LANES - 1` values past `b` are read (the sorted copies are padded for it) and written past
-/// the run (the next run or the padding overwrites them).
+/// Writes `src[a..b]` at `dst[len..]` in whole blocks of lanes: up to `LANES - 1` values past
+/// `b` are read (the sorted copies are padded for it) and written past the run (the next run or
+/// the padding overwrites them). The slices are cut once, so the block loop carries no bounds
+/// checks.
 #[inline(always)]
-fn append<const SHIFT: bool>(
-    dst: &mut [f32],
+fn append(dst: &mut [f32], len: usize, src: &[f32], a: usize, b: usize) {
+    let blocks = (b - a).div_ceil(LANES) * LANES;
+    let (from, _) = src[a..a + blocks].as_chunks::<LANES>();
+    let (to, _) = dst[len..len + blocks].as_chunks_mut::<LANES>();
+    for (t, f) in to.iter_mut().zip(from) {
+        *t = *f;
+    }
+}
+
+/// [`append`] of the positions (plus `shift`) and velocities of `s[a..b]` into the buffer at
+/// `len`, the four in one loop over blocks.
+#[inline(always)]
+fn append_motion(
+    buf: &mut CellBuf,
     len: usize,
-    src: &[f32],
+    s: &SortedCopies,
     a: usize,
     b: usize,
-    shift: f32,
+    (shift_x, shift_y): (f32, f32),
 ) {
-    let mut j = 0;
-    while j < b - a {
-        let from: &[f32; LANES] = src[a + j..a + j + LANES].try_into().expect("padded copies");
-        let to: &mut [f32; LANES] = (&mut dst[len + j..len + j + LANES])
-            .try_into()
-            .expect("sized buffer");
-        *to = if SHIFT && shift != 0.0 {
-            from.map(|v| v + shift)
-        } else {
-            *from
-        };
-        j += LANES;
+    fn src(v: &[f32], a: usize, blocks: usize) -> &[[f32; LANES]] {
+        v[a..a + blocks].as_chunks::<LANES>().0
+    }
+    fn dst(v: &mut [f32], len: usize, blocks: usize) -> &mut [[f32; LANES]] {
+        v[len..len + blocks].as_chunks_mut::<LANES>().0
+    }
+    let blocks = (b - a).div_ceil(LANES) * LANES;
+    let (x, y) = (src(&s.x, a, blocks), src(&s.y, a, blocks));
+    let (vx, vy) = (src(&s.vx, a, blocks), src(&s.vy, a, blocks));
+    let n = x.len();
+    let (x, y, vx, vy) = (&x[..n], &y[..n], &vx[..n], &vy[..n]);
+    let (tx, ty, tvx, tvy) = (
+        dst(&mut buf.x, len, blocks),
+        dst(&mut buf.y, len, blocks),
+        dst(&mut buf.vx, len, blocks),
+        dst(&mut buf.vy, len, blocks),
+    );
+    let (tx, ty, tvx, tvy) = (&mut tx[..n], &mut ty[..n], &mut tvx[..n], &mut tvy[..n]);
+    for k in 0..n {
+        tx[k] = x[k].map(|v| v + shift_x);
+        ty[k] = y[k].map(|v| v + shift_y);
+        tvx[k] = vx[k];
+        tvy[k] = vy[k];
     }
 }
 
