@@ -148,6 +148,46 @@ impl Adapter {
         (ox, oy)
     }
 
+    /// [`Adapter::finish`] for the linear requests `(tx, ty)` of a run of agents, written to
+    /// `(ox, oy)`: the same operations in the same order in long loops, so each agent equals the
+    /// scalar result bit for bit; agents whose request overflowed take the scalar path.
+    #[inline(always)]
+    pub(crate) fn finish_run(
+        &self,
+        (tx, ty): (&[f32], &[f32]),
+        (ox, oy): (&mut [f32], &mut [f32]),
+    ) {
+        let n = ox.len();
+        let (tx, ty, oy) = (&tx[..n], &ty[..n], &mut oy[..n]);
+        if self.kinematic {
+            ox.copy_from_slice(tx);
+            oy.copy_from_slice(ty);
+        } else {
+            let (mass, max) = (self.mass, self.max_acceleration);
+            for k in 0..n {
+                // `truncate(total / mass, max)`.
+                let (vx, vy) = (tx[k] / mass, ty[k] / mass);
+                let len_sq = vx * vx + vy * vy;
+                let over = len_sq > max * max;
+                let s = max / len_sq.sqrt();
+                ox[k] = if over { vx * s } else { vx };
+                oy[k] = if over { vy * s } else { vy };
+            }
+        }
+        let mut finite = true;
+        for k in 0..n {
+            finite &= (ox[k] * ox[k] + oy[k] * oy[k]).is_finite();
+        }
+        if !finite {
+            for k in 0..n {
+                if !(ox[k] * ox[k] + oy[k] * oy[k]).is_finite() {
+                    let s = self.finish(Steering::linear(Vec2::new(tx[k], ty[k])));
+                    (ox[k], oy[k]) = (s.linear.x, s.linear.y);
+                }
+            }
+        }
+    }
+
     /// [`Adapter::finish`] for requests whose magnitude overflowed (a gravity point almost on
     /// top of an agent, a tiny mass): their direction kept at the limit; undefined ones
     /// (infinity minus infinity) do nothing.

@@ -7,8 +7,10 @@
 //! seam is shifted by the world's side), so the lane kernel needs neither run boundaries nor
 //! minimum-image arithmetic. Every agent of the cell then sums over the buffer in SIMD lanes
 //! (runtime dispatch: two agents per 16-lane vector on AVX-512, AVX2 + FMA where the processor
-//! has that, the baseline otherwise; the same bits on each), and its flocking terms and the model
-//! adapter run right after, writing the outputs in the grid's order.
+//! has that, the baseline otherwise; the same bits on each). The sums wait in columns until the
+//! task's cells are done; then the flocking terms and the model adapter run over each run of
+//! agents of one group, one term at a time in long vector loops, writing the outputs in the
+//! grid's order.
 //!
 //! View cones are tested without a square root: for a cosine `c < 0` a neighbour at offset `d`
 //! is seen when `h . d >= 0` or `(h . d)^2 <= c^2 |d|^2`, for `c >= 0` when both `h . d >= 0`
@@ -86,7 +88,7 @@ struct CellBuf {
 }
 
 thread_local! {
-    static BUF: RefCell<CellBuf> = RefCell::new(CellBuf::default());
+    static BUF: RefCell<(CellBuf, Runs)> = RefCell::new((CellBuf::default(), Runs::default()));
 }
 
 /// Whether agent `i` is evaluated by the batch (its plan is flocking-only and the kernel serves
@@ -112,20 +114,28 @@ fn batched(plan: &super::plan::Plan) -> bool {
 }
 
 /// One block of the cell buffer: positions, velocities and groups of `KLANES` candidates.
-type Block<'b> = (&'b [f32], &'b [f32], &'b [f32], &'b [f32], &'b [f32]);
+type Block<'b> = (
+    &'b [f32; KLANES],
+    &'b [f32; KLANES],
+    &'b [f32; KLANES],
+    &'b [f32; KLANES],
+    &'b [f32; KLANES],
+);
 
 impl CellBuf {
-    /// The gathered candidates in blocks of `KLANES`.
+    /// The gathered candidates in blocks of `KLANES`. The five columns are cut to one length
+    /// first, so the loop over blocks runs on one counter without bounds checks.
     #[inline(always)]
     fn blocks(&self) -> impl Iterator<Item = Block<'_>> {
         let n = self.len;
-        self.x[..n]
-            .chunks_exact(KLANES)
-            .zip(self.y[..n].chunks_exact(KLANES))
-            .zip(self.vx[..n].chunks_exact(KLANES))
-            .zip(self.vy[..n].chunks_exact(KLANES))
-            .zip(self.g[..n].chunks_exact(KLANES))
-            .map(|((((x, y), vx), vy), g)| (x, y, vx, vy, g))
+        fn col(v: &[f32], n: usize) -> &[[f32; KLANES]] {
+            v[..n].as_chunks::<KLANES>().0
+        }
+        let (x, y) = (col(&self.x, n), col(&self.y, n));
+        let (vx, vy, g) = (col(&self.vx, n), col(&self.vy, n), col(&self.g, n));
+        let m = x.len();
+        let (y, vx, vy, g) = (&y[..m], &vx[..m], &vy[..m], &g[..m]);
+        (0..m).map(move |k| (&x[k], &y[k], &vx[k], &vy[k], &g[k]))
     }
 }
 
@@ -239,8 +249,8 @@ pub(crate) fn run(view: &SteerView, out: &mut CellOut, parallel: bool) -> bool {
     }
     let specs = &out.specs;
     let work = |base: usize, lx: &mut [f32], ly: &mut [f32], nb: &mut [f32]| {
-        BUF.with_borrow_mut(|buf| {
-            chunk(view, grid, sorted, specs, base, lx, ly, nb, buf);
+        BUF.with_borrow_mut(|(buf, runs)| {
+            chunk(view, grid, sorted, specs, base, lx, ly, nb, (buf, runs));
         });
     };
     if parallel {
@@ -277,26 +287,40 @@ struct Outputs<'o> {
     lx: &'o mut [f32],
     ly: &'o mut [f32],
     nb: &'o mut [f32],
+    /// The flocking agents' sums, waiting for [`Outputs::finish`].
+    runs: &'o mut Runs,
 }
 
 impl Outputs<'_> {
-    /// Runs the flocking terms and the adapter over the filled lanes and writes their results.
-    fn flush(&mut self, view: &SteerView, lanes: &mut Lanes) {
-        if lanes.len == 0 {
-            return;
+    /// Runs the flocking terms and the model adapter over every run of agents of one flocking
+    /// group (in the task's grid order) and writes their results.
+    fn finish(&mut self, view: &SteerView) {
+        let n = self.lx.len();
+        let mut j = 0;
+        while j < n {
+            let mark = self.runs.mark[j];
+            if mark == 0 {
+                j += 1;
+                continue;
+            }
+            let end = j + self.runs.mark[j..n]
+                .iter()
+                .take_while(|&&m| m == mark)
+                .count();
+            let plan = &view.plans[mark as usize - 1];
+            let PlanKind::Flock { terms, len } = plan.kind else {
+                unreachable!("only flocking plans wait in runs");
+            };
+            evaluate_run(
+                self.runs,
+                j..end,
+                &terms[..len as usize],
+                &plan.adapter,
+                (&mut self.lx[j..end], &mut self.ly[j..end]),
+            );
+            self.nb[j..end].copy_from_slice(&self.runs.count[j..end]);
+            j = end;
         }
-        let plan = &view.plans[lanes.group];
-        let PlanKind::Flock { terms, len } = plan.kind else {
-            unreachable!("only flocking plans are batched");
-        };
-        let (ox, oy) = evaluate_lanes(lanes, &terms[..len as usize], &plan.adapter);
-        for l in 0..lanes.len {
-            let k = lanes.slot[l] - self.base;
-            self.lx[k] = ox[l];
-            self.ly[k] = oy[l];
-            self.nb[k] = lanes.count[l];
-        }
-        lanes.len = 0;
     }
 }
 
@@ -318,7 +342,6 @@ impl Batch {
         sorted: &SortedCopies,
         q: &Query,
         buf: &CellBuf,
-        lanes: &mut Lanes,
         out: &mut Outputs,
     ) {
         let m = self.len;
@@ -363,19 +386,18 @@ impl Batch {
             let (p, i) = self.slots[k];
             let velocity = Vec2::new(sorted.vx[p], sorted.vy[p]);
             let s = without_self(self.sums[k], velocity, spec);
-            if lanes.len == LANES || (lanes.len > 0 && lanes.group != self.group) {
-                out.flush(view, lanes);
-            }
-            lanes.push(self.group, p, &s, velocity, view.agents.max_speed[i]);
+            let max_speed = view.agents.max_speed[i];
+            out.runs
+                .put(p - out.base, self.group, &s, velocity, max_speed);
         }
         self.len = 0;
     }
 }
 
 /// The batch over grid positions `base..base + lx.len()`: per cell, the neighbourhood is
-/// gathered once and the sums of its agents computed over it in one kernel call; the sums of up
-/// to [`LANES`] agents of one group then go through the flocking terms and the model adapter
-/// together.
+/// gathered once and the sums of its agents computed over it in one kernel call; once every
+/// cell is done, the sums of each run of agents of one group go through the flocking terms and
+/// the model adapter together ([`Outputs::finish`]).
 #[allow(clippy::too_many_arguments)]
 #[multiversion(targets("x86_64+avx2+fma", "x86_64+avx"))]
 fn chunk(
@@ -387,15 +409,21 @@ fn chunk(
     lx: &mut [f32],
     ly: &mut [f32],
     nb: &mut [f32],
-    buf: &mut CellBuf,
+    (buf, runs): (&mut CellBuf, &mut Runs),
 ) {
     let order = grid.order();
     let starts = grid.cell_start();
     let end = base + lx.len();
     let groups = specs.iter().flatten().any(Query::needs_groups);
     let headings = specs.iter().flatten().any(|q| q.mode == VICSEK);
-    let mut out = Outputs { base, lx, ly, nb };
-    let mut lanes = Lanes::default();
+    runs.clear(lx.len());
+    let mut out = Outputs {
+        base,
+        lx,
+        ly,
+        nb,
+        runs,
+    };
     let mut batch = Batch {
         agents: [Agent::default(); CELL_BATCH],
         slots: [(0, 0); CELL_BATCH],
@@ -424,7 +452,7 @@ fn chunk(
             }
             if batch.len == CELL_BATCH || (batch.len > 0 && batch.group != g) {
                 let q = specs[batch.group].as_ref().expect("batched");
-                batch.run(view, sorted, q, buf, &mut lanes, &mut out);
+                batch.run(view, sorted, q, buf, &mut out);
             }
             let i = order[p] as usize;
             // The heading is filled in by `Batch::run`, in lanes.
@@ -442,107 +470,126 @@ fn chunk(
         // The buffer belongs to this cell: its batch runs before the next cell gathers.
         if batch.len > 0 {
             let q = specs[batch.group].as_ref().expect("batched");
-            batch.run(view, sorted, q, buf, &mut lanes, &mut out);
+            batch.run(view, sorted, q, buf, &mut out);
         }
         k = cell_end;
     }
-    out.flush(view, &mut lanes);
+    out.finish(view);
 }
 
-/// The sums, state and output slots of up to [`LANES`] agents of one group.
+/// The sums and state of a task's flocking agents, in columns indexed from the task's first
+/// grid position; `mark` is the agent's group plus one, or 0 where no flocking sums wait.
 #[derive(Debug, Default)]
-struct Lanes {
-    len: usize,
-    group: usize,
-    slot: [usize; LANES],
-    sep: [[f32; LANES]; 2],
-    ali: [[f32; LANES]; 2],
-    ali_n: [f32; LANES],
-    coh: [[f32; LANES]; 2],
-    coh_n: [f32; LANES],
-    vel: [[f32; LANES]; 2],
-    max_speed: [f32; LANES],
-    count: [f32; LANES],
+struct Runs {
+    mark: Vec<u32>,
+    sep: [Vec<f32>; 2],
+    ali: [Vec<f32>; 2],
+    ali_n: Vec<f32>,
+    coh: [Vec<f32>; 2],
+    coh_n: Vec<f32>,
+    vel: [Vec<f32>; 2],
+    max_speed: Vec<f32>,
+    count: Vec<f32>,
+    /// The weighted sum of the terms, per agent.
+    total: [Vec<f32>; 2],
 }
 
-impl Lanes {
-    /// Adds an agent (its grid position `slot`) of `group`.
-    fn push(&mut self, group: usize, slot: usize, s: &NeighbourSums, v: Vec2, max_speed: f32) {
-        let l = self.len;
-        self.group = group;
-        self.slot[l] = slot;
-        (self.sep[0][l], self.sep[1][l]) = (s.separation.x, s.separation.y);
-        (self.ali[0][l], self.ali[1][l]) = (s.alignment.x, s.alignment.y);
-        self.ali_n[l] = s.alignment_count;
-        (self.coh[0][l], self.coh[1][l]) = (s.cohesion.x, s.cohesion.y);
-        self.coh_n[l] = s.cohesion_count;
-        (self.vel[0][l], self.vel[1][l]) = (v.x, v.y);
-        self.max_speed[l] = max_speed;
-        self.count[l] = s.count;
-        self.len += 1;
+impl Runs {
+    /// Room for `n` agents, none waiting.
+    fn clear(&mut self, n: usize) {
+        self.mark.clear();
+        self.mark.resize(n, 0);
+        let [a, b] = &mut self.sep;
+        let [c, d] = &mut self.ali;
+        let [e, f] = &mut self.coh;
+        let [g, h] = &mut self.vel;
+        let [t, u] = &mut self.total;
+        for v in [a, b, c, d, &mut self.ali_n, e, f, &mut self.coh_n, g, h] {
+            v.resize(n, 0.0);
+        }
+        for v in [&mut self.max_speed, &mut self.count, t, u] {
+            v.resize(n, 0.0);
+        }
+    }
+
+    /// Puts the sums of the agent at slot `j` (of `group`).
+    #[inline(always)]
+    fn put(&mut self, j: usize, group: usize, s: &NeighbourSums, v: Vec2, max_speed: f32) {
+        self.mark[j] = group as u32 + 1;
+        (self.sep[0][j], self.sep[1][j]) = (s.separation.x, s.separation.y);
+        (self.ali[0][j], self.ali[1][j]) = (s.alignment.x, s.alignment.y);
+        self.ali_n[j] = s.alignment_count;
+        (self.coh[0][j], self.coh[1][j]) = (s.cohesion.x, s.cohesion.y);
+        self.coh_n[j] = s.cohesion_count;
+        (self.vel[0][j], self.vel[1][j]) = (v.x, v.y);
+        self.max_speed[j] = max_speed;
+        self.count[j] = s.count;
     }
 }
 
-/// The flocking terms and the model adapter for every lane: the same operations in the same
+/// The flocking terms and the model adapter for the agents at `range` of `r`, one term at a
+/// time over the whole run (long loops of vector instructions): the same operations in the same
 /// order as [`flock_total`] and [`Adapter::finish`] per agent (exact square roots and
-/// divisions), so each lane's result equals the scalar evaluation bit for bit. Lanes whose
-/// request overflowed take the scalar adapter's guard.
+/// divisions), so each agent's result equals the scalar evaluation bit for bit.
 #[multiversion(targets("x86_64+avx2+fma", "x86_64+avx"))]
-fn evaluate_lanes(
-    l: &Lanes,
+fn evaluate_run(
+    r: &mut Runs,
+    range: std::ops::Range<usize>,
     terms: &[(u8, f32)],
     adapter: &Adapter,
-) -> ([f32; LANES], [f32; LANES]) {
-    let (tx, ty) = if adapter.kinematic {
-        total_lanes::<true>(l, terms)
-    } else {
-        total_lanes::<false>(l, terms)
-    };
-    adapter.finish_lanes(tx, ty, l.len)
-}
-
-/// The weighted sum of the flocking terms per lane, in the profile's order.
-#[inline(always)]
-fn total_lanes<const KINEMATIC: bool>(
-    l: &Lanes,
-    terms: &[(u8, f32)],
-) -> ([f32; LANES], [f32; LANES]) {
-    let (mut tx, mut ty) = ([0.0_f32; LANES], [0.0_f32; LANES]);
+    (ox, oy): (&mut [f32], &mut [f32]),
+) {
+    let [tx, ty] = &mut r.total;
+    let (tx, ty) = (&mut tx[range.clone()], &mut ty[range.clone()]);
+    tx.fill(0.0);
+    ty.fill(0.0);
+    fn cut(v: &[f32], range: std::ops::Range<usize>) -> &[f32] {
+        &v[range]
+    }
+    let col = |v| cut(v, range.clone());
+    let vel = (col(&r.vel[0]), col(&r.vel[1]));
+    let ms = col(&r.max_speed);
     for &(slot, w) in terms {
         // Kinematic terms steer along the raw sums; dynamic alignment and cohesion along the
         // means, and nothing without neighbours.
-        let (f, g) = match (slot as usize, KINEMATIC) {
-            (SEP, _) | (_, true) => {
-                let (x, y) = match slot as usize {
-                    SEP => (&l.sep[0], &l.sep[1]),
-                    ALI => (&l.ali[0], &l.ali[1]),
-                    _ => (&l.coh[0], &l.coh[1]),
-                };
-                term_lanes::<KINEMATIC, false>(x, y, &[1.0; LANES], l)
-            }
-            (ALI, false) => term_lanes::<false, true>(&l.ali[0], &l.ali[1], &l.ali_n, l),
-            _ => term_lanes::<false, true>(&l.coh[0], &l.coh[1], &l.coh_n, l),
+        let (x, y, n) = match slot as usize {
+            SEP => (col(&r.sep[0]), col(&r.sep[1]), None),
+            ALI => (col(&r.ali[0]), col(&r.ali[1]), Some(col(&r.ali_n))),
+            _ => (col(&r.coh[0]), col(&r.coh[1]), Some(col(&r.coh_n))),
         };
-        for k in 0..LANES {
-            tx[k] += f[k] * w;
-            ty[k] += g[k] * w;
+        match (n, adapter.kinematic) {
+            (Some(n), false) => term_run::<false, true>((x, y), n, vel, ms, w, (tx, ty)),
+            (_, true) => term_run::<true, false>((x, y), x, vel, ms, w, (tx, ty)),
+            (None, false) => term_run::<false, false>((x, y), x, vel, ms, w, (tx, ty)),
         }
     }
-    (tx, ty)
+    adapter.finish_run((tx, ty), (ox, oy));
 }
 
-/// One flocking term per lane from its sums `(x, y)` (divided by `n` when `MEAN`): the desired
-/// velocity of full speed along them (kinematic), or the force towards it (dynamic), exactly as
-/// [`crate::steering::desired`], `separation`, `alignment` and `cohesion` compute them.
+/// One flocking term, weighted by `w`, added to `(tx, ty)` for every agent of a run, from its
+/// sums `(x, y)` (divided by `n` when `MEAN`): the desired velocity of full speed along them
+/// (kinematic), or the force towards it (dynamic), exactly as [`crate::steering::desired`],
+/// `separation`, `alignment` and `cohesion` compute them.
 #[inline(always)]
-fn term_lanes<const KINEMATIC: bool, const MEAN: bool>(
-    x: &[f32; LANES],
-    y: &[f32; LANES],
-    n: &[f32; LANES],
-    l: &Lanes,
-) -> ([f32; LANES], [f32; LANES]) {
-    let (mut fx, mut fy) = ([0.0_f32; LANES], [0.0_f32; LANES]);
-    for k in 0..LANES {
+fn term_run<const KINEMATIC: bool, const MEAN: bool>(
+    (x, y): (&[f32], &[f32]),
+    n: &[f32],
+    (vx, vy): (&[f32], &[f32]),
+    max_speed: &[f32],
+    w: f32,
+    (tx, ty): (&mut [f32], &mut [f32]),
+) {
+    let len = tx.len();
+    let (x, y, n, vx, vy, ms, ty) = (
+        &x[..len],
+        &y[..len],
+        &n[..len],
+        &vx[..len],
+        &vy[..len],
+        &max_speed[..len],
+        &mut ty[..len],
+    );
+    for k in 0..len {
         let (dx, dy) = if MEAN {
             (x[k] / n[k], y[k] / n[k])
         } else {
@@ -551,24 +598,23 @@ fn term_lanes<const KINEMATIC: bool, const MEAN: bool>(
         // `normalize_or_zero(d) * max_speed`, as glam computes it.
         let rcp = 1.0 / (dx * dx + dy * dy).sqrt();
         let unit = positive_finite(rcp);
-        let ms = l.max_speed[k];
         let ux = if unit { dx * rcp } else { 0.0 };
         let uy = if unit { dy * rcp } else { 0.0 };
-        let (desired_x, desired_y) = (ux * ms, uy * ms);
+        let (desired_x, desired_y) = (ux * ms[k], uy * ms[k]);
         let (ax, ay) = if KINEMATIC {
             (desired_x, desired_y)
         } else {
             let zero = (dx == 0.0) & (dy == 0.0);
             (
-                if zero { 0.0 } else { desired_x - l.vel[0][k] },
-                if zero { 0.0 } else { desired_y - l.vel[1][k] },
+                if zero { 0.0 } else { desired_x - vx[k] },
+                if zero { 0.0 } else { desired_y - vy[k] },
             )
         };
         let present = !MEAN || n[k] != 0.0;
-        fx[k] = if present { ax } else { 0.0 };
-        fy[k] = if present { ay } else { 0.0 };
+        let (fx, fy) = if present { (ax, ay) } else { (0.0, 0.0) };
+        tx[k] += fx * w;
+        ty[k] += fy * w;
     }
-    (fx, fy)
 }
 
 /// Gathers the 3 x 3 block of cells around `cell` into `buf`, shifted across torus seams, and
