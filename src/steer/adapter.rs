@@ -112,39 +112,16 @@ impl Adapter {
         self.finish_overflow(total)
     }
 
-    /// [`Adapter::finish`] for `LANES` linear requests at once (the first `len` in use), with the
-    /// same operations in the same order, so each lane equals the scalar result bit for bit;
-    /// when some lane overflowed, the used lanes take the scalar path.
+    /// [`Adapter::finish`] for `LANES` linear requests at once: [`Adapter::finish_run`] over
+    /// all the lanes (a constant trip count; lanes not in use give results nobody reads).
     #[inline(always)]
     pub(crate) fn finish_lanes(
         &self,
         tx: [f32; LANES],
         ty: [f32; LANES],
-        len: usize,
     ) -> ([f32; LANES], [f32; LANES]) {
         let (mut ox, mut oy) = (tx, ty);
-        if !self.kinematic {
-            let (mass, max) = (self.mass, self.max_acceleration);
-            for k in 0..LANES {
-                // `truncate(total / mass, max)`.
-                let (vx, vy) = (tx[k] / mass, ty[k] / mass);
-                let len_sq = vx * vx + vy * vy;
-                let over = len_sq > max * max;
-                let s = max / len_sq.sqrt();
-                ox[k] = if over { vx * s } else { vx };
-                oy[k] = if over { vy * s } else { vy };
-            }
-        }
-        let mut finite = true;
-        for k in 0..LANES {
-            finite &= (ox[k] * ox[k] + oy[k] * oy[k]).is_finite();
-        }
-        if !finite {
-            for k in 0..len {
-                let s = self.finish(Steering::linear(Vec2::new(tx[k], ty[k])));
-                (ox[k], oy[k]) = (s.linear.x, s.linear.y);
-            }
-        }
+        self.finish_run((&tx, &ty), (&mut ox, &mut oy));
         (ox, oy)
     }
 

@@ -173,7 +173,7 @@ impl SeekLanes {
             }
             _ => unreachable!("only seek and arrive plans are gathered"),
         };
-        let (ox, oy) = plan.adapter.finish_lanes(tx, ty, self.len);
+        let (ox, oy) = plan.adapter.finish_lanes(tx, ty);
         for l in 0..self.len {
             let (i, k) = (self.index[l], self.index[l] - base);
             (lx[k], ly[k], an[k], nb[k]) = (ox[l], oy[l], 0.0, 0.0);
