@@ -929,6 +929,13 @@ fn one_if(b: bool) -> f32 {
     if b { 1.0 } else { 0.0 }
 }
 
+/// `x` when `m`, else `+0`, as a bitwise and with the mask (one vector instruction: a branch or
+/// a select here can compile to masked stores of the accumulators).
+#[inline(always)]
+fn keep(m: bool, x: f32) -> f32 {
+    f32::from_bits(x.to_bits() & 0u32.wrapping_sub(u32::from(m)))
+}
+
 /// Whether the view cone of kind `CONE` (0 all round, 1 wider than a half plane, 2 narrower)
 /// admits an offset with `dot = h . d`, squared length `d2`, squared cosine `c2`.
 #[inline(always)]
@@ -950,8 +957,11 @@ fn tree_sum(a: &[f32; KLANES]) -> f32 {
 
 /// The flock's shape: separation all round; alignment and cohesion share radius, cone and
 /// group rule, so they share one mask and one count (and, when `Q_AC`, the query radius is
-/// theirs, so the neighbour count shares their radius test). Masks are selects (`if m { x }
-/// else { 0.0 }`), one vector instruction each.
+/// theirs, so the neighbour count shares their radius test). Masks are booleans and terms are
+/// kept by them ([`keep`], one vector instruction each). Adding a selected
+/// `+0` leaves an accumulator as it is, and so does subtracting `dx * 0 = ±0` from separation:
+/// the accumulators start at `+0` and so are never `-0`. The sums are the masked products of the
+/// scalar reference, bit for bit.
 #[inline(always)]
 fn shared<const CONE: u8, const GROUPS: bool, const Q_AC: bool>(
     buf: &CellBuf,
@@ -967,32 +977,30 @@ fn shared<const CONE: u8, const GROUPS: bool, const Q_AC: bool>(
             let dy = ys[l] - q.y;
             let d2 = dx * dx + dy * dy;
             let (g_sep, g_ac) = if GROUPS {
-                let same = one_if(gs[l] == q.g);
-                (
-                    if sep_any { 1.0 } else { same },
-                    if ac_any { 1.0 } else { same },
-                )
+                let same = gs[l] == q.g;
+                (sep_any | same, ac_any | same)
             } else {
-                (1.0, 1.0)
+                (true, true)
             };
-            let ms = one_if(d2 <= r_sep) * one_if(d2 > 0.0) * g_sep;
+            let ms = (d2 <= r_sep) & (d2 > 0.0) & g_sep;
             let inv = 1.0 / d2.max(f32::MIN_POSITIVE);
-            sx[l] -= ms * (dx * inv);
-            sy[l] -= ms * (dy * inv);
+            let inv = keep(ms, inv);
+            sx[l] -= dx * inv;
+            sy[l] -= dy * inv;
             let dot = q.hx * dx + q.hy * dy;
-            let in_r = one_if(d2 <= r_ac);
+            let in_r = d2 <= r_ac;
             let view = match CONE {
-                0 => 1.0,
-                1 => one_if(dot >= 0.0).max(one_if(dot * dot <= c2 * d2)),
-                _ => one_if(dot >= 0.0) * one_if(dot * dot >= c2 * d2),
+                0 => true,
+                1 => (dot >= 0.0) | (dot * dot <= c2 * d2),
+                _ => (dot >= 0.0) & (dot * dot >= c2 * d2),
             };
-            let ma = in_r * view * g_ac;
-            ax[l] += ma * vxs[l];
-            ay[l] += ma * vys[l];
-            an[l] += ma;
-            cx[l] += ma * dx;
-            cy[l] += ma * dy;
-            n[l] += if Q_AC { in_r } else { one_if(d2 <= q.q_sq) };
+            let ma = in_r & view & g_ac;
+            ax[l] += keep(ma, vxs[l]);
+            ay[l] += keep(ma, vys[l]);
+            an[l] += keep(ma, 1.0);
+            cx[l] += keep(ma, dx);
+            cy[l] += keep(ma, dy);
+            n[l] += keep(if Q_AC { in_r } else { d2 <= q.q_sq }, 1.0);
         }
     }
     Acc {

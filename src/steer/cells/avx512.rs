@@ -6,9 +6,9 @@
 //!
 //! Invariant: each half gives the bits the 8-lane kernel gives its agent. Every lane does the
 //! same IEEE operations on the same operands in the same order (no fused multiply-add, exact
-//! division); where the 8-lane kernel multiplies by a 0/1 mask and adds, this kernel adds under a
-//! mask, which is the same value because an accumulator starts at +0 and so is never -0 (adding
-//! or subtracting a zero then leaves it as it is); the halves are reduced as [`super::tree_sum`]
+//! division); where the 8-lane kernel keeps a term by a mask (a bitwise and) and adds, this kernel
+//! adds under a mask, which is the same value because an accumulator starts at +0 and so is never
+//! -0 (adding or subtracting a zero then leaves it as it is); the halves are reduced as [`super::tree_sum`]
 //! reduces the lanes. `tests/flocking.rs` and `tests/determinism.rs` compare the paths.
 
 use std::arch::x86_64::*;
