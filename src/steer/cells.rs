@@ -23,6 +23,7 @@
 //! rounding (`tests/flocking.rs` checks it against brute force).
 
 use std::cell::RefCell;
+use std::sync::atomic::{AtomicU32, Ordering};
 
 use glam::Vec2;
 use multiversion::multiversion;
@@ -57,8 +58,10 @@ pub(crate) struct CellOut {
     lin_x: Vec<f32>,
     lin_y: Vec<f32>,
     count: Vec<f32>,
-    /// `rank[i]`: the position of storage index `i` in the grid's order.
-    rank: Vec<u32>,
+    /// `rank[i]`: the position of storage index `i` in the grid's order. Written by the
+    /// parallel tasks for their own positions (a scatter: relaxed atomics, plain stores and loads
+    /// on x86, instead of `unsafe`), read after they all finish.
+    rank: Vec<AtomicU32>,
     /// Per group: the kernel's query template, when the group is batched.
     specs: Vec<Option<Query>>,
 }
@@ -183,7 +186,7 @@ impl CellOut {
         let n = lx.len();
         let rank = &self.rank[base..base + n];
         for k in 0..n {
-            let r = rank[k] as usize;
+            let r = rank[k].load(Ordering::Relaxed) as usize;
             lx[k] = self.lin_x[r];
             ly[k] = self.lin_y[r];
             nb[k] = self.count[r];
@@ -201,7 +204,7 @@ impl CellOut {
         (lx, ly, an, wa, nb): OutChunks,
         k: usize,
     ) {
-        let r = self.rank[i] as usize;
+        let r = self.rank[i].load(Ordering::Relaxed) as usize;
         lx[k] = self.lin_x[r];
         ly[k] = self.lin_y[r];
         an[k] = 0.0;
@@ -243,15 +246,16 @@ pub(crate) fn run(view: &SteerView, out: &mut CellOut, parallel: bool) -> bool {
     for v in [&mut out.lin_x, &mut out.lin_y, &mut out.count] {
         v.resize(n, 0.0);
     }
-    out.rank.resize(n, 0);
-    for (k, &i) in grid.order().iter().enumerate() {
-        out.rank[i as usize] = k as u32;
-    }
-    let specs = &out.specs;
+    out.rank.resize_with(n, AtomicU32::default);
+    let (specs, rank) = (&out.specs, &out.rank);
     let work = |base: usize, lx: &mut [f32], ly: &mut [f32], nb: &mut [f32]| {
         BUF.with_borrow_mut(|(buf, runs)| {
             chunk(view, grid, sorted, specs, base, lx, ly, nb, (buf, runs));
         });
+        let order = &grid.order()[base..base + lx.len()];
+        for (p, &i) in (base..).zip(order) {
+            rank[i as usize].store(p as u32, Ordering::Relaxed);
+        }
     };
     if parallel {
         (
