@@ -435,6 +435,7 @@ fn chunk(
         len: 0,
         group: 0,
     };
+    let single = specs.len() == 1 && specs[0].is_some();
     // The first cell holding position `base`.
     let mut cell = starts.partition_point(|&s| s as usize <= base) - 1;
     let mut k = base;
@@ -446,10 +447,16 @@ fn chunk(
         let mut gathered = false;
         #[allow(clippy::needless_range_loop)]
         for p in k..cell_end {
-            let g = sorted.g[p] as usize;
-            if specs[g].is_none() {
-                continue;
-            }
+            // One batched group: every agent is its, and no group number is read.
+            let g = if single {
+                0
+            } else {
+                let g = sorted.g[p] as usize;
+                if specs[g].is_none() {
+                    continue;
+                }
+                g
+            };
             if !gathered {
                 gather(grid, sorted, view.bounds, cell, groups, headings, buf);
                 gathered = true;
@@ -701,16 +708,18 @@ fn gather(
             buf.len += b - a;
         }
     }
-    // Pad to whole blocks with far-away points that no mask admits.
-    let (len, padded) = (buf.len, buf.len.div_ceil(KLANES) * KLANES);
-    buf.x[len..padded].fill(FAR);
-    buf.y[len..padded].fill(FAR);
-    buf.vx[len..padded].fill(0.0);
-    buf.vy[len..padded].fill(0.0);
-    buf.g[len..padded].fill(-1.0);
-    buf.hx[len..padded].fill(0.0);
-    buf.hy[len..padded].fill(0.0);
-    buf.len = padded;
+    // Pad to whole blocks with far-away points that no mask admits: one whole block written
+    // past the last run (the last run made room for it), of which the used part is kept.
+    let len = buf.len;
+    let pad = |v: &mut Vec<f32>, value: f32| v[len..len + KLANES].copy_from_slice(&[value; KLANES]);
+    pad(&mut buf.x, FAR);
+    pad(&mut buf.y, FAR);
+    pad(&mut buf.vx, 0.0);
+    pad(&mut buf.vy, 0.0);
+    pad(&mut buf.g, -1.0);
+    pad(&mut buf.hx, 0.0);
+    pad(&mut buf.hy, 0.0);
+    buf.len = len.div_ceil(KLANES) * KLANES;
 }
 
 /// Writes `src[a..b]` at `dst[len..]` in whole blocks of lanes: up to `LANES - 1` values past
