@@ -488,44 +488,65 @@ fn chunk(
     out.finish(view);
 }
 
+/// One column of [`Runs`]: a task's agents at most, so that an index checked once against
+/// [`CELL_CHUNK`] needs no further bounds checks.
+type Column = Box<[f32; CELL_CHUNK]>;
+
+/// A zeroed [`Column`] (built on the heap: 8 KiB).
+fn column() -> Column {
+    vec![0.0; CELL_CHUNK]
+        .into_boxed_slice()
+        .try_into()
+        .expect("a column of CELL_CHUNK values")
+}
+
 /// The sums and state of a task's flocking agents, in columns indexed from the task's first
 /// grid position; `mark` is the agent's group plus one, or 0 where no flocking sums wait.
-#[derive(Debug, Default)]
+#[derive(Debug)]
 struct Runs {
-    mark: Vec<u32>,
-    sep: [Vec<f32>; 2],
-    ali: [Vec<f32>; 2],
-    ali_n: Vec<f32>,
-    coh: [Vec<f32>; 2],
-    coh_n: Vec<f32>,
-    vel: [Vec<f32>; 2],
-    max_speed: Vec<f32>,
-    count: Vec<f32>,
+    mark: Box<[u32; CELL_CHUNK]>,
+    sep: [Column; 2],
+    ali: [Column; 2],
+    ali_n: Column,
+    coh: [Column; 2],
+    coh_n: Column,
+    vel: [Column; 2],
+    max_speed: Column,
+    count: Column,
     /// The weighted sum of the terms, per agent.
-    total: [Vec<f32>; 2],
+    total: [Column; 2],
+}
+
+impl Default for Runs {
+    fn default() -> Self {
+        Runs {
+            mark: vec![0; CELL_CHUNK]
+                .into_boxed_slice()
+                .try_into()
+                .expect("CELL_CHUNK marks"),
+            sep: [column(), column()],
+            ali: [column(), column()],
+            ali_n: column(),
+            coh: [column(), column()],
+            coh_n: column(),
+            vel: [column(), column()],
+            max_speed: column(),
+            count: column(),
+            total: [column(), column()],
+        }
+    }
 }
 
 impl Runs {
-    /// Room for `n` agents, none waiting.
+    /// No agent of the first `n` waiting.
     fn clear(&mut self, n: usize) {
-        self.mark.clear();
-        self.mark.resize(n, 0);
-        let [a, b] = &mut self.sep;
-        let [c, d] = &mut self.ali;
-        let [e, f] = &mut self.coh;
-        let [g, h] = &mut self.vel;
-        let [t, u] = &mut self.total;
-        for v in [a, b, c, d, &mut self.ali_n, e, f, &mut self.coh_n, g, h] {
-            v.resize(n, 0.0);
-        }
-        for v in [&mut self.max_speed, &mut self.count, t, u] {
-            v.resize(n, 0.0);
-        }
+        self.mark[..n].fill(0);
     }
 
     /// Puts the sums of the agent at slot `j` (of `group`).
     #[inline(always)]
     fn put(&mut self, j: usize, group: usize, s: &NeighbourSums, v: Vec2, max_speed: f32) {
+        assert!(j < CELL_CHUNK, "a slot of the task");
         self.mark[j] = group as u32 + 1;
         (self.sep[0][j], self.sep[1][j]) = (s.separation.x, s.separation.y);
         (self.ali[0][j], self.ali[1][j]) = (s.alignment.x, s.alignment.y);
@@ -554,7 +575,7 @@ fn evaluate_run(
     let (tx, ty) = (&mut tx[range.clone()], &mut ty[range.clone()]);
     tx.fill(0.0);
     ty.fill(0.0);
-    fn cut(v: &[f32], range: std::ops::Range<usize>) -> &[f32] {
+    fn cut(v: &Column, range: std::ops::Range<usize>) -> &[f32] {
         &v[range]
     }
     let col = |v| cut(v, range.clone());
