@@ -935,25 +935,28 @@ fn kernel_cell(buf: &CellBuf, q: &Query, agents: &[Agent], out: &mut [NeighbourS
     }
     let paired = pairs(buf, q, agents, out);
     let (agents, out) = (&agents[paired..], &mut out[paired..]);
-    for (a, o) in agents.iter().zip(out.iter_mut()) {
-        let q = q.at(a);
-        *o = match q.mode {
-            0 => shared::<0, false, false>(buf, &q),
-            1 => shared::<1, false, false>(buf, &q),
-            2 => shared::<2, false, false>(buf, &q),
-            4 => shared::<0, true, false>(buf, &q),
-            5 => shared::<1, true, false>(buf, &q),
-            6 => shared::<2, true, false>(buf, &q),
-            16 => shared::<0, false, true>(buf, &q),
-            17 => shared::<1, false, true>(buf, &q),
-            18 => shared::<2, false, true>(buf, &q),
-            20 => shared::<0, true, true>(buf, &q),
-            21 => shared::<1, true, true>(buf, &q),
-            22 => shared::<2, true, true>(buf, &q),
-            8 => general::<false>(buf, &q),
-            VICSEK => vicsek(buf, &q),
-            _ => general::<true>(buf, &q),
-        };
+    // The body is chosen once per call, then runs for every agent.
+    let each = |body: fn(&CellBuf, &Query) -> NeighbourSums, out: &mut [NeighbourSums]| {
+        for (a, o) in agents.iter().zip(out.iter_mut()) {
+            *o = body(buf, &q.at(a));
+        }
+    };
+    match q.mode {
+        0 => each(shared::<0, false, false>, out),
+        1 => each(shared::<1, false, false>, out),
+        2 => each(shared::<2, false, false>, out),
+        4 => each(shared::<0, true, false>, out),
+        5 => each(shared::<1, true, false>, out),
+        6 => each(shared::<2, true, false>, out),
+        16 => each(shared::<0, false, true>, out),
+        17 => each(shared::<1, false, true>, out),
+        18 => each(shared::<2, false, true>, out),
+        20 => each(shared::<0, true, true>, out),
+        21 => each(shared::<1, true, true>, out),
+        22 => each(shared::<2, true, true>, out),
+        8 => each(general::<false>, out),
+        VICSEK => each(vicsek, out),
+        _ => each(general::<true>, out),
     }
 }
 
