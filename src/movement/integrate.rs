@@ -39,7 +39,8 @@ pub struct SteeringBuffers<'a> {
     pub lin_x: &'a [f32],
     /// Linear y.
     pub lin_y: &'a [f32],
-    /// Angular: clamped angular acceleration (dynamic) or rotation (kinematic).
+    /// Angular: clamped angular acceleration (dynamic) or rotation (kinematic); empty when it
+    /// is zero for every agent (nothing is read then).
     pub ang: &'a [f32],
     /// Per-agent maximum speed.
     pub max_speed: &'a [f32],
@@ -76,7 +77,8 @@ pub fn wrap_orientation(a: f32) -> f32 {
 /// [`integrate_scalar`] for any thread count.
 ///
 /// # Panics
-/// When the slices' lengths differ or a group index is outside `params`.
+/// When the slices' lengths differ (an empty `ang` aside) or a group index is outside `params`
+/// (with one group, the indices are not read).
 pub fn integrate(
     state: MotionState<'_>,
     steer: SteeringBuffers<'_>,
@@ -94,12 +96,17 @@ pub fn integrate(
         state.rotation.par_chunks_mut(CHUNK),
         steer.lin_x.par_chunks(CHUNK),
         steer.lin_y.par_chunks(CHUNK),
-        steer.ang.par_chunks(CHUNK),
         steer.max_speed.par_chunks(CHUNK),
         steer.group.par_chunks(CHUNK),
     )
         .into_par_iter()
-        .for_each(|(px, py, vx, vy, or, rot, lx, ly, ang, ms, grp)| {
+        .enumerate()
+        .for_each(|(c, (px, py, vx, vy, or, rot, lx, ly, ms, grp))| {
+            let ang = if steer.ang.is_empty() {
+                steer.ang
+            } else {
+                &steer.ang[c * CHUNK..c * CHUNK + px.len()]
+            };
             let chunk_state = MotionState {
                 pos_x: px,
                 pos_y: py,
@@ -122,7 +129,7 @@ pub fn integrate(
 /// The scalar reference integrator: one agent at a time, same operations as [`integrate`].
 ///
 /// # Panics
-/// When the slices' lengths differ or a group index is outside `params`.
+/// When the slices' lengths differ (an empty `ang` aside) or a group index is outside `params`.
 pub fn integrate_scalar(
     state: MotionState<'_>,
     steer: SteeringBuffers<'_>,
@@ -146,7 +153,11 @@ fn check_lengths(state: &MotionState<'_>, steer: &SteeringBuffers<'_>, n: usize)
         state.rotation.len(),
         steer.lin_x.len(),
         steer.lin_y.len(),
-        steer.ang.len(),
+        if steer.ang.is_empty() {
+            n
+        } else {
+            steer.ang.len()
+        },
         steer.max_speed.len(),
         steer.group.len(),
     ] {
@@ -313,12 +324,18 @@ fn integrate_chunk(
         let mut face = [false; LANES];
         let mut damp = [1.0_f32; LANES];
         let mut max_rot = [0.0_f32; LANES];
-        for k in 0..lanes {
-            let p = &params[st.group[i + k] as usize];
-            kinematic[k] = p.kinematic;
-            face[k] = p.face_velocity;
-            damp[k] = p.damp;
-            max_rot[k] = p.max_rotation;
+        if let [p] = params {
+            // One group: its parameters in every lane, no group index read.
+            (kinematic, face) = ([p.kinematic; LANES], [p.face_velocity; LANES]);
+            (damp, max_rot) = ([p.damp; LANES], [p.max_rotation; LANES]);
+        } else {
+            for k in 0..lanes {
+                let p = &params[st.group[i + k] as usize];
+                kinematic[k] = p.kinematic;
+                face[k] = p.face_velocity;
+                damp[k] = p.damp;
+                max_rot[k] = p.max_rotation;
+            }
         }
         let load = |v: &[f32]| {
             let mut a = [0.0_f32; LANES];
@@ -326,12 +343,12 @@ fn integrate_chunk(
             a
         };
         let (px, py, vx, vy) = (load(s.pos_x), load(s.pos_y), load(s.vel_x), load(s.vel_y));
-        let (lx, ly, ang, ms) = (
-            load(st.lin_x),
-            load(st.lin_y),
-            load(st.ang),
-            load(st.max_speed),
-        );
+        let ang = if st.ang.is_empty() {
+            [0.0; LANES]
+        } else {
+            load(st.ang)
+        };
+        let (lx, ly, ms) = (load(st.lin_x), load(st.lin_y), load(st.max_speed));
         let (orient, rot) = (load(s.orientation), load(s.rotation));
         let mut out = [[0.0_f32; LANES]; 6];
         for k in 0..LANES {
@@ -392,7 +409,7 @@ fn lane(
         vy: s.vel_y[i],
         lx: st.lin_x[i],
         ly: st.lin_y[i],
-        ang: st.ang[i],
+        ang: st.ang.get(i).copied().unwrap_or(0.0),
         max_speed: st.max_speed[i],
         orientation: s.orientation[i],
         rotation: s.rotation[i],
@@ -477,45 +494,70 @@ mod tests {
         }
         let p = params();
         let dt = 0.05;
-        let run = |simd: bool| {
-            let mut c = cols.clone();
-            let [px, py, vx, vy, or, rot] = &mut c[..] else {
-                unreachable!()
-            };
-            let state = MotionState {
-                pos_x: px,
-                pos_y: py,
-                vel_x: vx,
-                vel_y: vy,
-                orientation: or,
-                rotation: rot,
-            };
-            let steer = SteeringBuffers {
-                lin_x: &lx,
-                lin_y: &ly,
-                ang: &ang,
-                max_speed: &ms,
-                group: &grp,
-            };
-            if simd {
-                integrate(state, steer, &p, dt)
-            } else {
-                integrate_scalar(state, steer, &p, dt)
-            }
-            c
-        };
+        let run = |simd: bool| run_with(&cols, (&lx, &ly, &ang, &ms, &grp), &p, dt, simd);
         let (a, b) = (run(true), run(false));
-        for (ca, cb) in a.iter().zip(&b) {
-            for (x, y) in ca.iter().zip(cb) {
-                assert_eq!(x.to_bits(), y.to_bits());
-            }
-        }
+        assert_same_bits(&a, &b);
         for &o in &a[4] {
             assert!((0.0..TAU).contains(&o), "orientation {o}");
         }
         for i in 0..n {
             let speed = a[2][i].hypot(a[3][i]);
             assert!(speed <= ms[i] * (1.0 + 1e-6), "speed {speed} > {}", ms[i]);
+        }
+        // One group (its parameters splat across the lanes, no group index read), and an empty
+        // angular buffer (no agent turns): the scalar reference with zeros gives the same bits.
+        let zeros = vec![0.0; n];
+        let group0 = vec![0; n];
+        for one in &p {
+            let single = std::slice::from_ref(one);
+            for (a_simd, a_ref) in [(&ang[..], &ang[..]), (&[][..], &zeros[..])] {
+                let a = run_with(&cols, (&lx, &ly, a_simd, &ms, &group0), single, dt, true);
+                let b = run_with(&cols, (&lx, &ly, a_ref, &ms, &group0), single, dt, false);
+                assert_same_bits(&a, &b);
+            }
+        }
+    }
+
+    /// The six state columns after one step of either integrator.
+    fn run_with(
+        cols: &[Vec<f32>],
+        (lx, ly, ang, ms, grp): (&[f32], &[f32], &[f32], &[f32], &[u32]),
+        p: &[IntegrationParams],
+        dt: f32,
+        simd: bool,
+    ) -> Vec<Vec<f32>> {
+        let mut c = cols.to_vec();
+        let [px, py, vx, vy, or, rot] = &mut c[..] else {
+            unreachable!()
+        };
+        let state = MotionState {
+            pos_x: px,
+            pos_y: py,
+            vel_x: vx,
+            vel_y: vy,
+            orientation: or,
+            rotation: rot,
+        };
+        let steer = SteeringBuffers {
+            lin_x: lx,
+            lin_y: ly,
+            ang,
+            max_speed: ms,
+            group: grp,
+        };
+        if simd {
+            integrate(state, steer, p, dt)
+        } else {
+            integrate_scalar(state, steer, p, dt)
+        }
+        c
+    }
+
+    fn assert_same_bits(a: &[Vec<f32>], b: &[Vec<f32>]) {
+        for (ca, cb) in a.iter().zip(b) {
+            for (x, y) in ca.iter().zip(cb) {
+                assert_eq!(x.to_bits(), y.to_bits());
+            }
         }
     }
 }

@@ -181,18 +181,18 @@ impl Acc {
 
 impl CellOut {
     /// Copies the batched outputs of storage indices `base..base + lx.len()` (every agent
-    /// batched) into the per-agent output chunks.
-    pub(crate) fn take_all(&self, base: usize, view: &SteerView, (lx, ly, an, wa, nb): OutChunks) {
+    /// batched) into the per-agent output chunks: the linear requests and neighbour counts (the
+    /// angular outputs, all zero, and the wander angles, unchanged, are not written).
+    pub(crate) fn take_all(&self, base: usize, (lx, ly, nb): (&mut [f32], &mut [f32], &mut [f32])) {
         let n = lx.len();
         let rank = &self.rank[base..base + n];
+        let (ly, nb) = (&mut ly[..n], &mut nb[..n]);
         for k in 0..n {
             let r = rank[k].load(Ordering::Relaxed) as usize;
             lx[k] = self.lin_x[r];
             ly[k] = self.lin_y[r];
             nb[k] = self.count[r];
         }
-        an.fill(0.0);
-        wa.copy_from_slice(&view.agents.wander[base..base + n]);
     }
 
     /// Copies agent `i`'s batched outputs into slot `k` of the per-agent output chunks.

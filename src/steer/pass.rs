@@ -32,6 +32,10 @@ pub(crate) struct SteerOut {
     pub wander: Vec<f32>,
     /// Neighbours found per agent this step.
     pub neighbours: Vec<f32>,
+    /// Whether `ang` was written this step; when not, every agent's angular output is zero.
+    pub angular: bool,
+    /// Whether `wander` was written this step; when not, every wander angle is unchanged.
+    pub wandered: bool,
 }
 
 impl SteerOut {
@@ -61,6 +65,9 @@ pub(crate) struct PassScratch {
 pub(crate) fn run(view: &SteerView, out: &mut SteerOut, scratch: &mut PassScratch, parallel: bool) {
     let batched = cells::run(view, &mut scratch.cells, parallel);
     let all = batched && (0..view.plans.len()).all(|g| cells::is_batched_group(view, g));
+    // The batch turns nobody and leaves wander angles as they are: with every agent batched,
+    // neither output is written (the step reads neither then).
+    (out.angular, out.wandered) = (!all, !all);
     let kernel = |base: usize,
                   lx: &mut [f32],
                   ly: &mut [f32],
@@ -68,7 +75,7 @@ pub(crate) fn run(view: &SteerView, out: &mut SteerOut, scratch: &mut PassScratc
                   wa: &mut [f32],
                   nb: &mut [f32]| {
         if all {
-            scratch.cells.take_all(base, view, (lx, ly, an, wa, nb));
+            scratch.cells.take_all(base, (lx, ly, nb));
             return;
         }
         let mut seekers = SeekLanes::default();

@@ -123,7 +123,9 @@ impl World {
         // steer
         let t = Instant::now();
         self.steer_phase(dt, exec, use_kernel);
-        std::mem::swap(&mut self.agents.wander, &mut self.scratch.out.wander);
+        if self.scratch.out.wandered {
+            std::mem::swap(&mut self.agents.wander, &mut self.scratch.out.wander);
+        }
         phases.steer = t.elapsed();
 
         // integrate (with the frame-start positions the constrain hooks compare against)
@@ -369,7 +371,11 @@ impl World {
         let steer = SteeringBuffers {
             lin_x: &self.scratch.out.lin_x,
             lin_y: &self.scratch.out.lin_y,
-            ang: &self.scratch.out.ang,
+            ang: if self.scratch.out.angular {
+                &self.scratch.out.ang
+            } else {
+                &[]
+            },
             max_speed: &a.max_speed,
             group: &a.group,
         };
@@ -403,7 +409,7 @@ impl World {
             .map(|i| {
                 let s = Steering {
                     linear: glam::Vec2::new(o.lin_x[i], o.lin_y[i]),
-                    angular: o.ang[i],
+                    angular: if o.angular { o.ang[i] } else { 0.0 },
                 };
                 (self.agents.ids[i], s)
             })
