@@ -494,7 +494,14 @@ mod tests {
         }
         let p = params();
         let dt = 0.05;
-        let run = |simd: bool| run_with(&cols, (&lx, &ly, &ang, &ms, &grp), &p, dt, simd);
+        let buffers = |ang, group| SteeringBuffers {
+            lin_x: &lx,
+            lin_y: &ly,
+            ang,
+            max_speed: &ms,
+            group,
+        };
+        let run = |simd: bool| run_with(&cols, buffers(&ang, &grp), &p, dt, simd);
         let (a, b) = (run(true), run(false));
         assert_same_bits(&a, &b);
         for &o in &a[4] {
@@ -511,8 +518,8 @@ mod tests {
         for one in &p {
             let single = std::slice::from_ref(one);
             for (a_simd, a_ref) in [(&ang[..], &ang[..]), (&[][..], &zeros[..])] {
-                let a = run_with(&cols, (&lx, &ly, a_simd, &ms, &group0), single, dt, true);
-                let b = run_with(&cols, (&lx, &ly, a_ref, &ms, &group0), single, dt, false);
+                let a = run_with(&cols, buffers(a_simd, &group0), single, dt, true);
+                let b = run_with(&cols, buffers(a_ref, &group0), single, dt, false);
                 assert_same_bits(&a, &b);
             }
         }
@@ -521,7 +528,7 @@ mod tests {
     /// The six state columns after one step of either integrator.
     fn run_with(
         cols: &[Vec<f32>],
-        (lx, ly, ang, ms, grp): (&[f32], &[f32], &[f32], &[f32], &[u32]),
+        steer: SteeringBuffers<'_>,
         p: &[IntegrationParams],
         dt: f32,
         simd: bool,
@@ -537,13 +544,6 @@ mod tests {
             vel_y: vy,
             orientation: or,
             rotation: rot,
-        };
-        let steer = SteeringBuffers {
-            lin_x: lx,
-            lin_y: ly,
-            ang,
-            max_speed: ms,
-            group: grp,
         };
         if simd {
             integrate(state, steer, p, dt)
