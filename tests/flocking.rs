@@ -341,8 +341,8 @@ fn the_cell_batch_equals_the_per_agent_general_loop_to_rounding() {
 #[test]
 fn the_cell_batch_matches_the_scalar_reference_for_groups_cones_and_walls() {
     // Two flocking groups (own group only, then every group; narrow and wide view cones,
-    // separate radii) in a walled world and on a torus: the grid's cell batch against the k-d
-    // tree's scalar traversal, to rounding.
+    // separate radii; some agents at rest, looking along their orientations) in a walled world
+    // and on a torus: the grid's cell batch against the k-d tree's scalar traversal, to rounding.
     let profile = |same_group: bool, view_cos: f32, r: f32| {
         let hood = |radius: f32| Neighbourhood {
             radius,
@@ -384,8 +384,10 @@ fn the_cell_batch_matches_the_scalar_reference_for_groups_cones_and_walls() {
             for k in 0..1500 {
                 let p = Vec2::new(rng.unit() * 60.0, rng.unit() * 40.0);
                 let heading = rng.unit() * std::f32::consts::TAU;
+                // Every fifth agent at rest: it looks along its orientation.
+                let speed = if k % 5 == 0 { 0.0 } else { 2.0 };
                 b = b.agent(AgentInit {
-                    velocity: Vec2::from_angle(heading) * 2.0,
+                    velocity: Vec2::from_angle(heading) * speed,
                     orientation: heading,
                     ..AgentInit::at(p, k % 2)
                 });

@@ -353,7 +353,7 @@ impl Batch {
             return;
         }
         let agents = &mut self.agents[..m];
-        if !headings(agents) {
+        if !sorted.headings && !headings(agents) {
             // Some agent is at rest: it looks along its orientation.
             for (k, ag) in agents.iter_mut().enumerate() {
                 let (p, i) = self.slots[k];
@@ -466,12 +466,18 @@ fn chunk(
                 batch.run(view, sorted, q, buf, &mut out);
             }
             let i = order[p] as usize;
-            // The heading is filled in by `Batch::run`, in lanes.
+            // The unit heading from the copies, or (when they have none) the velocity, which
+            // `Batch::run` turns into the heading in lanes.
+            let (hx, hy) = if sorted.headings {
+                (&sorted.hx, &sorted.hy)
+            } else {
+                (&sorted.vx, &sorted.vy)
+            };
             batch.agents[batch.len] = Agent {
                 x: sorted.x[p],
                 y: sorted.y[p],
-                hx: sorted.vx[p],
-                hy: sorted.vy[p],
+                hx: hx[p],
+                hy: hy[p],
                 g: sorted.g[p],
             };
             batch.slots[batch.len] = (p, i);

@@ -43,6 +43,8 @@ pub(crate) struct SortedCopies {
     /// Unit headings (velocity, or orientation at rest), filled only when some plan needs them.
     pub hx: Vec<f32>,
     pub hy: Vec<f32>,
+    /// Whether `hx` and `hy` hold this frame's headings.
+    pub headings: bool,
 }
 
 /// `dst[k] = f(order[k])` for every `k`, in parallel chunks, with `LANES` zeros of padding.
@@ -83,24 +85,72 @@ impl SortedCopies {
             g,
             hx,
             hy,
+            headings: filled,
         } = self;
         rayon::join(
             || {
                 copy_into(x, sx);
                 copy_into(y, sy);
                 gather_into(g, order, |j| group[j] as f32);
-                if headings {
-                    gather_into(hx, order, |j| unit_heading(agents, j).x);
-                }
             },
             || {
                 gather_into(vx, order, |j| vel_x[j]);
                 gather_into(vy, order, |j| vel_y[j]);
-                if headings {
-                    gather_into(hy, order, |j| unit_heading(agents, j).y);
-                }
             },
         );
+        *filled = headings;
+        if headings {
+            unit_headings((vx, vy), (hx, hy), order, &agents.orientation);
+        }
+    }
+}
+
+/// `(hx, hy) = (vx, vy) / |(vx, vy)|` where that is defined (glam's `try_normalize`: the
+/// reciprocal length, when positive and finite); returns whether some velocity has no direction.
+#[multiversion(targets("x86_64+avx2+fma", "x86_64+avx"))]
+fn unit_lanes((vx, vy): (&[f32], &[f32]), (hx, hy): (&mut [f32], &mut [f32])) -> bool {
+    let n = hx.len();
+    let (hy, vx, vy) = (&mut hy[..n], &vx[..n], &vy[..n]);
+    let mut rest = false;
+    for k in 0..n {
+        let rcp = 1.0 / (vx[k] * vx[k] + vy[k] * vy[k]).sqrt();
+        rest |= !positive_finite(rcp);
+        (hx[k], hy[k]) = (vx[k] * rcp, vy[k] * rcp);
+    }
+    rest
+}
+
+/// The unit headings of the cell-ordered velocities `(vx, vy)` into `(hx, hy)` (same padding),
+/// as [`unit_heading`] computes them: in vector lanes over parallel chunks, then the agents at
+/// rest (no direction) along their orientations.
+fn unit_headings(
+    (vx, vy): (&[f32], &[f32]),
+    (hx, hy): (&mut Vec<f32>, &mut Vec<f32>),
+    order: &[u32],
+    orientation: &[f32],
+) {
+    const CHUNK: usize = 8192;
+    let n = order.len();
+    for h in [&mut *hx, &mut *hy] {
+        h.resize(n + LANES, 0.0);
+        h[n..].fill(0.0);
+    }
+    let at_rest = (
+        hx[..n].par_chunks_mut(CHUNK),
+        hy[..n].par_chunks_mut(CHUNK),
+        vx[..n].par_chunks(CHUNK),
+        vy[..n].par_chunks(CHUNK),
+    )
+        .into_par_iter()
+        .map(|(hx, hy, vx, vy)| unit_lanes((vx, vy), (hx, hy)))
+        .reduce(|| false, |a, b| a | b);
+    if at_rest {
+        for (k, &j) in order.iter().enumerate() {
+            if !positive_finite(1.0 / (vx[k] * vx[k] + vy[k] * vy[k]).sqrt()) {
+                let h = Vec2::from_angle(orientation[j as usize]);
+                (hx[k], hy[k]) = (h.x, h.y);
+            }
+        }
     }
 }
 

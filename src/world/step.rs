@@ -519,7 +519,11 @@ impl World {
         let SpatialIndex::Grid(grid) = &self.index else {
             return false;
         };
-        let headings = self.plans.iter().any(|p| p.spec.vicsek_r_sq.is_some());
+        // Unit headings for Vicsek sums and for view cones.
+        let headings = self.plans.iter().any(|p| {
+            let s = &p.spec;
+            s.vicsek_r_sq.is_some() || (s.active && (0..3).any(|b| s.on[b] && s.cos[b] > -1.0))
+        });
         self.scratch.sorted.fill(grid, &self.agents, headings);
         true
     }
