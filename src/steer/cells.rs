@@ -339,7 +339,8 @@ struct Batch {
 }
 
 impl Batch {
-    /// Computes the batch's sums over `buf` and moves them into the lanes.
+    /// Computes the batch's sums over `buf`: Vicsek requests right away, flocking sums into the
+    /// task's waiting columns.
     fn run(
         &mut self,
         view: &SteerView,
