@@ -304,18 +304,31 @@ impl GridIndex {
         Spans::one(lo, hi)
     }
 
-    fn gather(&self, p: Vec2, r: f32, skip: usize, out: &mut Vec<Neighbour>) {
+    /// Every point within `r` of `p` but `skip`, in ascending index order when `SORT` (in the
+    /// grid's order otherwise).
+    fn gather<const SORT: bool>(&self, p: Vec2, r: f32, skip: usize, out: &mut Vec<Neighbour>) {
         // One match on the world's shape, so the candidate loop is specialised for it; the
         // filter is still `exact` with the same `Bounds`, so results stay bit-identical.
         match self.bounds {
-            Bounds::Torus { size } => self.gather_in(Bounds::Torus { size }, p, r, skip, out),
-            Bounds::Bounded { size } => self.gather_in(Bounds::Bounded { size }, p, r, skip, out),
-            Bounds::Open => self.gather_in(Bounds::Open, p, r, skip, out),
+            Bounds::Torus { size } => {
+                self.gather_in::<SORT>(Bounds::Torus { size }, p, r, skip, out);
+            }
+            Bounds::Bounded { size } => {
+                self.gather_in::<SORT>(Bounds::Bounded { size }, p, r, skip, out);
+            }
+            Bounds::Open => self.gather_in::<SORT>(Bounds::Open, p, r, skip, out),
         }
     }
 
     #[inline(always)]
-    fn gather_in(&self, bounds: Bounds, p: Vec2, r: f32, skip: usize, out: &mut Vec<Neighbour>) {
+    fn gather_in<const SORT: bool>(
+        &self,
+        bounds: Bounds,
+        p: Vec2,
+        r: f32,
+        skip: usize,
+        out: &mut Vec<Neighbour>,
+    ) {
         out.clear();
         let r_sq = r * r;
         self.for_each_run(p, r, |run| {
@@ -332,7 +345,9 @@ impl GridIndex {
                 }
             }
         });
-        out.sort_unstable_by_key(|n| n.index);
+        if SORT {
+            out.sort_unstable_by_key(|n| n.index);
+        }
     }
 
     /// Chooses origin, cell size and cell counts for `n` points.
@@ -667,11 +682,25 @@ impl NeighbourIndex for GridIndex {
     }
 
     fn neighbours_of(&self, i: usize, r: f32, out: &mut Vec<Neighbour>) {
-        self.gather(self.pts[i], r, i, out);
+        self.gather::<true>(self.pts[i], r, i, out);
     }
 
     fn neighbours_at(&self, p: Vec2, r: f32, out: &mut Vec<Neighbour>) {
-        self.gather(p, r, usize::MAX, out);
+        self.gather::<true>(p, r, usize::MAX, out);
+    }
+
+    /// The candidates unsorted: the selection orders them by `(dist_sq, index)` alone, so the
+    /// index order `neighbours_at` sorts into is work thrown away here.
+    fn k_nearest_at(
+        &self,
+        p: Vec2,
+        k: usize,
+        r: f32,
+        exclude: Option<usize>,
+        out: &mut Vec<Neighbour>,
+    ) {
+        self.gather::<false>(p, r, usize::MAX, out);
+        super::keep_k_nearest(out, k, exclude);
     }
 
     fn len(&self) -> usize {

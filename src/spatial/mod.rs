@@ -320,7 +320,7 @@ fn to_u32(n: usize) -> u32 {
 }
 
 /// Drops `exclude`, keeps the `k` smallest by `(dist_sq, index)`, and sorts them so.
-fn keep_k_nearest(out: &mut Vec<Neighbour>, k: usize, exclude: Option<usize>) {
+pub(crate) fn keep_k_nearest(out: &mut Vec<Neighbour>, k: usize, exclude: Option<usize>) {
     if let Some(x) = exclude {
         out.retain(|n| n.index as usize != x);
     }
