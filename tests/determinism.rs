@@ -108,6 +108,46 @@ fn parallel_step_equals_the_sequential_reference() {
 }
 
 #[test]
+fn parallel_flock_step_equals_the_sequential_reference() {
+    // The cell batch (a flock with a view cone) over more agents than one of its parallel tasks
+    // takes: the sequential pass runs the same tasks one after another.
+    let flock = || {
+        let hood = |radius: f32| Neighbourhood {
+            view_cos: -0.5,
+            ..Neighbourhood::radius(radius)
+        };
+        let profile = SteeringProfile::default()
+            .with(Behaviour::Separation { hood: hood(2.0) }, 1.5)
+            .with(Behaviour::Alignment { hood: hood(5.0) }, 1.0)
+            .with(Behaviour::Cohesion { hood: hood(5.0) }, 0.8);
+        let mut b = World::builder()
+            .bounds(Bounds::torus(110.0, 110.0).unwrap())
+            .seed(3)
+            .group(GroupParams {
+                max_speed: 4.0,
+                max_acceleration: 8.0,
+                ..GroupParams::dynamic(profile)
+            });
+        for i in 0..5003 {
+            let f = i as f32;
+            b = b.agent(AgentInit {
+                position: Vec2::new((f * 7.31) % 110.0, (f * 3.17) % 110.0),
+                velocity: Vec2::new((f * 0.37).sin(), (f * 0.91).cos()) * 3.0,
+                orientation: f * 0.1,
+                ..AgentInit::at(Vec2::ZERO, 0)
+            });
+        }
+        b.build().unwrap()
+    };
+    let (mut a, mut b) = (flock(), flock());
+    for _ in 0..20 {
+        a.step(0.05).unwrap();
+        b.step_sequential(0.05).unwrap();
+    }
+    assert_eq!(snapshot(&a), snapshot(&b));
+}
+
+#[test]
 fn different_seeds_differ() {
     let mut a = mixed_world(100);
     let mut b = World::builder().seed(43).build().unwrap();

@@ -267,7 +267,15 @@ pub(crate) fn run(view: &SteerView, out: &mut CellOut, parallel: bool) -> bool {
             .enumerate()
             .for_each(|(c, (lx, ly, nb))| work(c * CELL_CHUNK, lx, ly, nb));
     } else {
-        work(0, &mut out.lin_x, &mut out.lin_y, &mut out.count);
+        // The same tasks, one after another (a task's columns hold `CELL_CHUNK` agents).
+        let tasks = out
+            .lin_x
+            .chunks_mut(CELL_CHUNK)
+            .zip(out.lin_y.chunks_mut(CELL_CHUNK))
+            .zip(out.count.chunks_mut(CELL_CHUNK));
+        for (c, ((lx, ly), nb)) in tasks.enumerate() {
+            work(c * CELL_CHUNK, lx, ly, nb);
+        }
     }
     true
 }
