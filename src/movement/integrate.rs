@@ -319,7 +319,7 @@ fn integrate_chunk(
     while i < n {
         let lanes = (n - i).min(LANES);
         // Structure of arrays, so that the loop over lanes compiles to vector instructions; a
-        // short last block is padded with inert agents at rest.
+        // short last block is padded with agents at rest, whose results are not stored.
         let mut kinematic = [false; LANES];
         let mut face = [false; LANES];
         let mut damp = [1.0_f32; LANES];
