@@ -361,18 +361,7 @@ impl Batch {
         if m == 0 {
             return;
         }
-        let agents = &mut self.agents[..m];
-        if !sorted.headings && !headings(agents) {
-            // Some agent is at rest: it looks along its orientation.
-            for (k, ag) in agents.iter_mut().enumerate() {
-                let (p, i) = self.slots[k];
-                let v = Vec2::new(sorted.vx[p], sorted.vy[p]);
-                let h = v
-                    .try_normalize()
-                    .unwrap_or_else(|| Vec2::from_angle(view.agents.orientation[i]));
-                (ag.hx, ag.hy) = (h.x, h.y);
-            }
-        }
+        let agents = &self.agents[..m];
         kernel_cell(buf, q, agents, &mut self.sums[..m]);
         let plan = &view.plans[self.group];
         if let PlanKind::Vicsek { noise, weight } = plan.kind {
@@ -475,18 +464,18 @@ fn chunk(
                 batch.run(view, sorted, q, buf, &mut out);
             }
             let i = order[p] as usize;
-            // The unit heading from the copies, or (when they have none) the velocity, which
-            // `Batch::run` turns into the heading in lanes.
+            // The unit heading from the copies; they have none when no batched query has a
+            // view cone, and then no kernel reads it.
             let (hx, hy) = if sorted.headings {
-                (&sorted.hx, &sorted.hy)
+                (sorted.hx[p], sorted.hy[p])
             } else {
-                (&sorted.vx, &sorted.vy)
+                (0.0, 0.0)
             };
             batch.agents[batch.len] = Agent {
                 x: sorted.x[p],
                 y: sorted.y[p],
-                hx: hx[p],
-                hy: hy[p],
+                hx,
+                hy,
                 g: sorted.g[p],
             };
             batch.slots[batch.len] = (p, i);
@@ -911,20 +900,6 @@ impl Query {
             mode,
         }
     }
-}
-
-/// Turns each agent's velocity (in `hx, hy`) into its unit heading as glam's `try_normalize`
-/// computes it; returns false when some velocity has no direction (the caller then falls back).
-#[multiversion(targets("x86_64+avx2+fma", "x86_64+avx"))]
-fn headings(agents: &mut [Agent]) -> bool {
-    let mut ok = true;
-    for a in agents.iter_mut() {
-        let rcp = 1.0 / (a.hx * a.hx + a.hy * a.hy).sqrt();
-        ok &= positive_finite(rcp);
-        a.hx *= rcp;
-        a.hy *= rcp;
-    }
-    ok
 }
 
 /// The sums of every agent of `agents` over one cell buffer.
