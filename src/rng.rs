@@ -32,11 +32,36 @@ pub struct AgentRng {
     counter: u64,
 }
 
-#[inline]
+#[inline(always)]
 fn mix(mut z: u64) -> u64 {
     z = (z ^ (z >> 30)).wrapping_mul(0xbf58_476d_1ce4_e5b9);
     z = (z ^ (z >> 27)).wrapping_mul(0x94d0_49bb_1331_11eb);
     z ^ (z >> 31)
+}
+
+/// The part of every agent's key that depends on the world's seed and the frame only: computed
+/// once per frame, it leaves [`agent_key`] one mix per agent (the same bits as [`AgentRng::new`]).
+#[inline]
+#[must_use]
+pub(crate) fn frame_key(seed: u64, frame: u64) -> u64 {
+    seed ^ mix(frame.wrapping_add(0x9e37_79b9_7f4a_7c15))
+}
+
+/// The key of agent `id`'s stream `stream` from the frame's [`frame_key`].
+#[inline(always)]
+#[must_use]
+pub(crate) fn agent_key(frame_key: u64, id: u32, stream: u32) -> u64 {
+    mix(frame_key ^ mix(u64::from(id) | (u64::from(stream) << 32)))
+}
+
+/// The `counter`-th (from 1) uniform number in `[0, 1)` of the stream with key `key`: what
+/// [`AgentRng::unit`] returns on its `counter`-th draw, written for lanes (no state).
+#[inline(always)]
+#[must_use]
+pub(crate) fn unit_at(key: u64, counter: u64) -> f32 {
+    let bits = mix(key.wrapping_add(counter.wrapping_mul(0x9e37_79b9_7f4a_7c15)));
+    // 24 bits: the same value through `i32`, whose conversion to float vector units have.
+    ((bits >> 40) as i32) as f32 * (1.0 / (1u64 << 24) as f32)
 }
 
 impl AgentRng {
@@ -45,10 +70,10 @@ impl AgentRng {
     #[inline]
     #[must_use]
     pub fn new(seed: u64, id: u32, frame: u64, stream: u32) -> Self {
-        let key = mix(seed
-            ^ mix(u64::from(id) | (u64::from(stream) << 32))
-            ^ mix(frame.wrapping_add(0x9e37_79b9_7f4a_7c15)));
-        AgentRng { key, counter: 0 }
+        AgentRng {
+            key: agent_key(frame_key(seed, frame), id, stream),
+            counter: 0,
+        }
     }
 
     /// The next 64 random bits.
@@ -92,6 +117,21 @@ mod tests {
         assert_ne!(a, AgentRng::new(7, 3, 11, 0).next_u64());
         assert_ne!(a, AgentRng::new(8, 3, 10, 0).next_u64());
         assert_ne!(a, AgentRng::new(7, 3, 10, 1).next_u64());
+    }
+
+    #[test]
+    fn lane_helpers_equal_the_stream() {
+        for (seed, id, frame, stream) in [
+            (7, 3, 10, 0),
+            (u64::MAX, u32::MAX, 1 << 40, 5),
+            (0, 0, 0, 0),
+        ] {
+            let mut r = AgentRng::new(seed, id, frame, stream);
+            let key = agent_key(frame_key(seed, frame), id, stream);
+            for counter in 1..5 {
+                assert_eq!(r.unit().to_bits(), unit_at(key, counter).to_bits());
+            }
+        }
     }
 
     #[test]

@@ -324,8 +324,17 @@ fn integrate_chunk(
         let mut face = [false; LANES];
         let mut damp = [1.0_f32; LANES];
         let mut max_rot = [0.0_f32; LANES];
-        if let [p] = params {
-            // One group: its parameters in every lane, no group index read.
+        // One group, or a block of one group (groups mostly sit in runs): its parameters in
+        // every lane; with one group no group index is read.
+        let one = match params {
+            [p] => Some(p),
+            _ => {
+                let groups = &st.group[i..i + lanes];
+                let g = groups[0];
+                groups.iter().all(|&h| h == g).then(|| &params[g as usize])
+            }
+        };
+        if let Some(p) = one {
             (kinematic, face) = ([p.kinematic; LANES], [p.face_velocity; LANES]);
             (damp, max_rot) = ([p.damp; LANES], [p.max_rotation; LANES]);
         } else {
@@ -337,10 +346,16 @@ fn integrate_chunk(
                 max_rot[k] = p.max_rotation;
             }
         }
+        // A whole block is one vector move; a copy of a length known only at run time would
+        // be a library call per buffer and block.
         let load = |v: &[f32]| {
-            let mut a = [0.0_f32; LANES];
-            a[..lanes].copy_from_slice(&v[i..i + lanes]);
-            a
+            if lanes == LANES {
+                <[f32; LANES]>::try_from(&v[i..i + LANES]).expect("a whole block")
+            } else {
+                let mut a = [0.0_f32; LANES];
+                a[..lanes].copy_from_slice(&v[i..i + lanes]);
+                a
+            }
         };
         let (px, py, vx, vy) = (load(s.pos_x), load(s.pos_y), load(s.vel_x), load(s.vel_y));
         let ang = if st.ang.is_empty() {
@@ -383,7 +398,11 @@ fn integrate_chunk(
             &mut s.rotation[range],
         ];
         for (d, v) in dst.into_iter().zip(&out) {
-            d.copy_from_slice(&v[..lanes]);
+            if lanes == LANES {
+                d.copy_from_slice(v);
+            } else {
+                d.copy_from_slice(&v[..lanes]);
+            }
         }
         i += LANES;
     }

@@ -79,15 +79,32 @@ pub(crate) fn run(view: &SteerView, out: &mut SteerOut, scratch: &mut PassScratc
             return;
         }
         let mut seekers = SeekLanes::default();
-        for k in 0..lx.len() {
+        let mut wanderers = WanderLanes::default();
+        let groups = &view.agents.group[base..base + lx.len()];
+        let mut k = 0;
+        while k < lx.len() {
             let i = base + k;
-            let g = view.agents.group[i] as usize;
-            if let PlanKind::Seek { .. } | PlanKind::Arrive { .. } = view.plans[g].kind {
-                if seekers.len == LANES || (seekers.len > 0 && seekers.group != g) {
-                    seekers.flush(view, (lx, ly, an, wa, nb), base);
+            let g = groups[k] as usize;
+            match view.plans[g].kind {
+                PlanKind::Seek { .. } | PlanKind::Arrive { .. } => {
+                    if seekers.len == LANES || (seekers.len > 0 && seekers.group != g) {
+                        seekers.flush(view, (lx, ly, an, wa, nb), base);
+                    }
+                    seekers.push(view, g, i);
+                    k += 1;
+                    continue;
                 }
-                seekers.push(view, g, i);
-                continue;
+                PlanKind::Wander { .. } => {
+                    // The run of this group's agents, a block of lanes at a time.
+                    let run = groups[k..].iter().take_while(|&&h| h as usize == g).count();
+                    for s in (k..k + run).step_by(LANES) {
+                        wanderers.fill(view, g, base + s, LANES.min(k + run - s));
+                        wanderers.flush(view, (lx, ly, an, wa, nb), base);
+                    }
+                    k += run;
+                    continue;
+                }
+                _ => {}
             }
             if batched && cells::is_batched(view, i) {
                 scratch.cells.take(i, view, (lx, ly, an, wa, nb), k);
@@ -99,6 +116,7 @@ pub(crate) fn run(view: &SteerView, out: &mut SteerOut, scratch: &mut PassScratc
             an[k] = st.angular;
             wa[k] = w;
             nb[k] = count;
+            k += 1;
         }
         seekers.flush(view, (lx, ly, an, wa, nb), base);
     };
@@ -258,6 +276,199 @@ fn arrive_lanes(
         ty[k] = 0.0 + f.y * weight;
     }
     (tx, ty)
+}
+
+/// Up to [`LANES`] consecutive agents of one wander plan, evaluated together.
+#[derive(Debug, Default)]
+struct WanderLanes {
+    len: usize,
+    group: usize,
+    /// The storage index of the first lane's agent.
+    first: usize,
+    id: [u32; LANES],
+    orientation: [f32; LANES],
+    vx: [f32; LANES],
+    vy: [f32; LANES],
+    wander: [f32; LANES],
+    max_speed: [f32; LANES],
+}
+
+/// What the wander lanes give: the weighted request, the angular request, the new wander angle,
+/// and whether the lane's result is the scalar one (false where the scalar path takes a branch
+/// the lanes do not: an angle beyond the polynomial's range or to be wrapped by more than a
+/// turn, an agent at rest, a request that overflowed).
+struct WanderOut {
+    tx: [f32; LANES],
+    ty: [f32; LANES],
+    ang: [f32; LANES],
+    angle: [f32; LANES],
+    exact: [bool; LANES],
+}
+
+impl WanderLanes {
+    /// Takes the `len` (at most [`LANES`]) agents from storage index `i` on, all of `group`.
+    fn fill(&mut self, view: &SteerView, group: usize, i: usize, len: usize) {
+        let a = view.agents;
+        (self.group, self.first, self.len) = (group, i, len);
+        for (l, id) in a.ids[i..i + len].iter().enumerate() {
+            self.id[l] = id.0;
+        }
+        put(&mut self.orientation, &a.orientation[i..], len);
+        put(&mut self.vx, &a.vel_x[i..], len);
+        put(&mut self.vy, &a.vel_y[i..], len);
+        put(&mut self.wander, &a.wander[i..], len);
+        put(&mut self.max_speed, &a.max_speed[i..], len);
+    }
+
+    /// Evaluates the filled lanes and writes their outputs into the chunks starting at `base`;
+    /// lanes the vector form does not serve exactly take [`steer_agent`].
+    fn flush(&mut self, view: &SteerView, (lx, ly, an, wa, nb): cells::OutChunks, base: usize) {
+        let plan = &view.plans[self.group];
+        let PlanKind::Wander { params, weight } = plan.kind else {
+            unreachable!("only wander plans are gathered")
+        };
+        let key = crate::rng::frame_key(view.seed, view.frame);
+        let o = if plan.adapter.kinematic {
+            let max_rotation = view.profiles[self.group].max_rotation;
+            kinematic_wander_lanes(self, key, max_rotation, weight)
+        } else {
+            wander_lanes(self, key, &params, view.dt, weight)
+        };
+        let (ox, oy) = plan.adapter.finish_lanes(o.tx, o.ty);
+        let (n, k0) = (self.len, self.first - base);
+        take(&mut lx[k0..], &ox, n);
+        take(&mut ly[k0..], &oy, n);
+        take(&mut an[k0..], &o.ang, n);
+        take(&mut wa[k0..], &o.angle, n);
+        take(&mut nb[k0..], &[0.0; LANES], n);
+        for l in (0..n).filter(|&l| !o.exact[l]) {
+            let (st, w, count) = steer_agent(view, self.first + l);
+            let k = k0 + l;
+            (lx[k], ly[k], an[k], wa[k], nb[k]) = (st.linear.x, st.linear.y, st.angular, w, count);
+        }
+        self.len = 0;
+    }
+}
+
+/// Copies the first `len` of `from` into `lanes`: a whole block as one vector move (a copy of a
+/// length known only at run time is a library call).
+#[inline(always)]
+fn put(lanes: &mut [f32; LANES], from: &[f32], len: usize) {
+    if len == LANES {
+        *lanes = from[..LANES].try_into().expect("a whole block");
+    } else {
+        lanes[..len].copy_from_slice(&from[..len]);
+    }
+}
+
+/// Copies the first `len` lanes into `to`, as [`put`] does the other way.
+#[inline(always)]
+fn take(to: &mut [f32], lanes: &[f32; LANES], len: usize) {
+    if len == LANES {
+        to[..LANES].copy_from_slice(lanes);
+    } else {
+        to[..len].copy_from_slice(&lanes[..len]);
+    }
+}
+
+/// The two uniform draws of `steering::wander` / `kinematic_wander` for every lane: the
+/// agent's stream from the frame's key, its first and second numbers, their difference.
+#[inline(always)]
+fn binomial_lanes(l: &WanderLanes, frame_key: u64) -> [f32; LANES] {
+    let mut b = [0.0_f32; LANES];
+    for (b, &id) in b.iter_mut().zip(&l.id) {
+        let key = crate::rng::agent_key(frame_key, id, Stream::Steer as u32);
+        *b = crate::rng::unit_at(key, 1) - crate::rng::unit_at(key, 2);
+    }
+    b
+}
+
+/// The weighted kinematic wander of every lane: `kinematic_wander`'s operations in its order,
+/// then `Steering::ZERO + s * weight` as the plan sums it.
+#[multiversion::multiversion(targets("x86_64+avx2+fma", "x86_64+avx"))]
+fn kinematic_wander_lanes(
+    l: &WanderLanes,
+    frame_key: u64,
+    max_rotation: f32,
+    weight: f32,
+) -> WanderOut {
+    let b = binomial_lanes(l, frame_key);
+    let mut o = WanderOut {
+        tx: [0.0; LANES],
+        ty: [0.0; LANES],
+        ang: [0.0; LANES],
+        angle: l.wander,
+        exact: [false; LANES],
+    };
+    // One lane per index across the lane arrays: the loop the vector units run.
+    #[allow(clippy::needless_range_loop)]
+    for k in 0..LANES {
+        let (s, c) = steering::trig::sin_cos_reduced(l.orientation[k]);
+        let (vx, vy) = (c * l.max_speed[k], s * l.max_speed[k]);
+        let rotation = b[k] * max_rotation;
+        o.tx[k] = 0.0 + vx * weight;
+        o.ty[k] = 0.0 + vy * weight;
+        o.ang[k] = 0.0 + rotation * weight;
+        o.exact[k] = steering::trig::in_range(l.orientation[k])
+            & (o.tx[k] * o.tx[k] + o.ty[k] * o.ty[k]).is_finite()
+            & o.ang[k].is_finite();
+    }
+    o
+}
+
+/// The weighted wander circle of every lane: `steering::wander`'s operations in its order (the
+/// heading from the velocity, the angle's step and wrap, the circle point, the seek of it), then
+/// `Steering::ZERO + s * weight` as the plan sums it.
+#[multiversion::multiversion(targets("x86_64+avx2+fma", "x86_64+avx"))]
+fn wander_lanes(
+    l: &WanderLanes,
+    frame_key: u64,
+    params: &crate::steering::WanderParams,
+    dt: f32,
+    weight: f32,
+) -> WanderOut {
+    use std::f32::consts::{PI, TAU};
+    let b = binomial_lanes(l, frame_key);
+    let mut o = WanderOut {
+        tx: [0.0; LANES],
+        ty: [0.0; LANES],
+        ang: [0.0; LANES],
+        angle: [0.0; LANES],
+        exact: [false; LANES],
+    };
+    // One lane per index across the lane arrays: the loop the vector units run.
+    #[allow(clippy::needless_range_loop)]
+    for k in 0..LANES {
+        let (vx, vy) = (l.vx[k], l.vy[k]);
+        // `velocity.try_normalize()`; the lane is left to the scalar path when it fails.
+        let rcp = 1.0 / (vx * vx + vy * vy).sqrt();
+        let moving = rcp.is_finite() & (rcp > 0.0);
+        let (hx, hy) = (vx * rcp, vy * rcp);
+        // `wrap_angle`: `a % TAU` is `a` itself below a turn; beyond, the scalar path.
+        let a = l.wander[k] + b[k] * params.jitter * dt;
+        let within = a.abs() < TAU;
+        let a = if a > PI {
+            a - TAU
+        } else if a <= -PI {
+            a + TAU
+        } else {
+            a
+        };
+        let (s, c) = steering::trig::sin_cos_reduced(a);
+        // `heading * (distance + radius c) + perp(heading) * (radius s)`.
+        let (along, across) = (params.distance + params.radius * c, params.radius * s);
+        let (px, py) = (hx * along + -hy * across, hy * along + hx * across);
+        // `normalize_or_zero() * max_speed - velocity`.
+        let r = 1.0 / (px * px + py * py).sqrt();
+        let unit = r.is_finite() & (r > 0.0);
+        let (nx, ny) = if unit { (px * r, py * r) } else { (0.0, 0.0) };
+        let (fx, fy) = (nx * l.max_speed[k] - vx, ny * l.max_speed[k] - vy);
+        o.tx[k] = 0.0 + fx * weight;
+        o.ty[k] = 0.0 + fy * weight;
+        o.angle[k] = a;
+        o.exact[k] = moving & within & (o.tx[k] * o.tx[k] + o.ty[k] * o.ty[k]).is_finite();
+    }
+    o
 }
 
 /// The steering of agent `i`, per agent: `(request, new wander angle, neighbours found)`, the

@@ -24,6 +24,7 @@ mod constructors;
 mod flocking;
 mod pursuit;
 mod seek;
+pub(crate) mod trig;
 mod wander;
 
 pub use align::{

@@ -15,7 +15,7 @@ pub fn kinematic_wander(
     max_rotation: f32,
     rng: &mut AgentRng,
 ) -> (Vec2, f32) {
-    let (s, c) = orientation.sin_cos();
+    let (s, c) = super::trig::sin_cos(orientation);
     (Vec2::new(c, s) * max_speed, rng.binomial() * max_rotation)
 }
 
@@ -37,7 +37,7 @@ pub fn wander(
     rng: &mut AgentRng,
 ) -> (Vec2, f32) {
     let angle = super::wrap_angle(wander_angle + rng.binomial() * params.jitter * dt);
-    let (s, c) = angle.sin_cos();
+    let (s, c) = super::trig::sin_cos(angle);
     // The circle point in the heading frame: forward = heading, left = perp(heading).
     let side = heading.perp();
     let local = heading * (params.distance + params.radius * c) + side * (params.radius * s);
