@@ -372,9 +372,10 @@ impl Batch {
                 // As `eval::vicsek` in the general plan: the same draw of the same stream.
                 let mut rng =
                     AgentRng::new(view.seed, a.ids[i].0, view.frame, Stream::Steer as u32);
-                let angle = s.heading.y.atan2(s.heading.x) + noise * 0.5 * rng.signed();
+                let turn = noise * 0.5 * rng.signed();
+                let heading = crate::steering::vicsek_heading(s.heading, turn);
                 let mut total = Steering::ZERO;
-                total += Steering::linear(Vec2::from_angle(angle) * a.max_speed[i]).scaled(weight);
+                total += Steering::linear(heading * a.max_speed[i]).scaled(weight);
                 let o = plan.adapter.finish(total);
                 let slot = p - out.base;
                 (out.lx[slot], out.ly[slot]) = (o.linear.x, o.linear.y);
@@ -1050,11 +1051,21 @@ fn shared<const CONE: u8, const GROUPS: bool, const Q_AC: bool>(
 fn vicsek(buf: &CellBuf, q: &Query) -> NeighbourSums {
     let z = [0.0_f32; KLANES];
     let (mut hx, mut hy, mut n) = (z, z, z);
-    let m = buf.len;
-    let headings = buf.hx[..m]
-        .chunks_exact(KLANES)
-        .zip(buf.hy[..m].chunks_exact(KLANES));
-    for ((xs, ys, ..), (hxs, hys)) in buf.blocks().zip(headings) {
+    // The four columns cut to one length, so the loop runs on one counter without bounds
+    // checks (as `CellBuf::blocks`).
+    let len = buf.len;
+    fn col(v: &[f32], len: usize) -> &[[f32; KLANES]] {
+        v[..len].as_chunks::<KLANES>().0
+    }
+    let xs = col(&buf.x, len);
+    let m = xs.len();
+    let (ys, hxs, hys) = (
+        &col(&buf.y, len)[..m],
+        &col(&buf.hx, len)[..m],
+        &col(&buf.hy, len)[..m],
+    );
+    for b in 0..m {
+        let (xs, ys, hxs, hys) = (&xs[b], &ys[b], &hxs[b], &hys[b]);
         for l in 0..KLANES {
             let dx = xs[l] - q.x;
             let dy = ys[l] - q.y;

@@ -551,6 +551,6 @@ pub(crate) fn follow_field(v: &SteerView, me: &Me, field: usize, channel: usize)
 /// of the world's groups guarantees).
 fn vicsek(me: &Me, noise: f32, d: &mut Draws) -> Steering {
     let sum = me.sums.heading + me.heading();
-    let angle = sum.y.atan2(sum.x) + noise * 0.5 * d.rng.signed();
-    Steering::linear(Vec2::from_angle(angle) * me.max_speed)
+    let turn = noise * 0.5 * d.rng.signed();
+    Steering::linear(steering::vicsek_heading(sum, turn) * me.max_speed)
 }

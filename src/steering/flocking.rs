@@ -71,6 +71,18 @@ pub fn cohesion(sums: &NeighbourSums, velocity: Vec2, max_speed: f32) -> Vec2 {
     steer_along(sums.cohesion / sums.cohesion_count, velocity, max_speed)
 }
 
+/// The Vicsek model's new heading: the direction of `sum` (the unit velocities within the
+/// radius; `+x` when they cancel out or the sum is not finite) turned by `turn` radians. A
+/// rotation of the normalised sum by the turn's sine and cosine ([`super::trig`]), the same as
+/// the unit vector at the sum's angle plus the turn, without the arctangent.
+#[inline]
+#[must_use]
+pub fn vicsek_heading(sum: Vec2, turn: f32) -> Vec2 {
+    let u = sum.try_normalize().unwrap_or(Vec2::X);
+    let (s, c) = super::trig::sin_cos(turn);
+    Vec2::new(u.x * c - u.y * s, u.x * s + u.y * c)
+}
+
 /// The polarisation of a set of velocities: the length of the mean unit velocity, 1 when all move
 /// the same way and near 0 when headings are random. Agents at rest are left out.
 #[must_use]

@@ -36,7 +36,9 @@ pub use behaviour::{
     SteeringProfile, Target, WanderParams, Weighted,
 };
 pub use combine::{PrioritySum, priority_sum, weighted_sum};
-pub use flocking::{NeighbourSums, alignment, cohesion, desired, polarisation, separation};
+pub use flocking::{
+    NeighbourSums, alignment, cohesion, desired, polarisation, separation, vicsek_heading,
+};
 pub use pursuit::{evade, predict_position, pursue};
 pub use seek::{arrive, flee, kinematic_arrive, kinematic_flee, kinematic_seek, seek};
 pub use wander::{kinematic_wander, wander};
