@@ -73,8 +73,8 @@ pub fn cohesion(sums: &NeighbourSums, velocity: Vec2, max_speed: f32) -> Vec2 {
 
 /// The Vicsek model's new heading: the direction of `sum` (the unit velocities within the
 /// radius; `+x` when they cancel out or the sum is not finite) turned by `turn` radians. A
-/// rotation of the normalised sum by the turn's sine and cosine ([`super::trig`]), the same as
-/// the unit vector at the sum's angle plus the turn, without the arctangent.
+/// rotation of the normalised sum by the turn's sine and cosine (the crate's polynomial ones),
+/// the same as the unit vector at the sum's angle plus the turn, without the arctangent.
 #[inline]
 #[must_use]
 pub fn vicsek_heading(sum: Vec2, turn: f32) -> Vec2 {
