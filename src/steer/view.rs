@@ -30,6 +30,12 @@ thread_local! {
 }
 
 /// A neighbour index over the agents of one group, for [`Target::Nearest`].
+///
+/// Its cells are about two mean spacings of the group's agents wide (never wider than the
+/// largest search radius), and a search starts within one cell width and widens fourfold until
+/// it finds an agent or reaches its radius: the nearest agent within a short radius is the
+/// nearest within any longer one, so the answer is the one search over the whole radius would
+/// give, from a few cells instead of every cell the radius covers.
 #[derive(Debug, Default)]
 pub(crate) struct NearestIndex {
     index: GridIndex,
@@ -37,6 +43,8 @@ pub(crate) struct NearestIndex {
     agents: Vec<u32>,
     xs: Vec<f32>,
     ys: Vec<f32>,
+    /// The first search radius (the cell width asked of the grid).
+    start: f32,
 }
 
 /// Rebuilds, per group, the index some plan's nearest-agent target looks into (reusing the
@@ -73,7 +81,46 @@ pub(crate) fn prepare_nearest(
                 ni.ys.push(agents.pos_y[i]);
             }
         }
-        ni.index.rebuild(&ni.xs, &ni.ys, bounds, r);
+        ni.rebuild(bounds, r);
+    }
+}
+
+impl NearestIndex {
+    /// Rebuilds the grid over the gathered points for searches up to `r`: cells of about two
+    /// mean spacings of the points (in a world with a size), never wider than `r`.
+    fn rebuild(&mut self, bounds: Bounds, r: f32) {
+        let spacing = bounds
+            .size()
+            .map(|s| 2.0 * (s.x * s.y / self.xs.len().max(1) as f32).sqrt())
+            .filter(|w| w.is_finite() && *w > 0.0);
+        self.start = spacing.map_or(r, |w| w.min(r));
+        self.index.rebuild(&self.xs, &self.ys, bounds, self.start);
+    }
+
+    /// The storage index of the indexed agent other than `i` nearest to `position` within
+    /// `within` (ties by their order in the index), by widening searches: the first that finds
+    /// such an agent has found the nearest within `within`.
+    fn nearest(
+        &self,
+        position: Vec2,
+        within: f32,
+        i: usize,
+        buf: &mut Vec<Neighbour>,
+    ) -> Option<usize> {
+        let mut r = self.start.min(within);
+        loop {
+            self.index.k_nearest_at(position, 2, r, None, buf);
+            let found = buf
+                .iter()
+                .map(|nb| self.agents[nb.index as usize] as usize)
+                .find(|&j| j != i);
+            // Also the end when `within` is not a number.
+            let wider = r < within;
+            if found.is_some() || !wider {
+                return found;
+            }
+            r = (r * 4.0).min(within);
+        }
     }
 }
 
@@ -128,12 +175,7 @@ impl SteerView<'_> {
             }
             Target::Nearest { group, within } => {
                 let ni = self.nearest.get(group)?.as_ref()?;
-                let j = NEIGHBOURS.with_borrow_mut(|buf| {
-                    ni.index.k_nearest_at(position, 2, within, None, buf);
-                    buf.iter()
-                        .map(|nb| ni.agents[nb.index as usize] as usize)
-                        .find(|&j| j != i)
-                })?;
+                let j = NEIGHBOURS.with_borrow_mut(|buf| ni.nearest(position, within, i, buf))?;
                 (a.position(j), a.velocity(j))
             }
         };
@@ -170,6 +212,78 @@ impl SteerView<'_> {
             ),
             _ => NEIGHBOURS
                 .with_borrow_mut(|buf| neighbours::sums_scalar(self.index, i, &me, spec, a, buf)),
+        }
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use crate::rng::AgentRng;
+
+    /// The nearest agent other than `i` within `within` by a scan of every indexed point.
+    fn brute(ni: &NearestIndex, bounds: Bounds, p: Vec2, within: f32, i: usize) -> Option<usize> {
+        (0..ni.xs.len())
+            .filter(|&k| ni.agents[k] as usize != i)
+            .map(|k| {
+                let d = bounds
+                    .offset(p, Vec2::new(ni.xs[k], ni.ys[k]))
+                    .length_squared();
+                (d, k)
+            })
+            .filter(|&(d, _)| d <= within * within)
+            .min_by(|a, b| a.0.total_cmp(&b.0).then(a.1.cmp(&b.1)))
+            .map(|(_, k)| ni.agents[k] as usize)
+    }
+
+    #[test]
+    fn widening_searches_find_what_one_search_over_the_radius_finds() {
+        let mut rng = AgentRng::new(9, 0, 0, 0);
+        let mut buf = Vec::new();
+        for bounds in [
+            Bounds::torus(300.0, 200.0).unwrap(),
+            Bounds::bounded(300.0, 200.0).unwrap(),
+        ] {
+            for count in [1, 2, 7, 300, 5_000] {
+                let mut ni = NearestIndex::default();
+                for k in 0..count {
+                    // Storage indices spaced out, as a group's agents among others; some points
+                    // repeated, for ties; most in one corner, so that queries elsewhere find
+                    // the mean spacing too short and widen their search.
+                    ni.agents.push(3 * k as u32 + 1);
+                    let (x, y) = if k % 17 == 5 {
+                        (ni.xs[0], ni.ys[0])
+                    } else if k % 5 == 0 {
+                        (rng.unit() * 300.0, rng.unit() * 200.0)
+                    } else {
+                        (rng.unit() * 30.0, rng.unit() * 20.0)
+                    };
+                    ni.xs.push(x);
+                    ni.ys.push(y);
+                }
+                for within in [0.5_f32, 3.0, 40.0, 1_000.0] {
+                    ni.rebuild(bounds, within);
+                    for q in 0..200 {
+                        let p = Vec2::new(rng.unit() * 300.0, rng.unit() * 200.0);
+                        // Half the queries by an indexed agent, which must not find itself.
+                        let i = if q % 2 == 0 {
+                            ni.agents[q % count] as usize
+                        } else {
+                            usize::MAX
+                        };
+                        let p = if q % 2 == 0 {
+                            Vec2::new(ni.xs[q % count], ni.ys[q % count])
+                        } else {
+                            p
+                        };
+                        assert_eq!(
+                            ni.nearest(p, within, i, &mut buf),
+                            brute(&ni, bounds, p, within, i),
+                            "{bounds:?} {count} points, within {within}, at {p}"
+                        );
+                    }
+                }
+            }
         }
     }
 }
