@@ -110,7 +110,9 @@ fn parallel_step_equals_the_sequential_reference() {
 #[test]
 fn parallel_flock_step_equals_the_sequential_reference() {
     // The cell batch (a flock with a view cone) over more agents than one of its parallel tasks
-    // takes: the sequential pass runs the same tasks one after another.
+    // takes: the sequential pass runs the same tasks one after another. Beside the flock, in the
+    // same cells, a group that also seeks a point (evaluated per agent over sums the batch
+    // computed) and a group that wanders (in lanes).
     let flock = || {
         let hood = |radius: f32| Neighbourhood {
             view_cos: -0.5,
@@ -120,21 +122,31 @@ fn parallel_flock_step_equals_the_sequential_reference() {
             .with(Behaviour::Separation { hood: hood(2.0) }, 1.5)
             .with(Behaviour::Alignment { hood: hood(5.0) }, 1.0)
             .with(Behaviour::Cohesion { hood: hood(5.0) }, 0.8);
+        let seeking = profile.clone().with(
+            Behaviour::Seek {
+                target: Target::Point(Vec2::new(55.0, 55.0)),
+                threshold: 0.0,
+            },
+            0.5,
+        );
+        let params = |profile| GroupParams {
+            max_speed: 4.0,
+            max_acceleration: 8.0,
+            ..GroupParams::dynamic(profile)
+        };
         let mut b = World::builder()
             .bounds(Bounds::torus(110.0, 110.0).unwrap())
             .seed(3)
-            .group(GroupParams {
-                max_speed: 4.0,
-                max_acceleration: 8.0,
-                ..GroupParams::dynamic(profile)
-            });
+            .group(params(profile))
+            .group(params(seeking))
+            .group(params(SteeringProfile::single(Behaviour::wander())));
         for i in 0..5003 {
             let f = i as f32;
             b = b.agent(AgentInit {
                 position: Vec2::new((f * 7.31) % 110.0, (f * 3.17) % 110.0),
                 velocity: Vec2::new((f * 0.37).sin(), (f * 0.91).cos()) * 3.0,
                 orientation: f * 0.1,
-                ..AgentInit::at(Vec2::ZERO, 0)
+                ..AgentInit::at(Vec2::ZERO, [0, 0, 1, 2][i % 4])
             });
         }
         b.build().unwrap()

@@ -308,9 +308,9 @@ fn the_flocking_plan_equals_the_general_loop() {
 
 #[test]
 fn the_cell_batch_equals_the_per_agent_general_loop_to_rounding() {
-    // On the grid, the flocking plan runs in cell batches, the general plan per agent through
-    // the per-agent kernel: the two sum neighbours in different lane orders, so they agree to
-    // rounding (relative to the force budget), not bit for bit.
+    // On the grid, the flocking plan runs in cell batches; the general plan per agent, over
+    // neighbour sums the cell batch computed for it and its terms summed in the profile's order
+    // as the general loop does: the two agree to rounding (relative to the force budget).
     let outputs = |extra: bool| {
         let mut w = flock_world(3000, 1.0, 2.0, 0.5, 4);
         for _ in 0..10 {
@@ -343,17 +343,29 @@ fn the_cell_batch_matches_the_scalar_reference_for_groups_cones_and_walls() {
     // Two flocking groups (own group only, then every group; narrow and wide view cones,
     // separate radii; some agents at rest, looking along their orientations) in a walled world
     // and on a torus: the grid's cell batch against the k-d tree's scalar traversal, to rounding.
-    let profile = |same_group: bool, view_cos: f32, r: f32| {
+    // The second group also seeks a point: a general plan, evaluated per agent over the sums
+    // the cell batch computed for it.
+    let profile = |same_group: bool, view_cos: f32, r: f32, seek: bool| {
         let hood = |radius: f32| Neighbourhood {
             radius,
             view_cos,
             same_group,
         };
+        let mut steering = SteeringProfile::default();
+        if seek {
+            steering = steering.with(
+                Behaviour::Seek {
+                    target: Target::Point(Vec2::new(30.0, 20.0)),
+                    threshold: 0.0,
+                },
+                0.5,
+            );
+        }
         GroupParams {
             max_speed: 3.0,
             max_acceleration: 6.0,
             ..GroupParams::dynamic(
-                SteeringProfile::default()
+                steering
                     .with(
                         Behaviour::Separation {
                             hood: hood(0.4 * r),
@@ -378,8 +390,8 @@ fn the_cell_batch_matches_the_scalar_reference_for_groups_cones_and_walls() {
             let mut b = World::builder()
                 .bounds(bounds)
                 .seed(8)
-                .group(profile(true, 0.3, 4.0))
-                .group(profile(false, -0.6, 3.0));
+                .group(profile(true, 0.3, 4.0, false))
+                .group(profile(false, -0.6, 3.0, true));
             let mut rng = throng::rng::AgentRng::new(8, 0, 0, 5);
             for k in 0..1500 {
                 let p = Vec2::new(rng.unit() * 60.0, rng.unit() * 40.0);

@@ -62,8 +62,11 @@ pub(crate) struct CellOut {
     /// parallel tasks for their own positions (a scatter: relaxed atomics, plain stores and loads
     /// on x86, instead of `unsafe`), read after they all finish.
     rank: Vec<AtomicU32>,
-    /// Per group: the kernel's query template, when the group is batched.
+    /// Per group: the kernel's query template, when the group is batched or summed.
     specs: Vec<Option<Query>>,
+    /// Per grid position: the neighbour sums of an agent of a summed group (empty when no
+    /// group is summed).
+    sums: Vec<NeighbourSums>,
 }
 
 /// One task's chunks of the pass outputs: linear x and y, angular, wander angle, neighbours.
@@ -105,6 +108,19 @@ pub(crate) fn is_batched(view: &SteerView, i: usize) -> bool {
 #[inline]
 pub(crate) fn is_batched_group(view: &SteerView, g: usize) -> bool {
     batched(&view.plans[g])
+}
+
+/// Whether the batch computes the neighbour sums of group `g`'s agents for their per-agent
+/// evaluation (a plan that mixes flocking terms with other behaviours).
+#[inline]
+pub(crate) fn is_summed_group(view: &SteerView, g: usize) -> bool {
+    summed(&view.plans[g])
+}
+
+/// Whether a plan's neighbour sums come from the batch while the rest of it is evaluated per
+/// agent: the general plan, with sums the lane kernel serves.
+fn summed(plan: &super::plan::Plan) -> bool {
+    matches!(plan.kind, PlanKind::General) && plan.spec.active && plan.spec.kernel_ok()
 }
 
 /// Whether a plan is evaluated by the batch: flocking the lane kernel serves, or Vicsek.
@@ -195,6 +211,12 @@ impl CellOut {
         }
     }
 
+    /// The neighbour sums the batch computed for agent `i` (storage index) of a summed group.
+    #[inline]
+    pub(crate) fn sums_of(&self, i: usize) -> &NeighbourSums {
+        &self.sums[self.rank[i].load(Ordering::Relaxed) as usize]
+    }
+
     /// Copies agent `i`'s batched outputs into slot `k` of the per-agent output chunks.
     #[inline]
     pub(crate) fn take(
@@ -237,7 +259,7 @@ pub(crate) fn run(view: &SteerView, out: &mut CellOut, parallel: bool) -> bool {
     out.specs.extend(
         view.plans
             .iter()
-            .map(|p| batched(p).then(|| Query::of(&p.spec, one_group))),
+            .map(|p| (batched(p) || summed(p)).then(|| Query::of(&p.spec, one_group))),
     );
     if out.specs.iter().all(Option::is_none) {
         return false;
@@ -246,26 +268,51 @@ pub(crate) fn run(view: &SteerView, out: &mut CellOut, parallel: bool) -> bool {
     for v in [&mut out.lin_x, &mut out.lin_y, &mut out.count] {
         v.resize(n, 0.0);
     }
+    let any_summed = view.plans.iter().any(summed);
+    out.sums
+        .resize(if any_summed { n } else { 0 }, NeighbourSums::default());
     out.rank.resize_with(n, AtomicU32::default);
     let (specs, rank) = (&out.specs, &out.rank);
-    let work = |base: usize, lx: &mut [f32], ly: &mut [f32], nb: &mut [f32]| {
+    let work = |base: usize, (lx, ly, nb): Columns, sums: &mut [NeighbourSums]| {
+        let len = lx.len();
         BUF.with_borrow_mut(|(buf, runs)| {
-            chunk(view, grid, sorted, specs, base, lx, ly, nb, (buf, runs));
+            chunk(
+                view,
+                grid,
+                sorted,
+                specs,
+                base,
+                (lx, ly, nb, sums),
+                (buf, runs),
+            );
         });
-        let order = &grid.order()[base..base + lx.len()];
+        let order = &grid.order()[base..base + len];
         for (p, &i) in (base..).zip(order) {
             rank[i as usize].store(p as u32, Ordering::Relaxed);
         }
     };
     if parallel {
-        (
+        let columns = (
             out.lin_x.par_chunks_mut(CELL_CHUNK),
             out.lin_y.par_chunks_mut(CELL_CHUNK),
             out.count.par_chunks_mut(CELL_CHUNK),
-        )
-            .into_par_iter()
-            .enumerate()
-            .for_each(|(c, (lx, ly, nb))| work(c * CELL_CHUNK, lx, ly, nb));
+        );
+        if any_summed {
+            (
+                columns.0,
+                columns.1,
+                columns.2,
+                out.sums.par_chunks_mut(CELL_CHUNK),
+            )
+                .into_par_iter()
+                .enumerate()
+                .for_each(|(c, (lx, ly, nb, s))| work(c * CELL_CHUNK, (lx, ly, nb), s));
+        } else {
+            columns
+                .into_par_iter()
+                .enumerate()
+                .for_each(|(c, (lx, ly, nb))| work(c * CELL_CHUNK, (lx, ly, nb), &mut []));
+        }
     } else {
         // The same tasks, one after another (a task's columns hold `CELL_CHUNK` agents).
         let tasks = out
@@ -273,12 +320,21 @@ pub(crate) fn run(view: &SteerView, out: &mut CellOut, parallel: bool) -> bool {
             .chunks_mut(CELL_CHUNK)
             .zip(out.lin_y.chunks_mut(CELL_CHUNK))
             .zip(out.count.chunks_mut(CELL_CHUNK));
+        let mut sums = out.sums.chunks_mut(CELL_CHUNK);
         for (c, ((lx, ly), nb)) in tasks.enumerate() {
-            work(c * CELL_CHUNK, lx, ly, nb);
+            let s = if any_summed {
+                sums.next().expect("a chunk of sums per task")
+            } else {
+                &mut []
+            };
+            work(c * CELL_CHUNK, (lx, ly, nb), s);
         }
     }
     true
 }
+
+/// One task's chunks of the batch's columns: linear x and y, neighbours found.
+type Columns<'c> = (&'c mut [f32], &'c mut [f32], &'c mut [f32]);
 
 /// Agents whose sums one kernel call computes (one cell, one group).
 const CELL_BATCH: usize = 32;
@@ -299,6 +355,9 @@ struct Outputs<'o> {
     lx: &'o mut [f32],
     ly: &'o mut [f32],
     nb: &'o mut [f32],
+    /// The sums of summed groups' agents, for their per-agent evaluation (empty when no group
+    /// is summed).
+    sums: &'o mut [NeighbourSums],
     /// The flocking agents' sums, waiting for [`Outputs::finish`].
     runs: &'o mut Runs,
 }
@@ -385,6 +444,16 @@ impl Batch {
             return;
         }
         let spec = &plan.spec;
+        if !matches!(plan.kind, PlanKind::Flock { .. }) {
+            // A summed plan: the sums alone, for the agent's evaluation in the pass.
+            for k in 0..m {
+                let p = self.slots[k].0;
+                let velocity = Vec2::new(sorted.vx[p], sorted.vy[p]);
+                out.sums[p - out.base] = without_self(self.sums[k], velocity, spec);
+            }
+            self.len = 0;
+            return;
+        }
         for k in 0..m {
             let (p, i) = self.slots[k];
             let velocity = Vec2::new(sorted.vx[p], sorted.vy[p]);
@@ -409,9 +478,7 @@ fn chunk(
     sorted: &SortedCopies,
     specs: &[Option<Query>],
     base: usize,
-    lx: &mut [f32],
-    ly: &mut [f32],
-    nb: &mut [f32],
+    (lx, ly, nb, sums): (&mut [f32], &mut [f32], &mut [f32], &mut [NeighbourSums]),
     (buf, runs): (&mut CellBuf, &mut Runs),
 ) {
     let order = grid.order();
@@ -425,6 +492,7 @@ fn chunk(
         lx,
         ly,
         nb,
+        sums,
         runs,
     };
     let mut batch = Batch {

@@ -85,14 +85,14 @@ pub(crate) fn run(view: &SteerView, out: &mut SteerOut, scratch: &mut PassScratc
         while k < lx.len() {
             let i = base + k;
             let g = groups[k] as usize;
-            match view.plans[g].kind {
+            // Each arm evaluates the agents from `k` on that it serves and says how many.
+            let done = match view.plans[g].kind {
                 PlanKind::Seek { .. } | PlanKind::Arrive { .. } => {
                     if seekers.len == LANES || (seekers.len > 0 && seekers.group != g) {
                         seekers.flush(view, (lx, ly, an, wa, nb), base);
                     }
                     seekers.push(view, g, i);
-                    k += 1;
-                    continue;
+                    1
                 }
                 PlanKind::Wander { .. } => {
                     // The run of this group's agents, a block of lanes at a time.
@@ -101,22 +101,23 @@ pub(crate) fn run(view: &SteerView, out: &mut SteerOut, scratch: &mut PassScratc
                         wanderers.fill(view, g, base + s, LANES.min(k + run - s));
                         wanderers.flush(view, (lx, ly, an, wa, nb), base);
                     }
-                    k += run;
-                    continue;
+                    run
                 }
-                _ => {}
-            }
-            if batched && cells::is_batched(view, i) {
-                scratch.cells.take(i, view, (lx, ly, an, wa, nb), k);
-                continue;
-            }
-            let (st, w, count) = steer_agent(view, i);
-            lx[k] = st.linear.x;
-            ly[k] = st.linear.y;
-            an[k] = st.angular;
-            wa[k] = w;
-            nb[k] = count;
-            k += 1;
+                _ if batched && cells::is_batched(view, i) => {
+                    scratch.cells.take(i, view, (lx, ly, an, wa, nb), k);
+                    1
+                }
+                _ => {
+                    // A summed group's neighbour sums come from the batch.
+                    let sums = (batched && cells::is_summed_group(view, g))
+                        .then(|| scratch.cells.sums_of(i));
+                    let (st, w, count) = steer_agent_with(view, i, sums);
+                    (lx[k], ly[k], an[k], wa[k], nb[k]) =
+                        (st.linear.x, st.linear.y, st.angular, w, count);
+                    1
+                }
+            };
+            k += done;
         }
         seekers.flush(view, (lx, ly, an, wa, nb), base);
     };
@@ -474,6 +475,16 @@ fn wander_lanes(
 /// The steering of agent `i`, per agent: `(request, new wander angle, neighbours found)`, the
 /// request being a clamped acceleration (dynamic) or a desired velocity (kinematic).
 pub(crate) fn steer_agent(v: &SteerView, i: usize) -> (Steering, f32, f32) {
+    steer_agent_with(v, i, None)
+}
+
+/// [`steer_agent`] with the agent's neighbour sums when the cell batch computed them (the
+/// general plan then does not query its neighbourhood itself).
+fn steer_agent_with(
+    v: &SteerView,
+    i: usize,
+    sums: Option<&crate::steering::NeighbourSums>,
+) -> (Steering, f32, f32) {
     let a = v.agents;
     let g = a.group[i] as usize;
     let plan = &v.plans[g];
@@ -547,7 +558,7 @@ pub(crate) fn steer_agent(v: &SteerView, i: usize) -> (Steering, f32, f32) {
         PlanKind::General
         | PlanKind::Vicsek { .. }
         | PlanKind::Seek { .. }
-        | PlanKind::Arrive { .. } => general(v, i, &adapter),
+        | PlanKind::Arrive { .. } => general(v, i, &adapter, sums),
     }
 }
 
@@ -569,7 +580,12 @@ pub(crate) fn flock_total(
 }
 
 /// The general plan: every behaviour of the profile evaluated and combined.
-fn general(v: &SteerView, i: usize, adapter: &Adapter) -> (Steering, f32, f32) {
+fn general(
+    v: &SteerView,
+    i: usize,
+    adapter: &Adapter,
+    sums: Option<&crate::steering::NeighbourSums>,
+) -> (Steering, f32, f32) {
     let a = v.agents;
     let profile = &v.profiles[a.group[i] as usize];
     let velocity = a.velocity(i);
@@ -583,7 +599,7 @@ fn general(v: &SteerView, i: usize, adapter: &Adapter) -> (Steering, f32, f32) {
         max_speed: a.max_speed[i],
         profile,
         adapter: *adapter,
-        sums: v.sums(i, velocity, orientation),
+        sums: sums.map_or_else(|| v.sums(i, velocity, orientation), |s| *s),
     };
     let mut draws = Draws {
         wander: a.wander[i],
