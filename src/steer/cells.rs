@@ -10,7 +10,8 @@
 //! has that, the baseline otherwise; the same bits on each). The sums wait in columns until the
 //! task's cells are done; then the flocking terms and the model adapter run over each run of
 //! agents of one group, one term at a time in long vector loops, writing the outputs in the
-//! grid's order.
+//! grid's order. For a general plan with flocking terms (a "summed" group) the batch stores the
+//! sums alone, which the per-agent evaluation then reads instead of querying the neighbourhood.
 //!
 //! View cones are tested without a square root: for a cosine `c < 0` a neighbour at offset `d`
 //! is seen when `h . d >= 0` or `(h . d)^2 <= c^2 |d|^2`, for `c >= 0` when both `h . d >= 0`
@@ -247,8 +248,9 @@ fn ready<'a>(view: &SteerView<'a>) -> Option<(&'a GridIndex, &'a SortedCopies)> 
     Some((grid, sorted))
 }
 
-/// Evaluates every batched agent into `out` (in the grid's order). Returns whether the batch
-/// ran; when it did not, every agent goes through the per-agent path.
+/// Evaluates every batched agent into `out` (in the grid's order), and stores the neighbour sums
+/// of every agent of a summed group. Returns whether the batch ran; when it did not, every agent
+/// goes through the per-agent path.
 pub(crate) fn run(view: &SteerView, out: &mut CellOut, parallel: bool) -> bool {
     let Some((grid, sorted)) = ready(view) else {
         return false;

@@ -1,9 +1,11 @@
 //! The steering pass: every agent's request for this frame, written into SoA outputs.
 //!
 //! [`run`] evaluates each agent by its group's [`Plan`]: flocking-only plans in cell batches
-//! through the grid kernel when the uniform grid is ready ([`super::cells`]), everything else
-//! per agent ([`steer_agent`]: the flocking and flow-field plans without dispatch, the general
-//! plan by [`evaluate`] over the profile's behaviours and their combination).
+//! through the grid kernel when the uniform grid is ready ([`super::cells`]); a lone seek,
+//! arrive or wander eight agents at a time in lanes; everything else per agent
+//! ([`steer_agent`]: the flocking and flow-field plans without dispatch, the general plan by
+//! [`evaluate`] over the profile's behaviours and their combination, over neighbour sums the
+//! cell batch computed for it when the plan has flocking terms the batch serves).
 //!
 //! Invariants: the pass reads only frame-t state and writes only the outputs of the agent it
 //! evaluates, so results are independent of the thread count; the sequential pass runs the same

@@ -103,8 +103,8 @@ pub(crate) enum PlanKind {
         /// The behaviour's weight.
         weight: f32,
     },
-    /// One `wander` alone in a weighted sum: the behaviour itself per agent, without the
-    /// general loop's dispatch.
+    /// One `wander` alone in a weighted sum: runs of the group's agents evaluated eight at a
+    /// time in lanes, without the general loop's dispatch.
     Wander {
         /// The wander circle (dynamic agents).
         params: crate::steering::WanderParams,
