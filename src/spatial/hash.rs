@@ -184,15 +184,34 @@ impl HashGrid {
     #[inline(always)]
     #[must_use]
     pub fn runs(&self, p: Vec2, r: f32) -> Runs {
+        self.runs_of(self.cells(p, r))
+    }
+
+    /// The block of cells a query of radius `r` around `p` reads, inclusive:
+    /// `[x0, x1, y0, y1]`. Queries with the same block get the same [`runs`](Self::runs), so a
+    /// caller may keep them for the next query whose block is equal.
+    #[inline(always)]
+    #[must_use]
+    pub fn cells(&self, p: Vec2, r: f32) -> [i32; 4] {
+        let inv = self.inv_side;
+        let r = gather_radius(r, p.x.abs().max(p.y.abs()));
+        [
+            cell(p.x - r, inv),
+            cell(p.x + r, inv),
+            cell(p.y - r, inv),
+            cell(p.y + r, inv),
+        ]
+    }
+
+    /// The runs of points of a block of cells from [`cells`](Self::cells).
+    #[inline(always)]
+    #[must_use]
+    pub fn runs_of(&self, [x0, x1, y0, y1]: [i32; 4]) -> Runs {
         let mut out = Runs::default();
         let n = self.order.len();
         if n == 0 {
             return out;
         }
-        let inv = self.inv_side;
-        let r = gather_radius(r, p.x.abs().max(p.y.abs()));
-        let (x0, x1) = (cell(p.x - r, inv), cell(p.x + r, inv));
-        let (y0, y1) = (cell(p.y - r, inv), cell(p.y + r, inv));
         let table = i64::from(self.mask) + 1;
         let cols = i64::from(x1) - i64::from(x0) + 1;
         let rows = i64::from(y1) - i64::from(y0) + 1;

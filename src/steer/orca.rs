@@ -23,8 +23,9 @@ use super::pass::{STEER_CHUNK, SteerOut};
 use super::view::SteerView;
 use crate::orca::lines::LANES;
 use crate::orca::{Line, LineBlock, Orca, WallChains, agent_line, solve};
-use crate::rng::{AgentRng, Stream};
-use crate::spatial::{HashGrid, Neighbour, NeighbourIndex};
+use crate::rng::{self, Stream};
+use crate::spatial::{HashGrid, Neighbour, NeighbourIndex, Runs};
+use crate::steering::trig;
 
 /// One worker's buffers.
 #[derive(Default)]
@@ -42,6 +43,9 @@ struct Buffers {
     circles: Vec<u32>,
     edges: Vec<(f32, u32)>,
     inside: Vec<(u32, bool)>,
+    /// The last query's block of cells and its runs (reset for every chunk of agents: the grid
+    /// is rebuilt between steps).
+    runs: (Option<[i32; 4]>, Runs),
 }
 
 thread_local! {
@@ -91,6 +95,8 @@ struct Context<'a> {
     /// The largest radius and speed of any agent: what bounds a pair's approach in one step.
     r_max: f32,
     v_max: f32,
+    /// The frame's random key ([`rng::frame_key`]), from which each agent's stream derives.
+    frame_key: u64,
 }
 
 /// Filters the requests in `out` of every agent whose group uses ORCA.
@@ -114,11 +120,13 @@ pub(crate) fn run(
         source,
         r_max: a.radius.iter().copied().fold(0.0, f32::max),
         v_max: a.max_speed.iter().copied().fold(0.0, f32::max),
+        frame_key: rng::frame_key(view.seed, view.frame),
     };
     scratch.near.clear();
     scratch.near.resize(n, false);
     let chunk = |base: usize, lx: &mut [f32], ly: &mut [f32], near: &mut [bool]| {
         BUFFERS.with_borrow_mut(|b| {
+            b.runs.0 = None;
             // Room for every agent as a candidate: a warm step allocates nothing however
             // crowded a neighbourhood becomes.
             if b.hits.len() < n + 8 {
@@ -151,10 +159,10 @@ pub(crate) fn run(
 }
 
 /// Writes the candidates of one run `(xs, ys, ids)` within `sqrt(r_sq)` of `pos` (agent `i`
-/// left out) to `hits[count..]` as `(dist_sq, index)`, eight at a time: the distances in lanes,
-/// then every lane written and the count advanced by the hits only, without a branch per
-/// candidate. `xs` and `ys` may run past `ids` (the hashed grid's padding): then every block
-/// reads eight lanes.
+/// left out) to `hits[count..]` as `(dist_sq, index)`, eight at a time: the distances in lanes
+/// and a mask of the lanes within reach, then only the set lanes written (agent `i` written but
+/// not counted, without a branch). `xs` and `ys` may run past `ids` (the hashed grid's padding):
+/// then every block reads eight lanes.
 #[inline(always)]
 fn scan(
     (xs, ys, ids): (&[f32], &[f32], &[u32]),
@@ -182,13 +190,17 @@ fn scan(
                 d[l] = dx * dx + dy * dy;
             }
         }
-        let out = &mut hits[*count..*count + 8];
-        let mut n = 0;
-        for (l, &j) in ids[s..s + len].iter().enumerate() {
-            out[n] = (d[l], j);
-            n += usize::from(d[l] <= r_sq && j as usize != i);
+        // Each lane's bit, then their union: a compare and a reduction in vectors.
+        let bits: [u32; 8] = std::array::from_fn(|l| u32::from(d[l] <= r_sq) << l);
+        let mut mask = bits.iter().fold(0, |m, &b| m | b) & ((1u32 << len) - 1);
+        let ids = &ids[s..s + len];
+        while mask != 0 {
+            let l = mask.trailing_zeros() as usize;
+            mask &= mask - 1;
+            let j = ids[l];
+            hits[*count] = (d[l], j);
+            *count += usize::from(j as usize != i);
         }
-        *count += n;
         s += len;
     }
 }
@@ -211,7 +223,12 @@ fn candidates(
     match ctx.source {
         Source::Hash(hash) => {
             let (sx, sy, order) = (hash.sorted_x(), hash.sorted_y(), hash.order());
-            for run in hash.runs(pos, r).iter() {
+            // Agents lie in cell order, so the next agent's block of cells is often this one's.
+            let cells = hash.cells(pos, r);
+            if b.runs.0 != Some(cells) {
+                b.runs = (Some(cells), hash.runs_of(cells));
+            }
+            for run in b.runs.1.iter() {
                 let run = (&sx[run.start..], &sy[run.start..], &order[run]);
                 scan(run, pos, r_sq, i, &mut b.hits, &mut count);
             }
@@ -284,9 +301,12 @@ fn filter(
         pref = crate::steering::truncate(pref, s);
     }
     if orca.perturbation > 0.0 {
-        let mut rng = AgentRng::new(view.seed, id, view.frame, Stream::Orca as u32);
-        let angle = rng.unit() * std::f32::consts::TAU;
-        pref += Vec2::from_angle(angle) * (orca.perturbation * rng.unit());
+        // The agent's first two draws of its ORCA stream: a direction and a length. The angle
+        // lies in [0, 2 pi), where the polynomial sine and cosine serve.
+        let key = rng::agent_key(ctx.frame_key, id, Stream::Orca as u32);
+        let angle = rng::unit_at(key, 1) * std::f32::consts::TAU;
+        let (sin, cos) = trig::sin_cos_reduced(angle);
+        pref += Vec2::new(cos, sin) * (orca.perturbation * rng::unit_at(key, 2));
     }
     b.lines.clear();
 
