@@ -28,6 +28,8 @@ use crate::spatial::{GridIndex, Neighbour, NeighbourIndex};
 
 /// Agents per parallel task of the pair search.
 const CHUNK: usize = 2048;
+/// Agents per parallel task of the guard's check whether the listed pairs still suffice.
+const CHECK_CHUNK: usize = 16 * 1024;
 /// Pairs closer than this many times their summed radii are listed.
 const NEAR: f32 = 1.5;
 
@@ -189,13 +191,20 @@ pub(crate) fn guard(
     // its summed radii apart after integration (farther than `NEAR` when both searched), so it
     // cannot have come within `FLOOR` when no agent `k` has moved by `(REACH - FLOOR) * r_k` or
     // more since; then the listed pairs are all there is to check.
+    let still = |k: usize| {
+        let after = Vec2::new(scratch.after_x[k], scratch.after_y[k]);
+        let slack = (REACH - FLOOR) * input.radius[k];
+        let moved = input.bounds.offset(after, Vec2::new(xs[k], ys[k]));
+        moved == Vec2::ZERO || moved.length_squared() < slack * slack
+    };
     let listed = scratch.after_x.len() == n
-        && (0..n).all(|k| {
-            let after = Vec2::new(scratch.after_x[k], scratch.after_y[k]);
-            let slack = (REACH - FLOOR) * input.radius[k];
-            let moved = input.bounds.offset(after, Vec2::new(xs[k], ys[k]));
-            moved == Vec2::ZERO || moved.length_squared() < slack * slack
-        });
+        && if parallel {
+            (0..n.div_ceil(CHECK_CHUNK))
+                .into_par_iter()
+                .all(|c| (c * CHECK_CHUNK..n.min((c + 1) * CHECK_CHUNK)).all(still))
+        } else {
+            (0..n).all(still)
+        };
     scratch.fresh.reserve(n);
     if !listed {
         list_pairs(input, xs, ys, scratch, parallel, (FLOOR, max_r), |i| {

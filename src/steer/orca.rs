@@ -19,6 +19,7 @@ use std::cell::RefCell;
 use glam::Vec2;
 use rayon::prelude::*;
 
+use super::pack::{Packed, pack_block};
 use super::pass::{STEER_CHUNK, SteerOut};
 use super::view::SteerView;
 use crate::orca::lines::LANES;
@@ -31,9 +32,11 @@ use crate::steering::trig;
 #[derive(Default)]
 struct Buffers {
     found: Vec<Neighbour>,
-    /// `(dist_sq, index)` of the candidates within reach, written eight lanes at a time: only
-    /// the first `count` entries of a scan are hits, the rest is room.
-    hits: Vec<(f32, u32)>,
+    /// The offsets and indices of the candidates within reach, packed eight lanes at a time
+    /// (`steer::pack`): only the first `count` entries of a scan are hits, the rest is room.
+    rx: Vec<f32>,
+    ry: Vec<f32>,
+    js: Vec<u32>,
     /// The nearest candidates as `(dist_sq bits << 32 | id, index)`, ascending: the key orders
     /// by distance, then id, as an integer.
     near: Vec<(u64, u32)>,
@@ -97,6 +100,8 @@ struct Context<'a> {
     v_max: f32,
     /// The frame's random key ([`rng::frame_key`]), from which each agent's stream derives.
     frame_key: u64,
+    /// Whether the CPU has AVX2 (the candidates are packed in its lanes).
+    avx2: bool,
 }
 
 /// Filters the requests in `out` of every agent whose group uses ORCA.
@@ -121,6 +126,10 @@ pub(crate) fn run(
         r_max: a.radius.iter().copied().fold(0.0, f32::max),
         v_max: a.max_speed.iter().copied().fold(0.0, f32::max),
         frame_key: rng::frame_key(view.seed, view.frame),
+        #[cfg(target_arch = "x86_64")]
+        avx2: std::arch::is_x86_feature_detected!("avx2"),
+        #[cfg(not(target_arch = "x86_64"))]
+        avx2: false,
     };
     scratch.near.clear();
     scratch.near.resize(n, false);
@@ -129,8 +138,10 @@ pub(crate) fn run(
             b.runs.0 = None;
             // Room for every agent as a candidate: a warm step allocates nothing however
             // crowded a neighbourhood becomes.
-            if b.hits.len() < n + 8 {
-                b.hits.resize(n + 8, (0.0, 0));
+            if b.js.len() < n + LANES {
+                b.rx.resize(n + LANES, 0.0);
+                b.ry.resize(n + LANES, 0.0);
+                b.js.resize(n + LANES, 0);
             }
             b.near.reserve(n.saturating_sub(b.near.len()));
             for k in 0..lx.len() {
@@ -158,51 +169,39 @@ pub(crate) fn run(
     }
 }
 
-/// Writes the candidates of one run `(xs, ys, ids)` within `sqrt(r_sq)` of `pos` (agent `i`
-/// left out) to `hits[count..]` as `(dist_sq, index)`, eight at a time: the distances in lanes
-/// and a mask of the lanes within reach, then only the set lanes written (agent `i` written but
-/// not counted, without a branch). `xs` and `ys` may run past `ids` (the hashed grid's padding):
-/// then every block reads eight lanes.
+/// Packs the candidates of the points `run` of the hashed grid within `sqrt(r_sq)` of `pos`
+/// (agent `i` left out) into `out` from slot `count` on, eight lanes at a time without a branch
+/// per lane (`steer::pack`); returns the new count. The grid's positions are padded, so every
+/// block is read whole and its tail masked off.
 #[inline(always)]
+#[allow(clippy::too_many_arguments)]
 fn scan(
-    (xs, ys, ids): (&[f32], &[f32], &[u32]),
+    hash: &HashGrid,
+    run: std::ops::Range<usize>,
     pos: Vec2,
     r_sq: f32,
     i: usize,
-    hits: &mut Vec<(f32, u32)>,
-    count: &mut usize,
-) {
-    let mut s = 0;
-    while s < ids.len() {
-        let len = (ids.len() - s).min(8);
-        if hits.len() < *count + 8 {
-            hits.resize((*count + 8).max(2 * hits.len()), (0.0, 0));
-        }
-        let mut d = [0.0f32; 8];
-        if let (Some(x8), Some(y8)) = (xs.get(s..s + 8), ys.get(s..s + 8)) {
-            for l in 0..8 {
-                let (dx, dy) = (x8[l] - pos.x, y8[l] - pos.y);
-                d[l] = dx * dx + dy * dy;
-            }
-        } else {
-            for l in 0..len {
-                let (dx, dy) = (xs[s + l] - pos.x, ys[s + l] - pos.y);
-                d[l] = dx * dx + dy * dy;
-            }
-        }
-        // Each lane's bit, then their union: a compare and a reduction in vectors.
-        let bits: [u32; 8] = std::array::from_fn(|l| u32::from(d[l] <= r_sq) << l);
-        let mut mask = bits.iter().fold(0, |m, &b| m | b) & ((1u32 << len) - 1);
-        let ids = &ids[s..s + len];
-        while mask != 0 {
-            let l = mask.trailing_zeros() as usize;
-            mask &= mask - 1;
-            let j = ids[l];
-            hits[*count] = (d[l], j);
-            *count += usize::from(j as usize != i);
-        }
-        s += len;
+    avx2: bool,
+    (rx, ry, js): (&mut [f32], &mut [f32], &mut [u32]),
+    mut count: usize,
+) -> usize {
+    let (sx, sy, order) = (hash.sorted_x(), hash.sorted_y(), hash.order());
+    let len = run.len();
+    for c in 0..len.div_ceil(LANES) {
+        let at = run.start + c * LANES;
+        let xs: &[f32; LANES] = sx[at..at + LANES].try_into().expect("padded positions");
+        let ys: &[f32; LANES] = sy[at..at + LANES].try_into().expect("padded positions");
+        let mut out = Packed {
+            rx: &mut *rx,
+            ry: &mut *ry,
+            js: &mut *js,
+            p: (pos.x, pos.y),
+            r_sq,
+            me: i as u32,
+        };
+        count = pack_block(xs, ys, order, at, len - c * LANES, &mut out, count, avx2);
     }
+    count
 }
 
 /// The `k` nearest agents within `r` of agent `i` at `pos` (itself left out) in `b.near`,
@@ -219,33 +218,31 @@ fn candidates(
 ) {
     let a = view.agents;
     let r_sq = r * r;
-    let mut count = 0;
+    let key = |d: f32, j: u32| (u64::from(d.to_bits()) << 32) | u64::from(a.ids[j as usize].0);
+    b.near.clear();
     match ctx.source {
         Source::Hash(hash) => {
-            let (sx, sy, order) = (hash.sorted_x(), hash.sorted_y(), hash.order());
             // Agents lie in cell order, so the next agent's block of cells is often this one's.
             let cells = hash.cells(pos, r);
             if b.runs.0 != Some(cells) {
                 b.runs = (Some(cells), hash.runs_of(cells));
             }
+            let mut count = 0;
             for run in b.runs.1.iter() {
-                let run = (&sx[run.start..], &sy[run.start..], &order[run]);
-                scan(run, pos, r_sq, i, &mut b.hits, &mut count);
+                let out = (&mut b.rx[..], &mut b.ry[..], &mut b.js[..]);
+                count = scan(hash, run, pos, r_sq, i, ctx.avx2, out, count);
             }
+            let hits = b.rx[..count].iter().zip(&b.ry[..count]).zip(&b.js[..count]);
+            b.near
+                .extend(hits.map(|((&dx, &dy), &j)| (key(dx * dx + dy * dy, j), j)));
         }
         Source::Index => {
             view.index.neighbours_at(pos, r, &mut b.found);
-            for nb in b.found.iter().filter(|nb| nb.index as usize != i) {
-                b.hits[count] = (nb.dist_sq, nb.index);
-                count += 1;
-            }
+            let found = b.found.iter().filter(|nb| nb.index as usize != i);
+            b.near
+                .extend(found.map(|nb| (key(nb.dist_sq, nb.index), nb.index)));
         }
     }
-    b.near.clear();
-    b.near.extend(b.hits[..count].iter().map(|&(d, j)| {
-        let key = (u64::from(d.to_bits()) << 32) | u64::from(a.ids[j as usize].0);
-        (key, j)
-    }));
     // Keys are distinct (ids are), so the nearest `k` and their order are unique.
     if b.near.len() > k {
         b.near.select_nth_unstable(k - 1);

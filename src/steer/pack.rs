@@ -130,6 +130,39 @@ pub(crate) unsafe fn pack_avx2(b: &Block, out: &mut Packed, count: usize) -> usi
     }
 }
 
+/// Packs block `at..at + LANES` of a run of sorted points whose last `left` (from `at`) are
+/// candidates: positions `xs`, `ys` read whole (the caller's arrays are padded), indices from
+/// `order` (past its end as `out.me`, which is never kept); in AVX2 lanes when `avx2` (the CPU's),
+/// else by [`pack_scalar`]. Returns the new count.
+#[inline(always)]
+#[allow(clippy::too_many_arguments)]
+pub(crate) fn pack_block(
+    xs: &[f32; LANES],
+    ys: &[f32; LANES],
+    order: &[u32],
+    at: usize,
+    left: usize,
+    out: &mut Packed,
+    count: usize,
+    avx2: bool,
+) -> usize {
+    let mut tail = [out.me; LANES];
+    let whole = order.get(at..at + LANES).and_then(|o| o.try_into().ok());
+    let js = whole.unwrap_or_else(|| {
+        tail[..order.len() - at].copy_from_slice(&order[at..]);
+        &tail
+    });
+    let block = Block { xs, ys, js, left };
+    #[cfg(target_arch = "x86_64")]
+    if avx2 {
+        // SAFETY: `avx2` is the CPU's; `pack_avx2` asserts the room it writes.
+        return unsafe { pack_avx2(&block, out, count) };
+    }
+    #[cfg(not(target_arch = "x86_64"))]
+    let _ = avx2;
+    pack_scalar(&block, out, count)
+}
+
 #[cfg(test)]
 mod tests {
     use super::*;

@@ -90,14 +90,15 @@ pub(crate) fn run(view: &SteerView, out: &mut SteerOut, scratch: &mut PassScratc
             // Each arm evaluates the agents from `k` on that it serves and says how many.
             let done = match view.plans[g].kind {
                 PlanKind::Seek { .. } | PlanKind::Arrive { .. } => {
-                    if seekers.len == LANES || (seekers.len > 0 && seekers.group != g) {
+                    // The run of this group's agents, a block of lanes at a time.
+                    let run = groups[k..].iter().take_while(|&&h| h as usize == g).count();
+                    for s in (k..k + run).step_by(LANES) {
+                        seekers.fill(view, g, base + s, LANES.min(k + run - s));
                         seekers.flush(view, (lx, ly, an, wa, nb), base);
                     }
-                    seekers.push(view, g, i);
-                    1
+                    run
                 }
                 PlanKind::Wander { .. } => {
-                    // The run of this group's agents, a block of lanes at a time.
                     let run = groups[k..].iter().take_while(|&&h| h as usize == g).count();
                     for s in (k..k + run).step_by(LANES) {
                         wanderers.fill(view, g, base + s, LANES.min(k + run - s));
@@ -121,7 +122,6 @@ pub(crate) fn run(view: &SteerView, out: &mut SteerOut, scratch: &mut PassScratc
             };
             k += done;
         }
-        seekers.flush(view, (lx, ly, an, wa, nb), base);
     };
     if parallel {
         (
@@ -146,12 +146,13 @@ pub(crate) fn run(view: &SteerView, out: &mut SteerOut, scratch: &mut PassScratc
     }
 }
 
-/// Up to [`LANES`] agents of one seek or arrive plan, evaluated together.
+/// Up to [`LANES`] consecutive agents of one seek or arrive plan, evaluated together.
 #[derive(Debug, Default)]
 struct SeekLanes {
     len: usize,
     group: usize,
-    index: [usize; LANES],
+    /// The storage index of the first lane's agent.
+    first: usize,
     px: [f32; LANES],
     py: [f32; LANES],
     vx: [f32; LANES],
@@ -163,33 +164,34 @@ struct SeekLanes {
 }
 
 impl SeekLanes {
-    fn push(&mut self, view: &SteerView, group: usize, i: usize) {
+    /// Takes the `len` (at most [`LANES`]) agents from storage index `i` on, all of `group`.
+    fn fill(&mut self, view: &SteerView, group: usize, i: usize, len: usize) {
         let a = view.agents;
-        let l = self.len;
-        self.group = group;
-        self.index[l] = i;
-        (self.px[l], self.py[l]) = (a.pos_x[i], a.pos_y[i]);
-        (self.vx[l], self.vy[l]) = (a.vel_x[i], a.vel_y[i]);
-        self.max_speed[l] = a.max_speed[i];
+        (self.group, self.first, self.len) = (group, i, len);
+        put(&mut self.px, &a.pos_x[i..], len);
+        put(&mut self.py, &a.pos_y[i..], len);
+        put(&mut self.vx, &a.vel_x[i..], len);
+        put(&mut self.vy, &a.vel_y[i..], len);
+        put(&mut self.max_speed, &a.max_speed[i..], len);
         let target = match view.plans[group].kind {
             PlanKind::Seek { target, .. } | PlanKind::Arrive { target, .. } => target,
             _ => unreachable!("only seek and arrive plans are gathered"),
         };
-        let t = match target {
+        let point = match target {
             Target::Point(p) => p,
             Target::Slot(s) => view.targets[s.0 as usize].position,
-            Target::Own => glam::Vec2::new(a.target_x[i], a.target_y[i]),
+            Target::Own => {
+                put(&mut self.tx, &a.target_x[i..], len);
+                put(&mut self.ty, &a.target_y[i..], len);
+                return;
+            }
             _ => unreachable!("lane plans name a point, a slot or the own target"),
         };
-        (self.tx[l], self.ty[l]) = (t.x, t.y);
-        self.len += 1;
+        (self.tx, self.ty) = ([point.x; LANES], [point.y; LANES]);
     }
 
     /// Evaluates the filled lanes and writes their outputs into the chunks starting at `base`.
     fn flush(&mut self, view: &SteerView, (lx, ly, an, wa, nb): cells::OutChunks, base: usize) {
-        if self.len == 0 {
-            return;
-        }
         let plan = &view.plans[self.group];
         let kinematic = plan.adapter.kinematic;
         let (tx, ty) = match plan.kind {
@@ -202,11 +204,12 @@ impl SeekLanes {
             _ => unreachable!("only seek and arrive plans are gathered"),
         };
         let (ox, oy) = plan.adapter.finish_lanes(tx, ty);
-        for l in 0..self.len {
-            let (i, k) = (self.index[l], self.index[l] - base);
-            (lx[k], ly[k], an[k], nb[k]) = (ox[l], oy[l], 0.0, 0.0);
-            wa[k] = view.agents.wander[i];
-        }
+        let (n, k0) = (self.len, self.first - base);
+        take(&mut lx[k0..], &ox, n);
+        take(&mut ly[k0..], &oy, n);
+        take(&mut an[k0..], &[0.0; LANES], n);
+        take(&mut nb[k0..], &[0.0; LANES], n);
+        wa[k0..k0 + n].copy_from_slice(&view.agents.wander[self.first..self.first + n]);
         self.len = 0;
     }
 }

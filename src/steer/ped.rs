@@ -25,9 +25,7 @@ use glam::Vec2;
 use multiversion::multiversion;
 use rayon::prelude::*;
 
-#[cfg(target_arch = "x86_64")]
-use super::pack::pack_avx2;
-use super::pack::{Block, Packed, pack_scalar};
+use super::pack::{Packed, pack_block};
 use super::pass::{STEER_CHUNK, SteerOut};
 use super::view::SteerView;
 use crate::agents::Agents;
@@ -220,20 +218,6 @@ fn gather(
                             let xs: &[f32; LANES] = xs.try_into().expect("a block");
                             let ys: &[f32; LANES] = ys.try_into().expect("a block");
                             let at = run.start + c * LANES;
-                            // The order past its end (a run's last block) reads as `i`,
-                            // which is never kept.
-                            let mut tail = [i as u32; LANES];
-                            let whole = order.get(at..at + LANES).and_then(|o| o.try_into().ok());
-                            let ids = whole.unwrap_or_else(|| {
-                                tail[..order.len() - at].copy_from_slice(&order[at..]);
-                                &tail
-                            });
-                            let block = Block {
-                                xs,
-                                ys,
-                                js: ids,
-                                left: len - c * LANES,
-                            };
                             let mut out = Packed {
                                 rx,
                                 ry,
@@ -242,16 +226,8 @@ fn gather(
                                 r_sq,
                                 me: i as u32,
                             };
-                            #[cfg(target_arch = "x86_64")]
-                            if avx2 {
-                                // SAFETY: `avx2` is the CPU's; the buffers have `LANES` slots
-                                // past every candidate (`pack_avx2` asserts it).
-                                #[expect(unsafe_code, reason = "see `steer::pack`")]
-                                let packed = unsafe { pack_avx2(&block, &mut out, count) };
-                                count = packed;
-                                continue;
-                            }
-                            count = pack_scalar(&block, &mut out, count);
+                            let left = len - c * LANES;
+                            count = pack_block(xs, ys, order, at, left, &mut out, count, avx2);
                         }
                     }
                     None => {

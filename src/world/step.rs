@@ -133,8 +133,9 @@ impl World {
         let contact = self.contact_on();
         let keep_start = contact || !self.obstacles.is_empty() || self.fields.is_active();
         if keep_start {
-            self.scratch.prev_x.clone_from(&self.agents.pos_x);
-            self.scratch.prev_y.clone_from(&self.agents.pos_y);
+            let parallel = exec == Execution::Parallel;
+            copy_column(&mut self.scratch.prev_x, &self.agents.pos_x, parallel);
+            copy_column(&mut self.scratch.prev_y, &self.agents.pos_y, parallel);
         }
         self.integrate(dt, exec);
         phases.integrate = t.elapsed();
@@ -174,7 +175,7 @@ impl World {
             sum_lanes(&self.scratch.out.neighbours) / n as f64
         };
         let left = self.leave_through_exits();
-        let (arrived, with_goal) = self.arrivals();
+        let (arrived, with_goal) = self.arrivals(exec == Execution::Parallel);
         Ok(StepStats {
             frame: self.frame,
             agents: self.agents.len(),
@@ -334,23 +335,35 @@ impl World {
     }
 
     /// `(arrived, with_goal)`: agents of groups with an arrival radius, and those of them within
-    /// it of their own target.
-    fn arrivals(&self) -> (usize, usize) {
+    /// it of their own target (counted in parallel chunks when `parallel`: integer sums, the
+    /// same on any thread count).
+    fn arrivals(&self, parallel: bool) -> (usize, usize) {
         if self.groups.iter().all(|g| g.arrival_radius.is_none()) {
             return (0, 0);
         }
         let a = &self.agents;
-        let (mut arrived, mut with_goal) = (0, 0);
-        for i in 0..a.len() {
-            if let Some(r) = self.groups[a.group[i] as usize].arrival_radius {
-                with_goal += 1;
-                let to = self
-                    .bounds
-                    .offset(a.position(i), glam::Vec2::new(a.target_x[i], a.target_y[i]));
-                arrived += usize::from(to.length_squared() <= r * r);
+        let count = |range: std::ops::Range<usize>| {
+            let (mut arrived, mut with_goal) = (0, 0);
+            for i in range {
+                if let Some(r) = self.groups[a.group[i] as usize].arrival_radius {
+                    with_goal += 1;
+                    let to = self
+                        .bounds
+                        .offset(a.position(i), glam::Vec2::new(a.target_x[i], a.target_y[i]));
+                    arrived += usize::from(to.length_squared() <= r * r);
+                }
             }
+            (arrived, with_goal)
+        };
+        let n = a.len();
+        if parallel && n > BOUNDS_CHUNK {
+            (0..n.div_ceil(BOUNDS_CHUNK))
+                .into_par_iter()
+                .map(|c| count(c * BOUNDS_CHUNK..n.min((c + 1) * BOUNDS_CHUNK)))
+                .reduce(|| (0, 0), |x, y| (x.0 + y.0, x.1 + y.1))
+        } else {
+            count(0..n)
         }
-        (arrived, with_goal)
     }
 
     /// The integrator over all agents: the SIMD pass, or its scalar reference sequentially.
@@ -541,6 +554,19 @@ fn sum_lanes(v: &[f32]) -> f64 {
         }
     }
     acc.iter().sum::<f64>() + rest.iter().map(|&x| f64::from(x)).sum::<f64>()
+}
+
+/// Makes `to` a copy of `from`, in parallel chunks when `parallel` and `from` is long.
+fn copy_column(to: &mut Vec<f32>, from: &[f32], parallel: bool) {
+    if parallel && from.len() > BOUNDS_CHUNK {
+        to.resize(from.len(), 0.0);
+        to.par_chunks_mut(BOUNDS_CHUNK)
+            .zip(from.par_chunks(BOUNDS_CHUNK))
+            .for_each(|(t, f)| t.copy_from_slice(f));
+    } else {
+        to.clear();
+        to.extend_from_slice(from);
+    }
 }
 
 /// Agents per parallel task of the bounds phase.
