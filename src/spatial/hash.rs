@@ -195,12 +195,15 @@ impl HashGrid {
     pub fn cells(&self, p: Vec2, r: f32) -> [i32; 4] {
         let inv = self.inv_side;
         let r = gather_radius(r, p.x.abs().max(p.y.abs()));
-        [
-            cell(p.x - r, inv),
-            cell(p.x + r, inv),
-            cell(p.y - r, inv),
-            cell(p.y + r, inv),
-        ]
+        // `floor` then the saturating conversion: the same value as [`cell`] for every input
+        // (NaN included), and four lanes of a vector where the caller is compiled for SSE4.1
+        // or better (elsewhere `floor` is a library call).
+        let v = [p.x - r, p.x + r, p.y - r, p.y + r];
+        let mut out = [0i32; 4];
+        for k in 0..4 {
+            out[k] = (v[k] * inv).floor() as i32;
+        }
+        out
     }
 
     /// The runs of points of a block of cells from [`cells`](Self::cells).
