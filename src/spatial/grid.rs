@@ -5,11 +5,11 @@
 //! `order`. The layout, geometry and rebuild are documented on [`GridIndex`].
 
 use std::ops::Range;
-use std::sync::atomic::{AtomicU64, Ordering};
 
 use glam::Vec2;
 use rayon::prelude::*;
 
+use super::sort::CountingSort;
 use super::{Neighbour, NeighbourIndex, exact, gather_radius, to_u32};
 use crate::bounds::Bounds;
 
@@ -58,8 +58,9 @@ const MAX_CELLS: usize = 1 << 22;
 ///    writing `cell_start`, `order` and the sorted positions. Buckets own disjoint output ranges.
 ///
 /// Every step keeps index order within a cell, so the result is the stable sort by cell, the
-/// same for any number of threads. Buffers are reused: once warm, a rebuild of the same size
-/// allocates nothing.
+/// same for any number of threads. Steps 2 to 4 are the same sort as the one that orders a
+/// [`HashGrid`](super::HashGrid) by bucket. Buffers are reused: once warm, a rebuild of the same
+/// size allocates nothing.
 #[derive(Clone, Debug)]
 pub struct GridIndex {
     bounds: Bounds,
@@ -73,29 +74,9 @@ pub struct GridIndex {
     pts: Vec<Vec2>,
     /// Cell id of each point.
     cell: Vec<u32>,
-    /// Prefix sums, `cells + 1` long.
-    cell_start: Vec<u32>,
-    /// Scratch write cursors, one per cell.
-    cursor: Vec<u32>,
-    order: Vec<u32>,
-    sorted_x: Vec<f32>,
-    sorted_y: Vec<f32>,
-    /// Scratch: points per bucket of cells, as prefix sums.
-    bucket_start: Vec<u32>,
-    /// Scratch: per chunk of points, a histogram of buckets, then write cursors.
-    histogram: Vec<u32>,
-    /// Scratch: `cell << 32 | index` grouped by bucket.
-    pairs: Pairs,
-}
-
-/// Scratch space for the bucket scatter; cloning gives an empty one.
-#[derive(Debug, Default)]
-struct Pairs(Vec<AtomicU64>);
-
-impl Clone for Pairs {
-    fn clone(&self) -> Self {
-        Pairs::default()
-    }
+    /// The points sorted by cell: `start` (`cells + 1` prefix sums), `order` and the sorted
+    /// positions, with the sort's scratch.
+    sort: CountingSort,
 }
 
 impl Default for GridIndex {
@@ -110,14 +91,7 @@ impl Default for GridIndex {
             scale: 0.0,
             pts: Vec::new(),
             cell: Vec::new(),
-            cell_start: vec![0, 0],
-            cursor: Vec::new(),
-            order: Vec::new(),
-            sorted_x: Vec::new(),
-            sorted_y: Vec::new(),
-            bucket_start: Vec::new(),
-            histogram: Vec::new(),
-            pairs: Pairs::default(),
+            sort: CountingSort::with_keys(1),
         }
     }
 }
@@ -188,7 +162,7 @@ impl GridIndex {
     /// points `order()[cell_start()[c]..cell_start()[c + 1]]`.
     #[must_use]
     pub fn cell_start(&self) -> &[u32] {
-        &self.cell_start
+        &self.sort.start
     }
 
     /// Point indices sorted by cell, ascending by index within a cell.
@@ -197,19 +171,19 @@ impl GridIndex {
     /// to each other in memory.
     #[must_use]
     pub fn order(&self) -> &[u32] {
-        &self.order
+        &self.sort.order
     }
 
     /// x coordinates in [`order`](Self::order).
     #[must_use]
     pub fn sorted_x(&self) -> &[f32] {
-        &self.sorted_x
+        &self.sort.sorted_x
     }
 
     /// y coordinates in [`order`](Self::order).
     #[must_use]
     pub fn sorted_y(&self) -> &[f32] {
-        &self.sorted_y
+        &self.sort.sorted_y
     }
 
     /// The world the grid was built for.
@@ -228,7 +202,7 @@ impl GridIndex {
     /// and how a vectorised kernel can read neighbour cells as contiguous slices.
     #[inline]
     pub fn for_each_run(&self, p: Vec2, r: f32, mut visit: impl FnMut(Range<usize>)) {
-        if self.order.is_empty() {
+        if self.sort.order.is_empty() {
             return;
         }
         let rg = gather_radius(r, self.scale);
@@ -253,8 +227,8 @@ impl GridIndex {
         for &(r0, r1) in rows.as_slice() {
             for row in r0 as usize..=r1 as usize {
                 for &(c0, c1) in cols.as_slice() {
-                    let a = self.cell_start[row * cx + c0 as usize] as usize;
-                    let b = self.cell_start[row * cx + c1 as usize + 1] as usize;
+                    let a = self.sort.start[row * cx + c0 as usize] as usize;
+                    let b = self.sort.start[row * cx + c1 as usize + 1] as usize;
                     if a < b {
                         visit(a..b);
                     }
@@ -333,9 +307,9 @@ impl GridIndex {
         let r_sq = r * r;
         self.for_each_run(p, r, |run| {
             let (order, xs, ys) = (
-                &self.order[run.clone()],
-                &self.sorted_x[run.clone()],
-                &self.sorted_y[run],
+                &self.sort.order[run.clone()],
+                &self.sort.sorted_x[run.clone()],
+                &self.sort.sorted_y[run],
             );
             for ((&j, &x), &y) in order.iter().zip(xs).zip(ys) {
                 if let Some(n) = exact(&bounds, p, Vec2::new(x, y), j, r_sq)
@@ -450,203 +424,18 @@ impl GridIndex {
         };
         self.scale = bounds.size().map_or(max_abs, |s| max_abs.max(s.x).max(s.y));
 
-        // Pass 2: a histogram of buckets (runs of 2^shift cells) per chunk of points.
-        let mut shift = 0;
-        while (cells + (1 << shift) - 1) >> shift > BUCKETS {
-            shift += 1;
-        }
-        let buckets = (cells + (1 << shift) - 1) >> shift;
-        let chunk_len = n.div_ceil(parts).max(1);
-        let chunks = n.div_ceil(chunk_len);
-        self.histogram.clear();
-        self.histogram.resize(chunks * buckets, 0);
-        let count = |row: &mut [u32], cell: &[u32]| {
-            for &c in cell {
-                row[(c >> shift) as usize] += 1;
-            }
-        };
-        if parallel {
-            self.histogram
-                .par_chunks_mut(buckets)
-                .zip(self.cell.par_chunks(chunk_len))
-                .for_each(|(row, cell)| count(row, cell));
-        } else {
-            for (row, cell) in self
-                .histogram
-                .chunks_mut(buckets)
-                .zip(self.cell.chunks(chunk_len))
-            {
-                count(row, cell);
-            }
-        }
-        // Bucket starts, and each chunk's first slot in each bucket: chunk order within a bucket
-        // keeps the scatter stable.
-        self.bucket_start.resize(buckets + 1, 0);
-        let mut run = 0u32;
-        for b in 0..buckets {
-            self.bucket_start[b] = run;
-            for t in 0..chunks {
-                let h = &mut self.histogram[t * buckets + b];
-                (*h, run) = (run, run + *h);
-            }
-        }
-        self.bucket_start[buckets] = run;
-
-        // Pass 3: each chunk scatters its `(cell, index)` pairs into its own slots. The slots of
-        // different chunks interleave, so the pairs are relaxed atomics (plain stores on x86).
-        self.pairs.0.resize_with(n, || AtomicU64::new(0));
-        let pairs = &self.pairs.0[..n];
-        let scatter = |t: usize, row: &mut [u32], cell: &[u32]| {
-            let first = t * chunk_len;
-            for (i, &c) in cell.iter().enumerate() {
-                let slot = &mut row[(c >> shift) as usize];
-                pairs[*slot as usize]
-                    .store(u64::from(c) << 32 | (first + i) as u64, Ordering::Relaxed);
-                *slot += 1;
-            }
-        };
-        if parallel {
-            self.histogram
-                .par_chunks_mut(buckets)
-                .zip(self.cell.par_chunks(chunk_len))
-                .enumerate()
-                .for_each(|(t, (row, cell))| scatter(t, row, cell));
-        } else {
-            for (t, (row, cell)) in self
-                .histogram
-                .chunks_mut(buckets)
-                .zip(self.cell.chunks(chunk_len))
-                .enumerate()
-            {
-                scatter(t, row, cell);
-            }
-        }
-
-        // Pass 4: within each bucket, a counting sort by cell, in cache; buckets own disjoint
-        // ranges of the outputs, so they run in parallel.
-        self.cell_start.resize(cells + 1, 0);
-        self.cell_start[0] = 0;
-        self.cursor.resize(cells, 0);
-        self.order.resize(n, 0);
-        self.sorted_x.resize(n, 0.0);
-        self.sorted_y.resize(n, 0.0);
-        let shared = Shared {
-            bucket_start: &self.bucket_start,
-            pairs: &self.pairs.0[..n],
-            pts: &self.pts,
-            shift,
+        // Passes 2-4: the counting sort by cell.
+        let pts = &self.pts;
+        self.sort.sort(
+            &self.cell,
             cells,
-            parallel,
-        };
-        let out = Out {
-            cell_end: &mut self.cell_start[1..],
-            cursor: &mut self.cursor,
-            order: &mut self.order,
-            sorted_x: &mut self.sorted_x,
-            sorted_y: &mut self.sorted_y,
-        };
-        sort_buckets(&shared, 0, buckets, out);
-    }
-}
-
-/// Buckets at most: few enough that the bucket scatter writes to cache-resident streams.
-const BUCKETS: usize = 1024;
-/// A worker sorts at least this many points' buckets before splitting further.
-const LEAF_POINTS: u32 = 16 * 1024;
-
-/// Read-only inputs of [`sort_buckets`].
-struct Shared<'a> {
-    bucket_start: &'a [u32],
-    pairs: &'a [AtomicU64],
-    pts: &'a [Vec2],
-    shift: u32,
-    cells: usize,
-    parallel: bool,
-}
-
-/// The outputs of [`sort_buckets`] for a range of buckets: their cells' entries of
-/// `cell_start[1..]` and cursors, and their points' range of the sorted arrays.
-struct Out<'a> {
-    cell_end: &'a mut [u32],
-    cursor: &'a mut [u32],
-    order: &'a mut [u32],
-    sorted_x: &'a mut [f32],
-    sorted_y: &'a mut [f32],
-}
-
-impl Out<'_> {
-    fn split_at(self, cell: usize, point: usize) -> (Self, Self) {
-        let (e0, e1) = self.cell_end.split_at_mut(cell);
-        let (c0, c1) = self.cursor.split_at_mut(cell);
-        let (o0, o1) = self.order.split_at_mut(point);
-        let (x0, x1) = self.sorted_x.split_at_mut(point);
-        let (y0, y1) = self.sorted_y.split_at_mut(point);
-        (
-            Out {
-                cell_end: e0,
-                cursor: c0,
-                order: o0,
-                sorted_x: x0,
-                sorted_y: y0,
+            |i| {
+                let p = pts[i];
+                (p.x, p.y)
             },
-            Out {
-                cell_end: e1,
-                cursor: c1,
-                order: o1,
-                sorted_x: x1,
-                sorted_y: y1,
-            },
-        )
-    }
-}
-
-/// Sorts the points of buckets `b0..b1` by cell (stable) into `out`, and writes their cells' ends.
-fn sort_buckets(sh: &Shared<'_>, b0: usize, b1: usize, out: Out<'_>) {
-    let first_cell = (b0 << sh.shift).min(sh.cells);
-    let points = sh.bucket_start[b1] - sh.bucket_start[b0];
-    if sh.parallel && b1 - b0 > 1 && points > LEAF_POINTS {
-        let bm = usize::midpoint(b0, b1);
-        let mid_cell = (bm << sh.shift).min(sh.cells);
-        let (a, b) = out.split_at(
-            mid_cell - first_cell,
-            (sh.bucket_start[bm] - sh.bucket_start[b0]) as usize,
+            parts,
+            0,
         );
-        rayon::join(
-            || sort_buckets(sh, b0, bm, a),
-            || sort_buckets(sh, bm, b1, b),
-        );
-        return;
-    }
-    let base = sh.bucket_start[b0];
-    for b in b0..b1 {
-        let c0 = (b << sh.shift).min(sh.cells);
-        let c1 = ((b + 1) << sh.shift).min(sh.cells);
-        let (lo, hi) = (sh.bucket_start[b], sh.bucket_start[b + 1]);
-        let pairs = &sh.pairs[lo as usize..hi as usize];
-        let ends = &mut out.cell_end[c0 - first_cell..c1 - first_cell];
-        let cursor = &mut out.cursor[c0 - first_cell..c1 - first_cell];
-        ends.fill(0);
-        for pair in pairs {
-            let c = (pair.load(Ordering::Relaxed) >> 32) as usize;
-            ends[c - c0] += 1;
-        }
-        let mut run = lo;
-        for (end, cur) in ends.iter_mut().zip(cursor.iter_mut()) {
-            *cur = run - base;
-            run += *end;
-            *end = run;
-        }
-        for pair in pairs {
-            let pair = pair.load(Ordering::Relaxed);
-            let (c, i) = ((pair >> 32) as usize, pair as u32);
-            let slot = &mut cursor[c - c0];
-            let k = *slot as usize;
-            *slot += 1;
-            let p = sh.pts[i as usize];
-            out.order[k] = i;
-            out.sorted_x[k] = p.x;
-            out.sorted_y[k] = p.y;
-        }
     }
 }
 
@@ -780,10 +569,10 @@ mod tests {
         for parts in [2, 3, 4, 7] {
             let mut par = GridIndex::default();
             par.rebuild_with(&xs, &ys, bounds, 2.0, parts);
-            assert_eq!(par.cell_start, seq.cell_start, "{parts} parts");
-            assert_eq!(par.order, seq.order, "{parts} parts");
-            assert_eq!(par.sorted_x, seq.sorted_x);
-            assert_eq!(par.sorted_y, seq.sorted_y);
+            assert_eq!(par.sort.start, seq.sort.start, "{parts} parts");
+            assert_eq!(par.sort.order, seq.sort.order, "{parts} parts");
+            assert_eq!(par.sort.sorted_x, seq.sort.sorted_x);
+            assert_eq!(par.sort.sorted_y, seq.sort.sorted_y);
         }
         // Through the public entry point on a pool of 4 threads.
         let pool = rayon::ThreadPoolBuilder::new()
@@ -792,7 +581,7 @@ mod tests {
             .unwrap();
         let mut par = GridIndex::default();
         pool.install(|| par.rebuild(&xs, &ys, bounds, 2.0));
-        assert_eq!(par.order, seq.order);
+        assert_eq!(par.sort.order, seq.sort.order);
     }
 
     #[test]
@@ -843,18 +632,18 @@ mod tests {
         let mut g = GridIndex::default();
         g.rebuild(&xs, &ys, bounds, 2.0);
         let ptrs = (
-            g.order.as_ptr(),
-            g.cell_start.as_ptr(),
-            g.sorted_x.as_ptr(),
+            g.sort.order.as_ptr(),
+            g.sort.start.as_ptr(),
+            g.sort.sorted_x.as_ptr(),
             g.cell.as_ptr(),
         );
         g.rebuild(&xs, &ys, bounds, 2.0);
         assert_eq!(
             ptrs,
             (
-                g.order.as_ptr(),
-                g.cell_start.as_ptr(),
-                g.sorted_x.as_ptr(),
+                g.sort.order.as_ptr(),
+                g.sort.start.as_ptr(),
+                g.sort.sorted_x.as_ptr(),
                 g.cell.as_ptr()
             )
         );

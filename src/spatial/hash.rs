@@ -21,8 +21,10 @@
 //! * A query visits every bucket that can hold a point within reach, each at most once (the
 //!   runs of its rows are sorted and merged), so each point is offered once; other cells that
 //!   share a bucket only add candidates, which the caller's distance filter drops.
-//! * The rebuild is stable (each point's bucket is worked out in parallel for large N, the
-//!   counting sort is sequential): the result does not depend on the thread count.
+//! * The rebuild is a stable counting sort by bucket, the same two-level sort as
+//!   [`super::GridIndex`]'s (per-chunk histograms of at most 1024 runs of buckets, a scatter into
+//!   chunk-owned slots, then a counting sort within each run), on the current rayon pool for
+//!   large N: the result does not depend on the thread count.
 //! * Offsets are plain differences: open and walled worlds only (on a torus the world's own
 //!   index serves).
 //! * Buffers are reused: once warm, a rebuild of the same size allocates nothing.
@@ -32,15 +34,16 @@ use std::ops::Range;
 use glam::Vec2;
 use rayon::prelude::*;
 
+use super::sort::CountingSort;
 use super::{gather_radius, to_u32};
 
 /// The row multiplier of the hash: odd, and far from every small multiple of a table size.
 const ROW: u32 = 0x9E37_79B1;
 /// Queries spanning more rows than this scan every point instead.
 const MAX_ROWS: usize = 8;
-/// From this many points on, the buckets are computed on the current rayon pool.
+/// From this many points on, the rebuild (buckets and sort) runs on the current rayon pool.
 const PARALLEL_MIN_POINTS: usize = 32 * 1024;
-/// Points per work item of that pass.
+/// Points per work item of the bucket pass.
 const CHUNK: usize = 8 * 1024;
 /// Positions past the last point, so that a scan may read eight lanes from any point.
 pub const PAD: usize = 8;
@@ -56,13 +59,11 @@ pub struct HashGrid {
     inv_side: f32,
     /// Table size minus one (`T - 1`).
     mask: u32,
-    /// Prefix sums of the points per bucket, `T + 1` long.
-    start: Vec<u32>,
     /// Scratch: each point's bucket.
     bucket: Vec<u32>,
-    order: Vec<u32>,
-    sorted_x: Vec<f32>,
-    sorted_y: Vec<f32>,
+    /// The points sorted by bucket: `start` (prefix sums, `T + 1` long), `order` and the
+    /// sorted positions (then [`PAD`] of `f32::MAX`), with the sort's scratch.
+    sort: CountingSort,
 }
 
 /// The cell coordinate of `x`: `floor(x * inv)`, saturating at the ends of `i32` (monotone, so a
@@ -82,12 +83,23 @@ fn cell(x: f32, inv: f32) -> i32 {
 
 impl HashGrid {
     /// Rebuilds the grid from the positions `(xs[i], ys[i])` with cells of side `side` (> 0;
-    /// the radius most queries will use).
+    /// the radius most queries will use): a stable counting sort by bucket, on the current rayon
+    /// pool for large N, whose result does not depend on the thread count.
     ///
     /// # Panics
     /// If `xs` and `ys` differ in length or hold more than `u32::MAX` points, or if `side` is
     /// not positive and finite.
     pub fn rebuild(&mut self, xs: &[f32], ys: &[f32], side: f32) {
+        let parts = if xs.len() >= PARALLEL_MIN_POINTS {
+            rayon::current_num_threads()
+        } else {
+            1
+        };
+        self.rebuild_with(xs, ys, side, parts);
+    }
+
+    /// Rebuild using `parts` workers (1 = sequential); the result does not depend on `parts`.
+    fn rebuild_with(&mut self, xs: &[f32], ys: &[f32], side: f32, parts: usize) {
         assert_eq!(xs.len(), ys.len(), "xs and ys must have the same length");
         assert!(
             side > 0.0 && side.is_finite(),
@@ -106,7 +118,7 @@ impl HashGrid {
             }
         };
         self.bucket.resize(n, 0);
-        if n >= PARALLEL_MIN_POINTS {
+        if parts > 1 {
             self.bucket
                 .par_chunks_mut(CHUNK)
                 .zip(xs.par_chunks(CHUNK).zip(ys.par_chunks(CHUNK)))
@@ -114,59 +126,38 @@ impl HashGrid {
         } else {
             fill(&mut self.bucket, xs, ys);
         }
-        self.start.clear();
-        self.start.resize(table + 1, 0);
-        for &b in &self.bucket {
-            self.start[b as usize + 1] += 1;
-        }
-        for b in 0..table {
-            self.start[b + 1] += self.start[b];
-        }
-        self.order.resize(n, 0);
-        self.sorted_x.resize(n + PAD, f32::MAX);
-        self.sorted_y.resize(n + PAD, f32::MAX);
-        self.sorted_x[n..].fill(f32::MAX);
-        self.sorted_y[n..].fill(f32::MAX);
-        // The starts double as write cursors, then are shifted back.
-        for (i, &b) in self.bucket.iter().enumerate() {
-            let slot = self.start[b as usize] as usize;
-            self.start[b as usize] += 1;
-            self.order[slot] = i as u32;
-            self.sorted_x[slot] = xs[i];
-            self.sorted_y[slot] = ys[i];
-        }
-        self.start.copy_within(0..table, 1);
-        self.start[0] = 0;
+        let pos = |i: usize| (xs[i], ys[i]);
+        self.sort.sort(&self.bucket, table, pos, parts, PAD);
     }
 
     /// How many points the grid holds.
     #[must_use]
     pub fn len(&self) -> usize {
-        self.order.len()
+        self.sort.order.len()
     }
 
     /// Whether the grid holds no points.
     #[must_use]
     pub fn is_empty(&self) -> bool {
-        self.order.is_empty()
+        self.sort.order.is_empty()
     }
 
     /// Point indices sorted by bucket.
     #[must_use]
     pub fn order(&self) -> &[u32] {
-        &self.order
+        &self.sort.order
     }
 
     /// x coordinates in [`order`](Self::order), followed by eight entries of `f32::MAX`.
     #[must_use]
     pub fn sorted_x(&self) -> &[f32] {
-        &self.sorted_x
+        &self.sort.sorted_x
     }
 
     /// y coordinates in [`order`](Self::order), followed by eight entries of `f32::MAX`.
     #[must_use]
     pub fn sorted_y(&self) -> &[f32] {
-        &self.sorted_y
+        &self.sort.sorted_y
     }
 
     /// Calls `visit` with ranges into [`order`](Self::order), [`sorted_x`](Self::sorted_x) and
@@ -211,7 +202,7 @@ impl HashGrid {
     #[must_use]
     pub fn runs_of(&self, [x0, x1, y0, y1]: [i32; 4]) -> Runs {
         let mut out = Runs::default();
-        let n = self.order.len();
+        let n = self.sort.order.len();
         if n == 0 {
             return out;
         }
@@ -248,8 +239,8 @@ impl HashGrid {
         if disjoint {
             for &(lo, hi) in runs.iter() {
                 out.push(
-                    self.start[lo as usize] as usize,
-                    self.start[hi as usize + 1] as usize,
+                    self.sort.start[lo as usize] as usize,
+                    self.sort.start[hi as usize + 1] as usize,
                 );
             }
             return out;
@@ -264,8 +255,8 @@ impl HashGrid {
                 at += 1;
             }
             out.push(
-                self.start[lo as usize] as usize,
-                self.start[hi as usize + 1] as usize,
+                self.sort.start[lo as usize] as usize,
+                self.sort.start[hi as usize + 1] as usize,
             );
         }
         out
@@ -391,6 +382,92 @@ mod tests {
     }
 
     #[test]
+    fn parallel_rebuild_equals_sequential_and_a_plain_counting_sort() {
+        // 100,000 points: a quarter in one cell, a quarter in a few dense clusters, the rest on
+        // a wide ring.
+        let n = 100_000;
+        assert!(n >= PARALLEL_MIN_POINTS);
+        let mut rng = AgentRng::new(5, 0, 0, 0);
+        let (mut xs, mut ys) = (Vec::with_capacity(n), Vec::with_capacity(n));
+        for k in 0..n {
+            let p = match k % 4 {
+                0 => Vec2::new(3.0, -4.0),
+                1 => {
+                    let centre = Vec2::new((k % 7) as f32 * 100.0, -((k % 5) as f32) * 60.0);
+                    centre + Vec2::new(rng.signed(), rng.signed()) * 20.0
+                }
+                _ => Vec2::from_angle(rng.unit() * std::f32::consts::TAU) * 50_000.0,
+            };
+            xs.push(p.x);
+            ys.push(p.y);
+        }
+        let side = 15.0;
+        let mut seq = HashGrid::default();
+        seq.rebuild_with(&xs, &ys, side, 1);
+
+        // The sequential counting sort the grid once used: a histogram over the whole table,
+        // prefix sums, then a scatter in index order.
+        let (inv, mask) = (seq.inv_side, seq.mask);
+        let table = mask as usize + 1;
+        let bucket: Vec<usize> = xs
+            .iter()
+            .zip(&ys)
+            .map(|(&x, &y)| {
+                ((cell(y, inv) as u32)
+                    .wrapping_mul(ROW)
+                    .wrapping_add(cell(x, inv) as u32)
+                    & mask) as usize
+            })
+            .collect();
+        let mut start = vec![0u32; table + 1];
+        for &b in &bucket {
+            start[b + 1] += 1;
+        }
+        for b in 0..table {
+            start[b + 1] += start[b];
+        }
+        let mut cursor = start.clone();
+        let mut order = vec![0u32; n];
+        for (i, &b) in bucket.iter().enumerate() {
+            order[cursor[b] as usize] = i as u32;
+            cursor[b] += 1;
+        }
+        assert!(
+            start.windows(2).any(|w| w[1] - w[0] >= 25_000),
+            "one crowded bucket"
+        );
+        assert_eq!(seq.sort.start, start);
+        assert_eq!(seq.order(), order);
+        let pad = [f32::MAX; PAD];
+        let sx: Vec<f32> = order.iter().map(|&i| xs[i as usize]).chain(pad).collect();
+        let sy: Vec<f32> = order.iter().map(|&i| ys[i as usize]).chain(pad).collect();
+        assert_eq!(seq.sorted_x(), sx);
+        assert_eq!(seq.sorted_y(), sy);
+
+        let same = |g: &HashGrid, what: &str| {
+            assert_eq!(g.sort.start, seq.sort.start, "{what}");
+            assert_eq!(g.order(), seq.order(), "{what}");
+            assert_eq!(g.sorted_x(), seq.sorted_x(), "{what}");
+            assert_eq!(g.sorted_y(), seq.sorted_y(), "{what}");
+        };
+        for parts in [2, 3, 4, 7] {
+            let mut par = HashGrid::default();
+            par.rebuild_with(&xs, &ys, side, parts);
+            same(&par, &format!("{parts} parts"));
+        }
+        // Through the public entry point on a pool of 4 threads, into a grid last built larger.
+        let pool = rayon::ThreadPoolBuilder::new()
+            .num_threads(4)
+            .build()
+            .unwrap();
+        let mut par = HashGrid::default();
+        let wide: Vec<f32> = (0..2 * n).map(|i| i as f32).collect();
+        pool.install(|| par.rebuild(&wide, &wide, side));
+        pool.install(|| par.rebuild(&xs, &ys, side));
+        same(&par, "a pool of 4 threads");
+    }
+
+    #[test]
     fn the_padding_is_there_after_a_smaller_rebuild() {
         let xs: Vec<f32> = (0..100).map(|i| i as f32).collect();
         let mut g = HashGrid::default();
@@ -407,8 +484,8 @@ mod tests {
         let ys = vec![0.0; 100];
         let mut g = HashGrid::default();
         g.rebuild(&xs, &ys, 2.0);
-        let cap = (g.start.capacity(), g.order.capacity());
+        let cap = (g.sort.start.capacity(), g.sort.order.capacity());
         g.rebuild(&ys, &xs, 2.0);
-        assert_eq!(cap, (g.start.capacity(), g.order.capacity()));
+        assert_eq!(cap, (g.sort.start.capacity(), g.sort.order.capacity()));
     }
 }

@@ -44,6 +44,7 @@ mod brute;
 mod grid;
 mod hash;
 mod kdtree;
+mod sort;
 
 pub use brute::BruteIndex;
 pub use grid::GridIndex;

@@ -1,0 +1,345 @@
+//! A stable counting sort of point indices by a small integer key, in parallel for large N: the
+//! rebuild of [`super::GridIndex`] (key: the cell) and of [`super::HashGrid`] (key: the bucket).
+//!
+//! # Passes
+//!
+//! Given each point's key in `0..keys`:
+//!
+//! 1. Per chunk of points: a histogram of *coarse buckets*, runs of `2^shift` consecutive keys
+//!    chosen so that there are at most [`BUCKETS`] of them; prefix sums over (bucket, chunk) give
+//!    every chunk its own slots in every bucket.
+//! 2. Per chunk: scatter `key << 32 | index` into those slots. Few buckets means few write
+//!    streams, which stay in cache even when the points come in random order. Slots of different
+//!    chunks interleave, so this buffer holds relaxed atomics (plain stores on x86) rather than
+//!    `unsafe`.
+//! 3. Per bucket: a counting sort by key inside the bucket (its keys' counters fit in cache),
+//!    writing `start`, `order` and the sorted positions. Buckets own disjoint output ranges, so
+//!    they run in parallel (`rayon::join` over halves of the buckets).
+//!
+//! # Invariants
+//!
+//! * `order` is the stable sort of `0..N` by key: the points of one key in ascending index order,
+//!   whatever the number of chunks, so the result does not depend on the thread count.
+//! * `start` holds its prefix sums, `keys + 1` long with `start[0] = 0`; the sorted positions
+//!   follow `order`, then `pad` entries of `f32::MAX`.
+//! * Buffers are reused: once warm, a sort of the same size allocates nothing.
+//! * The positions come through a generic closure, so the inner loops are specialised for each
+//!   caller's layout (no dynamic dispatch).
+
+use std::sync::atomic::{AtomicU64, Ordering};
+
+use rayon::prelude::*;
+
+/// Coarse buckets at most: few enough that the scatter writes to cache-resident streams.
+const BUCKETS: usize = 1024;
+/// A worker sorts at least this many points' buckets before splitting further.
+const LEAF_POINTS: u32 = 16 * 1024;
+/// The most chunks the points are split into.
+const MAX_PARTS: usize = 64;
+
+/// A counting sort by key with its outputs and reusable scratch.
+#[derive(Clone, Debug, Default)]
+pub(super) struct CountingSort {
+    /// Prefix sums of the points per key, `keys + 1` long.
+    pub(super) start: Vec<u32>,
+    /// Point indices sorted by key, ascending within a key.
+    pub(super) order: Vec<u32>,
+    /// x coordinates in `order`, then the padding.
+    pub(super) sorted_x: Vec<f32>,
+    /// y coordinates in `order`, then the padding.
+    pub(super) sorted_y: Vec<f32>,
+    /// Scratch: points per coarse bucket, as prefix sums.
+    bucket_start: Vec<u32>,
+    /// Scratch: per chunk of points, a histogram of coarse buckets, then write cursors.
+    histogram: Vec<u32>,
+    /// Scratch: `key << 32 | index` grouped by coarse bucket.
+    pairs: Pairs,
+}
+
+/// Scratch space for the bucket scatter; cloning gives an empty one.
+#[derive(Debug, Default)]
+struct Pairs(Vec<AtomicU64>);
+
+impl Clone for Pairs {
+    fn clone(&self) -> Self {
+        Pairs::default()
+    }
+}
+
+impl CountingSort {
+    /// An empty sort whose `start` covers `keys` keys holding no point.
+    pub(super) fn with_keys(keys: usize) -> Self {
+        CountingSort {
+            start: vec![0; keys + 1],
+            ..CountingSort::default()
+        }
+    }
+
+    /// Sorts the points `0..key.len()` by `key` (each `< keys`) into `start`, `order`,
+    /// `sorted_x` and `sorted_y` (`pos(i)` is point `i`'s position; `pad` entries of `f32::MAX`
+    /// follow the sorted positions), using `parts` chunks of points (1 = on this thread; more:
+    /// on the current rayon pool). The result does not depend on `parts`.
+    ///
+    /// The caller guarantees `key.len() <= u32::MAX`.
+    pub(super) fn sort<P>(&mut self, key: &[u32], keys: usize, pos: P, parts: usize, pad: usize)
+    where
+        P: Fn(usize) -> (f32, f32) + Sync,
+    {
+        let n = key.len();
+        debug_assert!(u32::try_from(n).is_ok(), "{n} points exceed u32");
+        debug_assert!(
+            key.iter().all(|&k| (k as usize) < keys),
+            "a key out of range"
+        );
+        let parts = parts.clamp(1, MAX_PARTS);
+        let parallel = parts > 1;
+
+        // Pass 1: a histogram of coarse buckets (runs of 2^shift keys) per chunk of points.
+        let mut shift = 0;
+        while (keys + (1 << shift) - 1) >> shift > BUCKETS {
+            shift += 1;
+        }
+        let buckets = (keys + (1 << shift) - 1) >> shift;
+        let chunk_len = n.div_ceil(parts).max(1);
+        let chunks = n.div_ceil(chunk_len);
+        self.histogram.clear();
+        self.histogram.resize(chunks * buckets, 0);
+        let count = |row: &mut [u32], key: &[u32]| {
+            for &k in key {
+                row[(k >> shift) as usize] += 1;
+            }
+        };
+        if parallel {
+            self.histogram
+                .par_chunks_mut(buckets)
+                .zip(key.par_chunks(chunk_len))
+                .for_each(|(row, key)| count(row, key));
+        } else {
+            for (row, key) in self
+                .histogram
+                .chunks_mut(buckets)
+                .zip(key.chunks(chunk_len))
+            {
+                count(row, key);
+            }
+        }
+        // Bucket starts, and each chunk's first slot in each bucket: chunk order within a bucket
+        // keeps the scatter stable.
+        self.bucket_start.resize(buckets + 1, 0);
+        let mut run = 0u32;
+        for b in 0..buckets {
+            self.bucket_start[b] = run;
+            for t in 0..chunks {
+                let h = &mut self.histogram[t * buckets + b];
+                (*h, run) = (run, run + *h);
+            }
+        }
+        self.bucket_start[buckets] = run;
+
+        // Pass 2: each chunk scatters its `(key, index)` pairs into its own slots. The slots of
+        // different chunks interleave, so the pairs are relaxed atomics (plain stores on x86).
+        self.pairs.0.resize_with(n, || AtomicU64::new(0));
+        let pairs = &self.pairs.0[..n];
+        let scatter = |t: usize, row: &mut [u32], key: &[u32]| {
+            let first = t * chunk_len;
+            for (i, &k) in key.iter().enumerate() {
+                let slot = &mut row[(k >> shift) as usize];
+                pairs[*slot as usize]
+                    .store(u64::from(k) << 32 | (first + i) as u64, Ordering::Relaxed);
+                *slot += 1;
+            }
+        };
+        if parallel {
+            self.histogram
+                .par_chunks_mut(buckets)
+                .zip(key.par_chunks(chunk_len))
+                .enumerate()
+                .for_each(|(t, (row, key))| scatter(t, row, key));
+        } else {
+            for (t, (row, key)) in self
+                .histogram
+                .chunks_mut(buckets)
+                .zip(key.chunks(chunk_len))
+                .enumerate()
+            {
+                scatter(t, row, key);
+            }
+        }
+
+        // Pass 3: within each bucket, a counting sort by key, in cache; buckets own disjoint
+        // ranges of the outputs, so they run in parallel.
+        self.start.resize(keys + 1, 0);
+        self.start[0] = 0;
+        self.order.resize(n, 0);
+        self.sorted_x.resize(n + pad, 0.0);
+        self.sorted_y.resize(n + pad, 0.0);
+        self.sorted_x[n..].fill(f32::MAX);
+        self.sorted_y[n..].fill(f32::MAX);
+        let shared = Shared {
+            bucket_start: &self.bucket_start,
+            pairs,
+            pos: &pos,
+            shift,
+            keys,
+            parallel,
+        };
+        let out = Out {
+            key_end: &mut self.start[1..],
+            order: &mut self.order,
+            sorted_x: &mut self.sorted_x[..n],
+            sorted_y: &mut self.sorted_y[..n],
+        };
+        sort_buckets(&shared, 0, buckets, out);
+    }
+}
+
+/// Read-only inputs of [`sort_buckets`].
+struct Shared<'a, P> {
+    bucket_start: &'a [u32],
+    pairs: &'a [AtomicU64],
+    pos: &'a P,
+    shift: u32,
+    keys: usize,
+    parallel: bool,
+}
+
+/// The outputs of [`sort_buckets`] for a range of buckets: their keys' entries of `start[1..]`,
+/// and their points' range of the sorted arrays.
+struct Out<'a> {
+    key_end: &'a mut [u32],
+    order: &'a mut [u32],
+    sorted_x: &'a mut [f32],
+    sorted_y: &'a mut [f32],
+}
+
+impl Out<'_> {
+    fn split_at(self, key: usize, point: usize) -> (Self, Self) {
+        let (e0, e1) = self.key_end.split_at_mut(key);
+        let (o0, o1) = self.order.split_at_mut(point);
+        let (x0, x1) = self.sorted_x.split_at_mut(point);
+        let (y0, y1) = self.sorted_y.split_at_mut(point);
+        (
+            Out {
+                key_end: e0,
+                order: o0,
+                sorted_x: x0,
+                sorted_y: y0,
+            },
+            Out {
+                key_end: e1,
+                order: o1,
+                sorted_x: x1,
+                sorted_y: y1,
+            },
+        )
+    }
+}
+
+/// Sorts the points of buckets `b0..b1` by key (stable) into `out`, and writes their keys' ends.
+fn sort_buckets<P>(sh: &Shared<'_, P>, b0: usize, b1: usize, out: Out<'_>)
+where
+    P: Fn(usize) -> (f32, f32) + Sync,
+{
+    let first_key = (b0 << sh.shift).min(sh.keys);
+    let points = sh.bucket_start[b1] - sh.bucket_start[b0];
+    if sh.parallel && b1 - b0 > 1 && points > LEAF_POINTS {
+        let bm = usize::midpoint(b0, b1);
+        let mid_key = (bm << sh.shift).min(sh.keys);
+        let (a, b) = out.split_at(
+            mid_key - first_key,
+            (sh.bucket_start[bm] - sh.bucket_start[b0]) as usize,
+        );
+        rayon::join(
+            || sort_buckets(sh, b0, bm, a),
+            || sort_buckets(sh, bm, b1, b),
+        );
+        return;
+    }
+    let base = sh.bucket_start[b0];
+    for b in b0..b1 {
+        let k0 = (b << sh.shift).min(sh.keys);
+        let k1 = ((b + 1) << sh.shift).min(sh.keys);
+        let (lo, hi) = (sh.bucket_start[b], sh.bucket_start[b + 1]);
+        let pairs = &sh.pairs[lo as usize..hi as usize];
+        let ends = &mut out.key_end[k0 - first_key..k1 - first_key];
+        ends.fill(0);
+        for pair in pairs {
+            let k = (pair.load(Ordering::Relaxed) >> 32) as usize;
+            ends[k - k0] += 1;
+        }
+        // Each key's start doubles as its write cursor, which the scatter moves to its end.
+        let mut run = lo;
+        for end in ends.iter_mut() {
+            (*end, run) = (run, run + *end);
+        }
+        for pair in pairs {
+            let pair = pair.load(Ordering::Relaxed);
+            let (k, i) = ((pair >> 32) as usize, pair as u32);
+            let slot = &mut ends[k - k0];
+            let at = (*slot - base) as usize;
+            *slot += 1;
+            let (x, y) = (sh.pos)(i as usize);
+            out.order[at] = i;
+            out.sorted_x[at] = x;
+            out.sorted_y[at] = y;
+        }
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    /// The stable sort by key, straightforwardly.
+    fn reference(key: &[u32], keys: usize) -> (Vec<u32>, Vec<u32>) {
+        let mut order: Vec<u32> = (0..key.len() as u32).collect();
+        order.sort_by_key(|&i| key[i as usize]);
+        let mut start = vec![0u32; keys + 1];
+        for &k in key {
+            start[k as usize + 1] += 1;
+        }
+        for k in 0..keys {
+            start[k + 1] += start[k];
+        }
+        (start, order)
+    }
+
+    #[test]
+    fn equals_a_stable_sort_for_any_number_of_parts() {
+        let mut s = 0x2545_f491_4f6c_dd1d_u64;
+        let mut next = |m: u32| {
+            s ^= s << 13;
+            s ^= s >> 7;
+            s ^= s << 17;
+            (s >> 32) as u32 % m
+        };
+        for (n, keys) in [
+            (0, 1),
+            (1, 1),
+            (5, 3000),
+            (40_000, 1),
+            (70_000, 5000),
+            (90_000, 1 << 18),
+        ] {
+            // Half the points share key 0, the rest scattered.
+            let key: Vec<u32> = (0..n)
+                .map(|i| if i % 2 == 0 { 0 } else { next(keys as u32) })
+                .collect();
+            let xs: Vec<f32> = (0..n).map(|i| i as f32).collect();
+            let ys: Vec<f32> = (0..n).map(|i| -(i as f32)).collect();
+            let (start, order) = reference(&key, keys);
+            let mut sort = CountingSort::default();
+            for parts in [1, 2, 3, 4, 7, 64, 100] {
+                sort.sort(&key, keys, |i| (xs[i], ys[i]), parts, 3);
+                assert_eq!(sort.start, start, "{n} points, {parts} parts");
+                assert_eq!(sort.order, order, "{n} points, {parts} parts");
+                for (k, &i) in order.iter().enumerate() {
+                    assert_eq!(sort.sorted_x[k], xs[i as usize]);
+                    assert_eq!(sort.sorted_y[k], ys[i as usize]);
+                }
+                assert_eq!(sort.sorted_x[n..], [f32::MAX; 3]);
+                assert_eq!(sort.sorted_y[n..], [f32::MAX; 3]);
+            }
+        }
+    }
+}
