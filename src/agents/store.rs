@@ -126,14 +126,28 @@ pub(crate) struct AgentColumns {
     pub(crate) ids: Vec<AgentId>,
 }
 
-/// `v[k] = old v[perm[k]]`, gathered in parallel into `scratch`, which then becomes `v`; no
-/// allocation once `scratch` has grown to size.
+/// `v[k] = old v[perm[k]]`, gathered into `scratch` (in parallel chunks for long columns), which
+/// then becomes `v`; no allocation once `scratch` has grown to size.
 fn permute<T: Copy + Send + Sync>(v: &mut Vec<T>, perm: &[u32], scratch: &mut Vec<T>) {
     use rayon::prelude::*;
-    scratch.clear();
-    scratch.reserve(perm.len());
+    /// Elements per parallel task; shorter columns are gathered on this thread (a fork per
+    /// column cost more than the gather at a few thousand agents).
+    const CHUNK: usize = 16 * 1024;
     let src = &v[..];
-    scratch.par_extend(perm.par_iter().map(|&p| src[p as usize]));
+    scratch.clear();
+    if perm.len() <= CHUNK {
+        scratch.extend(perm.iter().map(|&p| src[p as usize]));
+    } else {
+        scratch.resize(perm.len(), src[0]);
+        scratch
+            .par_chunks_mut(CHUNK)
+            .zip(perm.par_chunks(CHUNK))
+            .for_each(|(out, perm)| {
+                for (o, &p) in out.iter_mut().zip(perm) {
+                    *o = src[p as usize];
+                }
+            });
+    }
     std::mem::swap(v, scratch);
 }
 
