@@ -4,7 +4,9 @@
 //!
 //! Per agent: the preferred velocity from the pass's output (kinematic: the desired velocity;
 //! dynamic: `velocity + acceleration * dt`), truncated to `pref_speed` and perturbed when the
-//! group asks; the hard lines of the walls (nearest edge first) and circles within
+//! group asks (every agent's perturbation of a chunk drawn in lanes first, [`perturbations`]);
+//! the candidates from the hashed grid packed eight lanes at a time (`steer::pack`); the hard
+//! lines of the walls (nearest edge first) and circles within
 //! `time_horizon_obst * max_speed + radius`; the lines of the nearest `max_neighbours` agents
 //! within `neighbour_dist`, sorted by `(distance, id)`; the linear program. The result is
 //! written back as the desired velocity (kinematic) or as the acceleration towards it, clamped
@@ -22,6 +24,7 @@ use rayon::prelude::*;
 use super::pack::{Packed, pack_block};
 use super::pass::{STEER_CHUNK, SteerOut};
 use super::view::SteerView;
+use crate::agents::AgentId;
 use crate::orca::lines::LANES;
 use crate::orca::{Line, LineBlock, Orca, WallChains, agent_line, solve};
 use crate::rng::{self, Stream};
@@ -46,6 +49,11 @@ struct Buffers {
     circles: Vec<u32>,
     edges: Vec<(f32, u32)>,
     inside: Vec<(u32, bool)>,
+    /// Per agent of the chunk: its perturbation's direction (cosine, sine) and length in
+    /// units of the group's `perturbation` ([`perturbations`]).
+    turb_cos: Vec<f32>,
+    turb_sin: Vec<f32>,
+    turb_len: Vec<f32>,
     /// The last query's block of cells and its runs (reset for every chunk of agents: the grid
     /// is rebuilt between steps).
     runs: (Option<[i32; 4]>, Runs),
@@ -102,6 +110,8 @@ struct Context<'a> {
     frame_key: u64,
     /// Whether the CPU has AVX2 (the candidates are packed in its lanes).
     avx2: bool,
+    /// Whether some ORCA group perturbs its preferred velocities.
+    perturbs: bool,
 }
 
 /// Filters the requests in `out` of every agent whose group uses ORCA.
@@ -130,12 +140,20 @@ pub(crate) fn run(
         avx2: std::arch::is_x86_feature_detected!("avx2"),
         #[cfg(not(target_arch = "x86_64"))]
         avx2: false,
+        perturbs: view
+            .plans
+            .iter()
+            .any(|p| p.orca.is_some_and(|o| o.perturbation > 0.0)),
     };
     scratch.near.clear();
     scratch.near.resize(n, false);
     let chunk = |base: usize, lx: &mut [f32], ly: &mut [f32], near: &mut [bool]| {
         BUFFERS.with_borrow_mut(|b| {
             b.runs.0 = None;
+            if ctx.perturbs {
+                let ids = &a.ids[base..base + lx.len()];
+                perturbations(ids, ctx.frame_key, b);
+            }
             // Room for every agent as a candidate: a warm step allocates nothing however
             // crowded a neighbourhood becomes.
             if b.js.len() < n + LANES {
@@ -148,7 +166,13 @@ pub(crate) fn run(
                 let i = base + k;
                 let g = a.group[i] as usize;
                 if let Some(orca) = view.plans[g].orca {
-                    let (x, y, close) = filter(view, &ctx, &orca, i, (lx[k], ly[k]), b);
+                    let turb = if ctx.perturbs {
+                        let s = orca.perturbation * b.turb_len[k];
+                        Vec2::new(b.turb_cos[k], b.turb_sin[k]) * s
+                    } else {
+                        Vec2::ZERO
+                    };
+                    let (x, y, close) = filter(view, &ctx, &orca, i, (lx[k], ly[k]), turb, b);
                     lx[k] = x;
                     ly[k] = y;
                     near[k] = close;
@@ -166,6 +190,38 @@ pub(crate) fn run(
             .for_each(|(c, ((x, y), f))| chunk(c * STEER_CHUNK, x, y, f));
     } else {
         chunk(0, lx, ly, near);
+    }
+}
+
+/// Every agent's perturbation of the chunk whose ids are `ids`, into `b.turb_*`: the first two
+/// draws of its ORCA stream from the frame's key, a direction (the polynomial sine and cosine
+/// of the first times 2 pi, in their range) and a length (the second, in units of the group's
+/// `perturbation`). Eight agents at a time in lanes; the same operations per agent as one at a
+/// time, so the same bits.
+#[multiversion::multiversion(targets("x86_64+avx2+fma"))]
+fn perturbations(ids: &[AgentId], frame_key: u64, b: &mut Buffers) {
+    let n = ids.len();
+    for v in [&mut b.turb_cos, &mut b.turb_sin, &mut b.turb_len] {
+        v.resize(n.next_multiple_of(LANES), 0.0);
+    }
+    let mut at = 0;
+    while at < n {
+        let len = LANES.min(n - at);
+        let mut lane_ids = [0u32; LANES];
+        for (l, id) in ids[at..at + len].iter().enumerate() {
+            lane_ids[l] = id.0;
+        }
+        let (mut c, mut s, mut u) = ([0.0f32; LANES], [0.0f32; LANES], [0.0f32; LANES]);
+        for l in 0..LANES {
+            let key = rng::agent_key(frame_key, lane_ids[l], Stream::Orca as u32);
+            let angle = rng::unit_at(key, 1) * std::f32::consts::TAU;
+            (s[l], c[l]) = trig::sin_cos_reduced(angle);
+            u[l] = rng::unit_at(key, 2);
+        }
+        b.turb_cos[at..at + LANES].copy_from_slice(&c);
+        b.turb_sin[at..at + LANES].copy_from_slice(&s);
+        b.turb_len[at..at + LANES].copy_from_slice(&u);
+        at += LANES;
     }
 }
 
@@ -276,6 +332,7 @@ fn filter(
     orca: &Orca,
     i: usize,
     request: (f32, f32),
+    turb: Vec2,
     b: &mut Buffers,
 ) -> (f32, f32, bool) {
     let walls = ctx.walls;
@@ -298,12 +355,7 @@ fn filter(
         pref = crate::steering::truncate(pref, s);
     }
     if orca.perturbation > 0.0 {
-        // The agent's first two draws of its ORCA stream: a direction and a length. The angle
-        // lies in [0, 2 pi), where the polynomial sine and cosine serve.
-        let key = rng::agent_key(ctx.frame_key, id, Stream::Orca as u32);
-        let angle = rng::unit_at(key, 1) * std::f32::consts::TAU;
-        let (sin, cos) = trig::sin_cos_reduced(angle);
-        pref += Vec2::new(cos, sin) * (orca.perturbation * rng::unit_at(key, 2));
+        pref += turb;
     }
     b.lines.clear();
 
@@ -419,4 +471,29 @@ fn filter(
         crate::steering::truncate((chosen - vel) / dt, plan.adapter.max_acceleration)
     };
     (out.x, out.y, close)
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use crate::rng::AgentRng;
+
+    /// The lanes give every agent of a chunk (a partial block included) the same bits as its
+    /// own stream drawn one number at a time.
+    #[test]
+    fn perturbations_in_lanes_equal_each_agents_own_draws() {
+        let (seed, frame) = (0x5eed_u64, 77_u64);
+        let ids: Vec<AgentId> = (0..29).map(|k| AgentId(k * 7919 + 3)).collect();
+        let mut b = Buffers::default();
+        perturbations(&ids, rng::frame_key(seed, frame), &mut b);
+        for (k, id) in ids.iter().enumerate() {
+            let mut rng = AgentRng::new(seed, id.0, frame, Stream::Orca as u32);
+            let angle = rng.unit() * std::f32::consts::TAU;
+            let (sin, cos) = trig::sin_cos(angle);
+            let len = rng.unit();
+            let got = (b.turb_cos[k], b.turb_sin[k], b.turb_len[k]);
+            assert_eq!(got, (cos, sin, len), "agent {k}");
+            assert!((cos.hypot(sin) - 1.0).abs() < 1e-6);
+        }
+    }
 }
