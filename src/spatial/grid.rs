@@ -186,6 +186,25 @@ impl GridIndex {
         &self.sort.sorted_y
     }
 
+    /// Makes the grid the one a rebuild would give after the points were permuted into its
+    /// [`order`](Self::order) (point `k` becomes the old point `order()[k]`), without sorting:
+    /// the same set of points gives the same cells and sorted positions, and a stable sort of
+    /// points already in cell order is the identity. Every agent-storage reorder by `order()`
+    /// is followed by this or by a rebuild.
+    pub fn adopt_order(&mut self) {
+        let sort = &mut self.sort;
+        let n = sort.order.len();
+        for (k, p) in self.pts[..n].iter_mut().enumerate() {
+            *p = Vec2::new(sort.sorted_x[k], sort.sorted_y[k]);
+        }
+        for (c, w) in sort.start.windows(2).enumerate() {
+            self.cell[w[0] as usize..w[1] as usize].fill(c as u32);
+        }
+        for (k, o) in sort.order.iter_mut().enumerate() {
+            *o = k as u32;
+        }
+    }
+
     /// The world the grid was built for.
     #[must_use]
     pub fn bounds(&self) -> Bounds {
@@ -556,6 +575,48 @@ mod tests {
             let mut g = GridIndex::default();
             g.rebuild(&xs, &ys, bounds, 3.0);
             check_layout(&g, &xs, &ys);
+        }
+    }
+
+    /// After the points are permuted into the grid's order, adopting it gives the grid a
+    /// rebuild from the permuted points gives, field for field, and the same neighbours.
+    #[test]
+    fn adopting_the_order_equals_rebuilding_the_reordered_points() {
+        for (n, bounds) in [
+            (0, Bounds::Open),
+            (1, Bounds::Open),
+            (3000, Bounds::Open),
+            (2000, Bounds::torus(60.0, 40.0).unwrap()),
+            (5000, Bounds::bounded(100.0, 100.0).unwrap()),
+            (40_000, Bounds::torus(200.0, 200.0).unwrap()),
+        ] {
+            let (mut xs, mut ys) = points(n, 50.0, n as u64 + 3);
+            // Clusters and duplicates: many points of one cell, equal positions.
+            for k in (0..n).step_by(7) {
+                (xs[k], ys[k]) = (xs[k / 2], ys[k / 2]);
+            }
+            let mut adopted = GridIndex::default();
+            adopted.rebuild(&xs, &ys, bounds, 2.5);
+            let perm = adopted.order().to_vec();
+            let px: Vec<f32> = perm.iter().map(|&i| xs[i as usize]).collect();
+            let py: Vec<f32> = perm.iter().map(|&i| ys[i as usize]).collect();
+            adopted.adopt_order();
+            let mut rebuilt = GridIndex::default();
+            rebuilt.rebuild(&px, &py, bounds, 2.5);
+            check_layout(&adopted, &px, &py);
+            assert_eq!(adopted.pts, rebuilt.pts, "{n} points");
+            assert_eq!(adopted.cell, rebuilt.cell, "{n} points");
+            assert_eq!(adopted.sort.start, rebuilt.sort.start);
+            assert_eq!(adopted.sort.order, rebuilt.sort.order);
+            assert_eq!(adopted.sort.sorted_x, rebuilt.sort.sorted_x);
+            assert_eq!(adopted.sort.sorted_y, rebuilt.sort.sorted_y);
+            assert_eq!(adopted.scale.to_bits(), rebuilt.scale.to_bits());
+            let (mut a, mut b) = (Vec::new(), Vec::new());
+            for k in (0..n).step_by(97) {
+                adopted.neighbours_of(k, 2.5, &mut a);
+                rebuilt.neighbours_of(k, 2.5, &mut b);
+                assert_eq!(a, b, "point {k} of {n}");
+            }
         }
     }
 

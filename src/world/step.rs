@@ -519,15 +519,15 @@ impl World {
         }
         let a = &self.agents;
         self.index.rebuild(&a.pos_x, &a.pos_y, self.bounds, query_r);
-        let SpatialIndex::Grid(grid) = &self.index else {
+        let SpatialIndex::Grid(grid) = &mut self.index else {
             return false;
         };
         if reorder_due {
             self.scratch.perm.clear();
             self.scratch.perm.extend_from_slice(grid.order());
             self.agents.reorder(&self.scratch.perm);
-            let a = &self.agents;
-            self.index.rebuild(&a.pos_x, &a.pos_y, self.bounds, query_r);
+            // The grid of the reordered agents: the same cells, the identity order.
+            grid.adopt_order();
         }
         let SpatialIndex::Grid(grid) = &self.index else {
             return false;
