@@ -21,7 +21,7 @@ use std::cell::RefCell;
 use glam::Vec2;
 use rayon::prelude::*;
 
-use super::pack::{Packed, pack_block};
+use super::pack::{Block, Packed, pack_block, pack_lanes};
 use super::pass::{STEER_CHUNK, SteerOut};
 use super::view::SteerView;
 use crate::agents::AgentId;
@@ -225,37 +225,37 @@ fn perturbations(ids: &[AgentId], frame_key: u64, b: &mut Buffers) {
     }
 }
 
-/// Packs the candidates of the points `run` of the hashed grid within `sqrt(r_sq)` of `pos`
-/// (agent `i` left out) into `out` from slot `count` on, eight lanes at a time without a branch
-/// per lane (`steer::pack`); returns the new count. The grid's positions are padded, so every
-/// block is read whole and its tail masked off.
+/// Packs the candidates of the points `run` of the hashed grid within reach of `out.p` into
+/// `out` from slot `count` on, eight lanes at a time without a branch per lane
+/// (`steer::pack`); returns the new count. The grid's positions are padded, so every block is
+/// read whole and its tail masked off; only a block that runs past the end of the order takes
+/// [`pack_block`]'s copy of the indices.
 #[inline(always)]
-#[allow(clippy::too_many_arguments)]
 fn scan(
     hash: &HashGrid,
     run: std::ops::Range<usize>,
-    pos: Vec2,
-    r_sq: f32,
-    i: usize,
     avx2: bool,
-    (rx, ry, js): (&mut [f32], &mut [f32], &mut [u32]),
+    out: &mut Packed,
     mut count: usize,
 ) -> usize {
     let (sx, sy, order) = (hash.sorted_x(), hash.sorted_y(), hash.order());
-    let len = run.len();
-    for c in 0..len.div_ceil(LANES) {
-        let at = run.start + c * LANES;
-        let xs: &[f32; LANES] = sx[at..at + LANES].try_into().expect("padded positions");
-        let ys: &[f32; LANES] = sy[at..at + LANES].try_into().expect("padded positions");
-        let mut out = Packed {
-            rx: &mut *rx,
-            ry: &mut *ry,
-            js: &mut *js,
-            p: (pos.x, pos.y),
-            r_sq,
-            me: i as u32,
-        };
-        count = pack_block(xs, ys, order, at, len - c * LANES, &mut out, count, avx2);
+    let blocks = run.len().div_ceil(LANES);
+    // Blocks whose indices lie within the order, read as whole arrays.
+    let whole = blocks.min(order.len().saturating_sub(run.start) / LANES);
+    let end = run.start + whole * LANES;
+    let xs = sx[run.start..end].as_chunks::<LANES>().0;
+    let ys = sy[run.start..end].as_chunks::<LANES>().0;
+    let js = order[run.start..end].as_chunks::<LANES>().0;
+    let mut left = run.len();
+    for ((xs, ys), js) in xs.iter().zip(ys).zip(js) {
+        let block = Block { xs, ys, js, left };
+        count = pack_lanes(&block, out, count, avx2);
+        left = left.saturating_sub(LANES);
+    }
+    if whole < blocks {
+        let xs = sx[end..end + LANES].try_into().expect("padded positions");
+        let ys = sy[end..end + LANES].try_into().expect("padded positions");
+        count = pack_block(xs, ys, order, end, left, out, count, avx2);
     }
     count
 }
@@ -283,10 +283,17 @@ fn candidates(
             if b.runs.0 != Some(cells) {
                 b.runs = (Some(cells), hash.runs_of(cells));
             }
+            let mut out = Packed {
+                rx: &mut b.rx[..],
+                ry: &mut b.ry[..],
+                js: &mut b.js[..],
+                p: (pos.x, pos.y),
+                r_sq,
+                me: i as u32,
+            };
             let mut count = 0;
             for run in b.runs.1.iter() {
-                let out = (&mut b.rx[..], &mut b.ry[..], &mut b.js[..]);
-                count = scan(hash, run, pos, r_sq, i, ctx.avx2, out, count);
+                count = scan(hash, run, ctx.avx2, &mut out, count);
             }
             let hits = b.rx[..count].iter().zip(&b.ry[..count]).zip(&b.js[..count]);
             b.near

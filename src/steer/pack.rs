@@ -152,15 +152,21 @@ pub(crate) fn pack_block(
         tail[..order.len() - at].copy_from_slice(&order[at..]);
         &tail
     });
-    let block = Block { xs, ys, js, left };
+    pack_lanes(&Block { xs, ys, js, left }, out, count, avx2)
+}
+
+/// Keeps the lanes of `block` as [`pack_scalar`] does: in AVX2 lanes when `avx2` (the CPU's).
+/// Returns the new count.
+#[inline(always)]
+pub(crate) fn pack_lanes(block: &Block, out: &mut Packed, count: usize, avx2: bool) -> usize {
     #[cfg(target_arch = "x86_64")]
     if avx2 {
         // SAFETY: `avx2` is the CPU's; `pack_avx2` asserts the room it writes.
-        return unsafe { pack_avx2(&block, out, count) };
+        return unsafe { pack_avx2(block, out, count) };
     }
     #[cfg(not(target_arch = "x86_64"))]
     let _ = avx2;
-    pack_scalar(&block, out, count)
+    pack_scalar(block, out, count)
 }
 
 #[cfg(test)]
