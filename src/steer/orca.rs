@@ -5,7 +5,9 @@
 //! Per agent: the preferred velocity from the pass's output (kinematic: the desired velocity;
 //! dynamic: `velocity + acceleration * dt`), truncated to `pref_speed` and perturbed when the
 //! group asks (every agent's perturbation of a chunk drawn in lanes first, [`perturbations`]);
-//! the candidates from the hashed grid packed eight lanes at a time (`steer::pack`); the hard
+//! the candidates from the hashed grid packed eight lanes at a time (`steer::pack`), in a crowd
+//! first within a little more than the previous agent's `max_neighbours`-th distance (exact:
+//! the search widens to `neighbour_dist` when fewer lie that close); the hard
 //! lines of the walls (nearest edge first) and circles within
 //! `time_horizon_obst * max_speed + radius`; the lines of the nearest `max_neighbours` agents
 //! within `neighbour_dist`, sorted by `(distance, id)`; the linear program. The result is
