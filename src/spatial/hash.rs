@@ -188,7 +188,7 @@ impl HashGrid {
         let r = gather_radius(r, p.x.abs().max(p.y.abs()));
         // `floor` then the saturating conversion: the same value as [`cell`] for every input
         // (NaN included), and four lanes of a vector where the caller is compiled for SSE4.1
-        // or better (elsewhere `floor` is a library call).
+        // or better (the ORCA filter's AVX2 clone; elsewhere `floor` is a library call).
         let v = [p.x - r, p.x + r, p.y - r, p.y + r];
         let mut out = [0i32; 4];
         for k in 0..4 {

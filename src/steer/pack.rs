@@ -130,10 +130,11 @@ pub(crate) unsafe fn pack_avx2(b: &Block, out: &mut Packed, count: usize) -> usi
     }
 }
 
-/// Packs block `at..at + LANES` of a run of sorted points whose last `left` (from `at`) are
-/// candidates: positions `xs`, `ys` read whole (the caller's arrays are padded), indices from
-/// `order` (past its end as `out.me`, which is never kept); in AVX2 lanes when `avx2` (the CPU's),
-/// else by [`pack_scalar`]. Returns the new count.
+/// Packs block `at..at + LANES` of a run of sorted points, of which the first `left` (from
+/// `at`, all eight when `left >= LANES`) are candidates: positions `xs`, `ys` read whole (the
+/// caller's arrays are padded), indices from `order` (past its end as `out.me`, which is never
+/// kept); in AVX2 lanes when `avx2` (the CPU's), else by [`pack_scalar`]. Returns the new
+/// count.
 #[inline(always)]
 #[allow(clippy::too_many_arguments)]
 pub(crate) fn pack_block(
