@@ -10,8 +10,13 @@
 //! has that, the baseline otherwise; the same bits on each). The sums wait in columns until the
 //! task's cells are done; then the flocking terms and the model adapter run over each run of
 //! agents of one group, one term at a time in long vector loops, writing the outputs in the
-//! grid's order. For a general plan with flocking terms (a "summed" group) the batch stores the
-//! sums alone, which the per-agent evaluation then reads instead of querying the neighbourhood.
+//! grid's order. Vicsek sums wait the same way; their turns (each agent's draw, computed from the
+//! frame's key without a per-agent generator), headings and the adapter then run over each run
+//! in lanes too. When every batched query is a Vicsek sum, the buffer holds the unit headings in
+//! the velocities' place and the flock's kernel sums them as alignment (the same masked additions
+//! in the same lanes as the Vicsek kernel, which the compiler vectorises worse). For a general
+//! plan with flocking terms (a "summed" group) the batch stores the sums alone, which the
+//! per-agent evaluation then reads instead of querying the neighbourhood.
 //!
 //! View cones are tested without a square root: for a cosine `c < 0` a neighbour at offset `d`
 //! is seen when `h . d >= 0` or `(h . d)^2 <= c^2 |d|^2`, for `c >= 0` when both `h . d >= 0`
@@ -36,9 +41,9 @@ use super::neighbours::{LANES, SortedCopies, positive_finite, without_self};
 use super::plan::{ALI, COH, NeighbourSpec, PlanKind, SEP};
 use super::view::SteerView;
 use crate::bounds::Bounds;
-use crate::rng::{AgentRng, Stream};
+use crate::rng::Stream;
 use crate::spatial::{GridIndex, SpatialIndex};
-use crate::steering::{NeighbourSums, Steering};
+use crate::steering::NeighbourSums;
 
 #[cfg(target_arch = "x86_64")]
 mod avx512;
@@ -92,6 +97,9 @@ struct CellBuf {
     /// Unit headings, gathered only for Vicsek batches.
     hx: Vec<f32>,
     hy: Vec<f32>,
+    /// Whether `vx` and `vy` hold the unit headings instead of the velocities (every batched
+    /// query is a Vicsek sum, so no kernel reads velocities).
+    headings_in_motion: bool,
 }
 
 thread_local! {
@@ -381,17 +389,28 @@ impl Outputs<'_> {
                 .take_while(|&&m| m == mark)
                 .count();
             let plan = &view.plans[mark as usize - 1];
-            let PlanKind::Flock { terms, len } = plan.kind else {
-                unreachable!("only flocking plans wait in runs");
-            };
-            evaluate_run(
-                self.runs,
-                j..end,
-                &terms[..len as usize],
-                &plan.adapter,
-                (&mut self.lx[j..end], &mut self.ly[j..end]),
-            );
-            self.nb[j..end].copy_from_slice(&self.runs.count[j..end]);
+            let outs = (&mut self.lx[j..end], &mut self.ly[j..end]);
+            match plan.kind {
+                PlanKind::Flock { terms, len } => {
+                    evaluate_run(
+                        self.runs,
+                        j..end,
+                        &terms[..len as usize],
+                        &plan.adapter,
+                        outs,
+                    );
+                    self.nb[j..end].copy_from_slice(&self.runs.count[j..end]);
+                }
+                PlanKind::Vicsek { noise, weight } => {
+                    let key = crate::rng::frame_key(view.seed, view.frame);
+                    vicsek_run(self.runs, j..end, (noise, weight), key, &plan.adapter, outs);
+                    // The count held the agent itself.
+                    for (nb, &c) in self.nb[j..end].iter_mut().zip(&self.runs.count[j..end]) {
+                        *nb = c - 1.0;
+                    }
+                }
+                _ => unreachable!("only flocking and Vicsek plans wait in runs"),
+            }
             j = end;
         }
     }
@@ -425,22 +444,15 @@ impl Batch {
         let agents = &self.agents[..m];
         kernel_cell(buf, q, agents, &mut self.sums[..m]);
         let plan = &view.plans[self.group];
-        if let PlanKind::Vicsek { noise, weight } = plan.kind {
+        if let PlanKind::Vicsek { .. } = plan.kind {
+            // The summed headings wait in the task's columns: the turns, the headings and the
+            // adapter then run over each run of the group in lanes (`vicsek_run`).
             for k in 0..m {
                 let (p, i) = self.slots[k];
                 let s = &self.sums[k];
                 let a = view.agents;
-                // As `eval::vicsek` in the general plan: the same draw of the same stream.
-                let mut rng =
-                    AgentRng::new(view.seed, a.ids[i].0, view.frame, Stream::Steer as u32);
-                let turn = noise * 0.5 * rng.signed();
-                let heading = crate::steering::vicsek_heading(s.heading, turn);
-                let mut total = Steering::ZERO;
-                total += Steering::linear(heading * a.max_speed[i]).scaled(weight);
-                let o = plan.adapter.finish(total);
-                let slot = p - out.base;
-                (out.lx[slot], out.ly[slot]) = (o.linear.x, o.linear.y);
-                out.nb[slot] = s.count - 1.0;
+                out.runs
+                    .put_vicsek(p - out.base, self.group, s, a.ids[i].0, a.max_speed[i]);
             }
             self.len = 0;
             return;
@@ -488,6 +500,8 @@ fn chunk(
     let end = base + lx.len();
     let groups = specs.iter().flatten().any(Query::needs_groups);
     let headings = specs.iter().flatten().any(|q| q.mode == VICSEK);
+    // Only Vicsek sums: the headings take the velocities' place, and the flock's kernel sums them.
+    let headings = Headings::of(headings, specs.iter().flatten().all(|q| q.mode == VICSEK));
     runs.clear(lx.len());
     let mut out = Outputs {
         base,
@@ -588,6 +602,8 @@ struct Runs {
     vel: [Column; 2],
     max_speed: Column,
     count: Column,
+    /// Agent ids (Vicsek runs: each agent's random stream).
+    id: Box<[u32; CELL_CHUNK]>,
     /// The weighted sum of the terms, per agent.
     total: [Column; 2],
 }
@@ -607,6 +623,10 @@ impl Default for Runs {
             vel: [column(), column()],
             max_speed: column(),
             count: column(),
+            id: vec![0; CELL_CHUNK]
+                .into_boxed_slice()
+                .try_into()
+                .expect("CELL_CHUNK ids"),
             total: [column(), column()],
         }
     }
@@ -629,6 +649,18 @@ impl Runs {
         (self.coh[0][j], self.coh[1][j]) = (s.cohesion.x, s.cohesion.y);
         self.coh_n[j] = s.cohesion_count;
         (self.vel[0][j], self.vel[1][j]) = (v.x, v.y);
+        self.max_speed[j] = max_speed;
+        self.count[j] = s.count;
+    }
+
+    /// Puts the Vicsek sums of the agent at slot `j` (of `group`, id `id`): the summed unit
+    /// headings (its own included) in `ali`, the count in `count`.
+    #[inline(always)]
+    fn put_vicsek(&mut self, j: usize, group: usize, s: &NeighbourSums, id: u32, max_speed: f32) {
+        assert!(j < CELL_CHUNK, "a slot of the task");
+        self.mark[j] = group as u32 + 1;
+        (self.ali[0][j], self.ali[1][j]) = (s.heading.x, s.heading.y);
+        self.id[j] = id;
         self.max_speed[j] = max_speed;
         self.count[j] = s.count;
     }
@@ -669,6 +701,42 @@ fn evaluate_run(
             (_, true) => term_run::<true, false>((x, y), x, vel, ms, w, (tx, ty)),
             (None, false) => term_run::<false, false>((x, y), x, vel, ms, w, (tx, ty)),
         }
+    }
+    adapter.finish_run((tx, ty), (ox, oy));
+}
+
+/// The Vicsek step for the agents at `range` of `r`: each agent's turn drawn from its stream
+/// (`rng::unit_at` on the frame's `key`, as [`AgentRng`] draws it), its summed heading
+/// normalised and turned ([`crate::steering::vicsek_heading`]'s operations), times its speed
+/// and the weight, then the model adapter, in long loops over the run: each agent equals the
+/// scalar evaluation bit for bit.
+#[multiversion(targets("x86_64+avx2+fma", "x86_64+avx"))]
+fn vicsek_run(
+    r: &mut Runs,
+    range: std::ops::Range<usize>,
+    (noise, weight): (f32, f32),
+    key: u64,
+    adapter: &Adapter,
+    (ox, oy): (&mut [f32], &mut [f32]),
+) {
+    let n = range.len();
+    let [tx, ty] = &mut r.total;
+    let (tx, ty) = (&mut tx[range.clone()], &mut ty[range.clone()]);
+    let (sx, sy) = (&r.ali[0][range.clone()], &r.ali[1][range.clone()]);
+    let (ids, ms) = (&r.id[range.clone()], &r.max_speed[range]);
+    let (ty, sx, sy, ids, ms) = (&mut ty[..n], &sx[..n], &sy[..n], &ids[..n], &ms[..n]);
+    for k in 0..n {
+        let stream = crate::rng::agent_key(key, ids[k], Stream::Steer as u32);
+        let turn = noise * 0.5 * (crate::rng::unit_at(stream, 1) * 2.0 - 1.0);
+        let (sin, cos) = crate::steering::trig::sin_cos(turn);
+        // `try_normalize().unwrap_or(Vec2::X)`, as glam computes it.
+        let (x, y) = (sx[k], sy[k]);
+        let rcp = 1.0 / (x * x + y * y).sqrt();
+        let unit = positive_finite(rcp);
+        let (ux, uy) = if unit { (x * rcp, y * rcp) } else { (1.0, 0.0) };
+        let (hx, hy) = (ux * cos - uy * sin, ux * sin + uy * cos);
+        tx[k] = 0.0 + hx * ms[k] * weight;
+        ty[k] = 0.0 + hy * ms[k] * weight;
     }
     adapter.finish_run((tx, ty), (ox, oy));
 }
@@ -734,10 +802,11 @@ fn gather(
     bounds: Bounds,
     cell: usize,
     groups: bool,
-    headings: bool,
+    headings: Headings,
     buf: &mut CellBuf,
 ) {
     buf.len = 0;
+    buf.headings_in_motion = headings == Headings::InMotion;
     let (nx, ny) = (grid.cells_x() as i64, grid.cells_y() as i64);
     let (cx, cy) = (cell as i64 % nx, cell as i64 / nx);
     let side = match bounds {
@@ -793,11 +862,16 @@ fn gather(
                     v.resize(need.max(MIN_CELL_BUF), 0.0);
                 }
             }
-            append_motion(buf, len, s, a, b, (shift_x, shift_y));
+            let motion = if headings == Headings::InMotion {
+                (&s.hx, &s.hy)
+            } else {
+                (&s.vx, &s.vy)
+            };
+            append_motion(buf, len, (s, motion), a, b, (shift_x, shift_y));
             if groups {
                 append(&mut buf.g, len, &s.g, a, b);
             }
-            if headings {
+            if headings == Headings::Apart {
                 append(&mut buf.hx, len, &s.hx, a, b);
                 append(&mut buf.hy, len, &s.hy, a, b);
             }
@@ -832,13 +906,14 @@ fn append(dst: &mut [f32], len: usize, src: &[f32], a: usize, b: usize) {
     }
 }
 
-/// [`append`] of the positions (plus `shift`) and velocities of `s[a..b]` into the buffer at
-/// `len`, the four in one loop over blocks.
+/// [`append`] of the positions (plus `shift`) of `s[a..b]` and of `motion[a..b]` (their
+/// velocities, or their unit headings) into the buffer at `len`, the four in one loop over
+/// blocks.
 #[inline(always)]
 fn append_motion(
     buf: &mut CellBuf,
     len: usize,
-    s: &SortedCopies,
+    (s, (mx, my)): (&SortedCopies, (&Vec<f32>, &Vec<f32>)),
     a: usize,
     b: usize,
     (shift_x, shift_y): (f32, f32),
@@ -851,7 +926,7 @@ fn append_motion(
     }
     let blocks = (b - a).div_ceil(LANES) * LANES;
     let (x, y) = (src(&s.x, a, blocks), src(&s.y, a, blocks));
-    let (vx, vy) = (src(&s.vx, a, blocks), src(&s.vy, a, blocks));
+    let (vx, vy) = (src(mx, a, blocks), src(my, a, blocks));
     let n = x.len();
     let (x, y, vx, vy) = (&x[..n], &y[..n], &vx[..n], &vy[..n]);
     let (tx, ty, tvx, tvy) = (
@@ -866,6 +941,28 @@ fn append_motion(
         ty[k] = y[k].map(|v| v + shift_y);
         tvx[k] = vx[k];
         tvy[k] = vy[k];
+    }
+}
+
+/// Which unit headings a cell buffer holds.
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+enum Headings {
+    /// None: no batched query reads them.
+    No,
+    /// In `hx` and `hy`, beside the velocities.
+    Apart,
+    /// In `vx` and `vy`: every batched query is a Vicsek sum.
+    InMotion,
+}
+
+impl Headings {
+    /// The layout for batched queries of which some (`any`) or all (`all`) are Vicsek sums.
+    fn of(any: bool, all: bool) -> Headings {
+        match (any, all) {
+            (true, true) => Headings::InMotion,
+            (true, false) => Headings::Apart,
+            _ => Headings::No,
+        }
     }
 }
 
@@ -996,28 +1093,33 @@ fn kernel_cell(buf: &CellBuf, q: &Query, agents: &[Agent], out: &mut [NeighbourS
     }
     let paired = pairs(buf, q, agents, out);
     let (agents, out) = (&agents[paired..], &mut out[paired..]);
-    // The body is chosen once per call, then runs for every agent.
-    let each = |body: fn(&CellBuf, &Query) -> NeighbourSums, out: &mut [NeighbourSums]| {
-        for (a, o) in agents.iter().zip(out.iter_mut()) {
-            *o = body(buf, &q.at(a));
-        }
-    };
+    // The body is chosen once per call, then runs for every agent: each arm its own loop, with
+    // the body called directly, so that it is inlined and compiled for this target (called
+    // through a pointer, a body is the baseline build).
+    macro_rules! each {
+        ($body:expr) => {
+            for (a, o) in agents.iter().zip(out.iter_mut()) {
+                *o = $body(buf, &q.at(a));
+            }
+        };
+    }
     match q.mode {
-        0 => each(shared::<0, false, false>, out),
-        1 => each(shared::<1, false, false>, out),
-        2 => each(shared::<2, false, false>, out),
-        4 => each(shared::<0, true, false>, out),
-        5 => each(shared::<1, true, false>, out),
-        6 => each(shared::<2, true, false>, out),
-        16 => each(shared::<0, false, true>, out),
-        17 => each(shared::<1, false, true>, out),
-        18 => each(shared::<2, false, true>, out),
-        20 => each(shared::<0, true, true>, out),
-        21 => each(shared::<1, true, true>, out),
-        22 => each(shared::<2, true, true>, out),
-        8 => each(general::<false>, out),
-        VICSEK => each(vicsek, out),
-        _ => each(general::<true>, out),
+        0 => each!(shared::<0, false, false>),
+        1 => each!(shared::<1, false, false>),
+        2 => each!(shared::<2, false, false>),
+        4 => each!(shared::<0, true, false>),
+        5 => each!(shared::<1, true, false>),
+        6 => each!(shared::<2, true, false>),
+        16 => each!(shared::<0, false, true>),
+        17 => each!(shared::<1, false, true>),
+        18 => each!(shared::<2, false, true>),
+        20 => each!(shared::<0, true, true>),
+        21 => each!(shared::<1, true, true>),
+        22 => each!(shared::<2, true, true>),
+        8 => each!(general::<false>),
+        VICSEK if buf.headings_in_motion => each!(vicsek_in_motion),
+        VICSEK => each!(vicsek),
+        _ => each!(general::<true>),
     }
 }
 
@@ -1152,6 +1254,29 @@ fn vicsek(buf: &CellBuf, q: &Query) -> NeighbourSums {
     }
 }
 
+/// The Vicsek sum over a buffer whose `vx` and `vy` hold the unit headings: the flock's kernel
+/// with alignment's radius the Vicsek radius, all round, any group, and separation off. Its
+/// alignment sum and count are [`vicsek`]'s heading sum and count bit for bit (the same masked
+/// additions in the same lanes); the flock's kernel is the one the compiler vectorises best.
+#[inline(always)]
+fn vicsek_in_motion(buf: &CellBuf, q: &Query) -> NeighbourSums {
+    let r = q.vicsek_r_sq;
+    let flock = Query {
+        r_sq: [-1.0, r, r],
+        q_sq: r,
+        c2: [1.0; 3],
+        cone: [0; 3],
+        any_group: [true; 3],
+        ..*q
+    };
+    let s = shared::<0, false, true>(buf, &flock);
+    NeighbourSums {
+        heading: s.alignment,
+        count: s.count,
+        ..NeighbourSums::default()
+    }
+}
+
 /// Any shape: a mask per slot, view cones by their kind per slot.
 #[inline(always)]
 fn general<const GROUPS: bool>(buf: &CellBuf, q: &Query) -> NeighbourSums {
@@ -1266,6 +1391,47 @@ mod tests {
             b.g.push(g);
         }
         b
+    }
+
+    #[test]
+    fn vicsek_sums_through_the_flock_kernel_equal_the_vicsek_kernel_bit_for_bit() {
+        let mut rng = ChaCha8Rng::seed_from_u64(3);
+        let mut seen = 0;
+        for case in 0..300 {
+            let agents: Vec<Agent> = (0..3)
+                .map(|_| Agent {
+                    x: rng.random_range(-2.0..2.0),
+                    y: rng.random_range(-2.0..2.0),
+                    ..Agent::default()
+                })
+                .collect();
+            let m = rng.random_range(1..60);
+            let mut buf = buffer(&mut rng, m, &agents);
+            // Unit headings, in both places the two kernels read them from.
+            let n = buf.x.len();
+            (buf.hx, buf.hy) = (vec![0.0; n], vec![0.0; n]);
+            for k in 0..n {
+                let angle: f32 = rng.random_range(0.0..std::f32::consts::TAU);
+                let live = buf.x[k] != FAR;
+                let (h, v) = if live {
+                    (angle.cos(), angle.sin())
+                } else {
+                    (0.0, 0.0)
+                };
+                (buf.hx[k], buf.hy[k], buf.vx[k], buf.vy[k]) = (h, v, h, v);
+            }
+            let r: f32 = [1.0, 4.0, 9.0][case % 3];
+            let mut q = Query::of(&NeighbourSpec::default(), true);
+            q.vicsek_r_sq = r;
+            q.mode = VICSEK;
+            for a in &agents {
+                let q = q.at(a);
+                let (want, got) = (vicsek(&buf, &q), vicsek_in_motion(&buf, &q));
+                assert_eq!(bits(&got), bits(&want), "case {case}");
+                seen += usize::from(want.count > 1.0);
+            }
+        }
+        assert!(seen > 100, "{seen}");
     }
 
     #[test]
