@@ -120,12 +120,12 @@ fn the_model_is_kinematic_and_its_numbers_are_checked() {
     }
 }
 
-#[test]
-fn the_cell_batch_equals_the_scalar_reference_to_rounding() {
-    // On the grid the Vicsek plan runs in cell batches; on the k-d tree through the per-agent
-    // scalar traversal. The headings sum in another order, so the requests agree to rounding.
+/// Whether the steering requests of the worlds `make` builds, after 5 steps, agree within `tol`
+/// on the grid (cell batches) and on the k-d tree (the per-agent scalar traversal); returns how
+/// many requests are nonzero.
+fn batch_agrees_with_scalar(make: impl Fn() -> World, tol: f32) -> usize {
     let outputs = |kind: IndexKind| {
-        let mut w = world(3000, 0.7, 13);
+        let mut w = make();
         run(&mut w, 5);
         w.set_index(kind);
         let mut out = w.steering_outputs(1.0).unwrap();
@@ -133,12 +133,63 @@ fn the_cell_batch_equals_the_scalar_reference_to_rounding() {
         out
     };
     let (grid, kd) = (outputs(IndexKind::Grid), outputs(IndexKind::KdTree));
+    assert_eq!(grid.len(), kd.len());
     for ((id, g), (_, k)) in grid.iter().zip(&kd) {
         assert!(
-            (g.linear - k.linear).length() <= 1e-5,
+            (g.linear - k.linear).length() <= tol,
             "{id}: {:?} vs {:?}",
             g.linear,
             k.linear
         );
     }
+    grid.iter().filter(|(_, g)| g.linear.length() > 0.0).count()
+}
+
+#[test]
+fn the_cell_batch_equals_the_scalar_reference_to_rounding() {
+    // The headings sum in another order, so the requests agree to rounding.
+    let nonzero = batch_agrees_with_scalar(|| world(3000, 0.7, 13), 1e-5);
+    assert_eq!(nonzero, 3000);
+}
+
+#[test]
+fn beside_a_flock_the_cell_batch_equals_the_scalar_reference_to_rounding() {
+    // A Vicsek group and a flock in one world: the cell buffers hold velocities and headings,
+    // the Vicsek sums read the headings, the flock's sums the velocities.
+    let text = r#"
+name = "mixed"
+seed = 5
+dt = 1.0
+[world]
+kind = "torus"
+size = [40, 40]
+[[groups]]
+name = "particles"
+count = 1500
+spawn = { kind = "uniform" }
+model = "kinematic"
+initial_speed = 0.3
+max_speed = 0.3
+steering = { behaviours = [{ kind = "vicsek", radius = 1.5, noise = 0.8 }] }
+[[groups]]
+name = "boids"
+count = 1500
+spawn = { kind = "uniform" }
+initial_speed = 0.5
+max_speed = 0.5
+max_acceleration = 1
+steering = { behaviours = [
+  { kind = "separation", radius = 1, weight = 1.5 },
+  { kind = "alignment", radius = 2, weight = 1.0 },
+  { kind = "cohesion", radius = 2, weight = 0.8 },
+] }
+"#;
+    let make = || {
+        scenario::Scenario::from_toml(text, "mixed")
+            .unwrap()
+            .build()
+            .unwrap()
+    };
+    let nonzero = batch_agrees_with_scalar(make, 1e-4);
+    assert!(nonzero > 2500, "{nonzero}");
 }

@@ -12,9 +12,8 @@
 //! agents of one group, one term at a time in long vector loops, writing the outputs in the
 //! grid's order. Vicsek sums wait the same way; their turns (each agent's draw, computed from the
 //! frame's key without a per-agent generator), headings and the adapter then run over each run
-//! in lanes too. When every batched query is a Vicsek sum, the buffer holds the unit headings in
-//! the velocities' place and the flock's kernel sums them as alignment (the same masked additions
-//! in the same lanes as the Vicsek kernel, which the compiler vectorises worse). For a general
+//! in lanes too; the Vicsek sums themselves are the flock's kernel summing the unit headings as
+//! alignment sums. For a general
 //! plan with flocking terms (a "summed" group) the batch stores the sums alone, which the
 //! per-agent evaluation then reads instead of querying the neighbourhood.
 //!
@@ -97,9 +96,6 @@ struct CellBuf {
     /// Unit headings, gathered only for Vicsek batches.
     hx: Vec<f32>,
     hy: Vec<f32>,
-    /// Whether `vx` and `vy` hold the unit headings instead of the velocities (every batched
-    /// query is a Vicsek sum, so no kernel reads velocities).
-    headings_in_motion: bool,
 }
 
 thread_local! {
@@ -155,12 +151,22 @@ impl CellBuf {
     /// first, so the loop over blocks runs on one counter without bounds checks.
     #[inline(always)]
     fn blocks(&self) -> impl Iterator<Item = Block<'_>> {
+        self.blocks_of((&self.vx, &self.vy))
+    }
+
+    /// [`CellBuf::blocks`] with `motion` read in the velocities' place (the unit headings, for
+    /// Vicsek sums).
+    #[inline(always)]
+    fn blocks_of<'b>(
+        &'b self,
+        (mx, my): (&'b [f32], &'b [f32]),
+    ) -> impl Iterator<Item = Block<'b>> {
         let n = self.len;
         fn col(v: &[f32], n: usize) -> &[[f32; KLANES]] {
             v[..n].as_chunks::<KLANES>().0
         }
         let (x, y) = (col(&self.x, n), col(&self.y, n));
-        let (vx, vy, g) = (col(&self.vx, n), col(&self.vy, n), col(&self.g, n));
+        let (vx, vy, g) = (col(mx, n), col(my, n), col(&self.g, n));
         let m = x.len();
         let (y, vx, vy, g) = (&y[..m], &vx[..m], &vy[..m], &g[..m]);
         (0..m).map(move |k| (&x[k], &y[k], &vx[k], &vy[k], &g[k]))
@@ -500,8 +506,6 @@ fn chunk(
     let end = base + lx.len();
     let groups = specs.iter().flatten().any(Query::needs_groups);
     let headings = specs.iter().flatten().any(|q| q.mode == VICSEK);
-    // Only Vicsek sums: the headings take the velocities' place, and the flock's kernel sums them.
-    let headings = Headings::of(headings, specs.iter().flatten().all(|q| q.mode == VICSEK));
     runs.clear(lx.len());
     let mut out = Outputs {
         base,
@@ -802,11 +806,10 @@ fn gather(
     bounds: Bounds,
     cell: usize,
     groups: bool,
-    headings: Headings,
+    headings: bool,
     buf: &mut CellBuf,
 ) {
     buf.len = 0;
-    buf.headings_in_motion = headings == Headings::InMotion;
     let (nx, ny) = (grid.cells_x() as i64, grid.cells_y() as i64);
     let (cx, cy) = (cell as i64 % nx, cell as i64 / nx);
     let side = match bounds {
@@ -862,16 +865,11 @@ fn gather(
                     v.resize(need.max(MIN_CELL_BUF), 0.0);
                 }
             }
-            let motion = if headings == Headings::InMotion {
-                (&s.hx, &s.hy)
-            } else {
-                (&s.vx, &s.vy)
-            };
-            append_motion(buf, len, (s, motion), a, b, (shift_x, shift_y));
+            append_motion(buf, len, s, a, b, (shift_x, shift_y));
             if groups {
                 append(&mut buf.g, len, &s.g, a, b);
             }
-            if headings == Headings::Apart {
+            if headings {
                 append(&mut buf.hx, len, &s.hx, a, b);
                 append(&mut buf.hy, len, &s.hy, a, b);
             }
@@ -906,14 +904,13 @@ fn append(dst: &mut [f32], len: usize, src: &[f32], a: usize, b: usize) {
     }
 }
 
-/// [`append`] of the positions (plus `shift`) of `s[a..b]` and of `motion[a..b]` (their
-/// velocities, or their unit headings) into the buffer at `len`, the four in one loop over
-/// blocks.
+/// [`append`] of the positions (plus `shift`) and velocities of `s[a..b]` into the buffer at
+/// `len`, the four in one loop over blocks.
 #[inline(always)]
 fn append_motion(
     buf: &mut CellBuf,
     len: usize,
-    (s, (mx, my)): (&SortedCopies, (&Vec<f32>, &Vec<f32>)),
+    s: &SortedCopies,
     a: usize,
     b: usize,
     (shift_x, shift_y): (f32, f32),
@@ -926,7 +923,7 @@ fn append_motion(
     }
     let blocks = (b - a).div_ceil(LANES) * LANES;
     let (x, y) = (src(&s.x, a, blocks), src(&s.y, a, blocks));
-    let (vx, vy) = (src(mx, a, blocks), src(my, a, blocks));
+    let (vx, vy) = (src(&s.vx, a, blocks), src(&s.vy, a, blocks));
     let n = x.len();
     let (x, y, vx, vy) = (&x[..n], &y[..n], &vx[..n], &vy[..n]);
     let (tx, ty, tvx, tvy) = (
@@ -941,28 +938,6 @@ fn append_motion(
         ty[k] = y[k].map(|v| v + shift_y);
         tvx[k] = vx[k];
         tvy[k] = vy[k];
-    }
-}
-
-/// Which unit headings a cell buffer holds.
-#[derive(Clone, Copy, Debug, PartialEq, Eq)]
-enum Headings {
-    /// None: no batched query reads them.
-    No,
-    /// In `hx` and `hy`, beside the velocities.
-    Apart,
-    /// In `vx` and `vy`: every batched query is a Vicsek sum.
-    InMotion,
-}
-
-impl Headings {
-    /// The layout for batched queries of which some (`any`) or all (`all`) are Vicsek sums.
-    fn of(any: bool, all: bool) -> Headings {
-        match (any, all) {
-            (true, true) => Headings::InMotion,
-            (true, false) => Headings::Apart,
-            _ => Headings::No,
-        }
     }
 }
 
@@ -1117,7 +1092,6 @@ fn kernel_cell(buf: &CellBuf, q: &Query, agents: &[Agent], out: &mut [NeighbourS
         21 => each!(shared::<1, true, true>),
         22 => each!(shared::<2, true, true>),
         8 => each!(general::<false>),
-        VICSEK if buf.headings_in_motion => each!(vicsek_in_motion),
         VICSEK => each!(vicsek),
         _ => each!(general::<true>),
     }
@@ -1167,11 +1141,21 @@ fn shared<const CONE: u8, const GROUPS: bool, const Q_AC: bool>(
     buf: &CellBuf,
     q: &Query,
 ) -> NeighbourSums {
+    shared_over::<CONE, GROUPS, Q_AC>(buf, q, (&buf.vx, &buf.vy))
+}
+
+/// [`shared`] with `motion` summed as alignment's values in the velocities' place.
+#[inline(always)]
+fn shared_over<const CONE: u8, const GROUPS: bool, const Q_AC: bool>(
+    buf: &CellBuf,
+    q: &Query,
+    motion: (&[f32], &[f32]),
+) -> NeighbourSums {
     let z = [0.0_f32; KLANES];
     let (mut sx, mut sy, mut ax, mut ay, mut an, mut cx, mut cy, mut n) = (z, z, z, z, z, z, z, z);
     let (r_sep, r_ac, c2) = (q.r_sq[SEP], q.r_sq[ALI], q.c2[ALI]);
     let (sep_any, ac_any) = (q.any_group[SEP], q.any_group[ALI]);
-    for (xs, ys, vxs, vys, gs) in buf.blocks() {
+    for (xs, ys, vxs, vys, gs) in buf.blocks_of(motion) {
         for l in 0..KLANES {
             let dx = xs[l] - q.x;
             let dy = ys[l] - q.y;
@@ -1218,48 +1202,13 @@ fn shared<const CONE: u8, const GROUPS: bool, const Q_AC: bool>(
 }
 
 /// The Vicsek sum: the unit headings of every agent within the radius, the agent itself
-/// included (in `heading`), and their number (in `count`).
+/// included (in `heading`), and their number (in `count`). The flock's kernel with the headings
+/// in the velocities' place, alignment's radius the Vicsek radius, all round, any group, and
+/// separation off: its alignment sum and count are the masked sums of the headings and of ones
+/// over the neighbourhood in eight lanes (a kernel of its own, with three accumulators, came out
+/// of the compiler as pairs of lanes and took twice the instructions).
 #[inline(always)]
 fn vicsek(buf: &CellBuf, q: &Query) -> NeighbourSums {
-    let z = [0.0_f32; KLANES];
-    let (mut hx, mut hy, mut n) = (z, z, z);
-    // The four columns cut to one length, so the loop runs on one counter without bounds
-    // checks (as `CellBuf::blocks`).
-    let len = buf.len;
-    fn col(v: &[f32], len: usize) -> &[[f32; KLANES]] {
-        v[..len].as_chunks::<KLANES>().0
-    }
-    let xs = col(&buf.x, len);
-    let m = xs.len();
-    let (ys, hxs, hys) = (
-        &col(&buf.y, len)[..m],
-        &col(&buf.hx, len)[..m],
-        &col(&buf.hy, len)[..m],
-    );
-    for b in 0..m {
-        let (xs, ys, hxs, hys) = (&xs[b], &ys[b], &hxs[b], &hys[b]);
-        for l in 0..KLANES {
-            let dx = xs[l] - q.x;
-            let dy = ys[l] - q.y;
-            let seen = one_if(dx * dx + dy * dy <= q.vicsek_r_sq);
-            hx[l] += seen * hxs[l];
-            hy[l] += seen * hys[l];
-            n[l] += seen;
-        }
-    }
-    NeighbourSums {
-        heading: Vec2::new(tree_sum(&hx), tree_sum(&hy)),
-        count: tree_sum(&n),
-        ..NeighbourSums::default()
-    }
-}
-
-/// The Vicsek sum over a buffer whose `vx` and `vy` hold the unit headings: the flock's kernel
-/// with alignment's radius the Vicsek radius, all round, any group, and separation off. Its
-/// alignment sum and count are [`vicsek`]'s heading sum and count bit for bit (the same masked
-/// additions in the same lanes); the flock's kernel is the one the compiler vectorises best.
-#[inline(always)]
-fn vicsek_in_motion(buf: &CellBuf, q: &Query) -> NeighbourSums {
     let r = q.vicsek_r_sq;
     let flock = Query {
         r_sq: [-1.0, r, r],
@@ -1269,7 +1218,7 @@ fn vicsek_in_motion(buf: &CellBuf, q: &Query) -> NeighbourSums {
         any_group: [true; 3],
         ..*q
     };
-    let s = shared::<0, false, true>(buf, &flock);
+    let s = shared_over::<0, false, true>(buf, &flock, (&buf.hx, &buf.hy));
     NeighbourSums {
         heading: s.alignment,
         count: s.count,
@@ -1393,8 +1342,27 @@ mod tests {
         b
     }
 
+    /// The Vicsek sums as eight lanes of plain scalar additions, each lane's in buffer order,
+    /// the lanes then summed as the kernels sum them.
+    fn vicsek_lanes(buf: &CellBuf, a: &Agent, r_sq: f32) -> NeighbourSums {
+        let (mut hx, mut hy, mut n) = ([0.0f32; KLANES], [0.0f32; KLANES], [0.0f32; KLANES]);
+        for k in 0..buf.len {
+            let (dx, dy) = (buf.x[k] - a.x, buf.y[k] - a.y);
+            if dx * dx + dy * dy <= r_sq {
+                hx[k % KLANES] += buf.hx[k];
+                hy[k % KLANES] += buf.hy[k];
+                n[k % KLANES] += 1.0;
+            }
+        }
+        NeighbourSums {
+            heading: Vec2::new(tree_sum(&hx), tree_sum(&hy)),
+            count: tree_sum(&n),
+            ..NeighbourSums::default()
+        }
+    }
+
     #[test]
-    fn vicsek_sums_through_the_flock_kernel_equal_the_vicsek_kernel_bit_for_bit() {
+    fn vicsek_sums_through_the_flock_kernel_equal_the_scalar_lanes_bit_for_bit() {
         let mut rng = ChaCha8Rng::seed_from_u64(3);
         let mut seen = 0;
         for case in 0..300 {
@@ -1407,27 +1375,21 @@ mod tests {
                 .collect();
             let m = rng.random_range(1..60);
             let mut buf = buffer(&mut rng, m, &agents);
-            // Unit headings, in both places the two kernels read them from.
+            // Unit headings; the velocities differ, and no sum may read them.
             let n = buf.x.len();
             (buf.hx, buf.hy) = (vec![0.0; n], vec![0.0; n]);
-            for k in 0..n {
+            for k in 0..n.min(m) {
                 let angle: f32 = rng.random_range(0.0..std::f32::consts::TAU);
-                let live = buf.x[k] != FAR;
-                let (h, v) = if live {
-                    (angle.cos(), angle.sin())
-                } else {
-                    (0.0, 0.0)
-                };
-                (buf.hx[k], buf.hy[k], buf.vx[k], buf.vy[k]) = (h, v, h, v);
+                (buf.hx[k], buf.hy[k]) = (angle.cos(), angle.sin());
             }
-            let r: f32 = [1.0, 4.0, 9.0][case % 3];
+            let r_sq: f32 = [1.0, 4.0, 9.0][case % 3];
             let mut q = Query::of(&NeighbourSpec::default(), true);
-            q.vicsek_r_sq = r;
-            q.mode = VICSEK;
-            for a in &agents {
-                let q = q.at(a);
-                let (want, got) = (vicsek(&buf, &q), vicsek_in_motion(&buf, &q));
-                assert_eq!(bits(&got), bits(&want), "case {case}");
+            (q.vicsek_r_sq, q.mode) = (r_sq, VICSEK);
+            let mut out = vec![NeighbourSums::default(); agents.len()];
+            kernel_cell(&buf, &q, &agents, &mut out);
+            for (a, got) in agents.iter().zip(&out) {
+                let want = vicsek_lanes(&buf, a, r_sq);
+                assert_eq!(bits(got), bits(&want), "case {case}: {got:?} vs {want:?}");
                 seen += usize::from(want.count > 1.0);
             }
         }
