@@ -1057,12 +1057,37 @@ impl Query {
     "x86_64+avx"
 ))]
 fn kernel_cell(buf: &CellBuf, q: &Query, agents: &[Agent], out: &mut [NeighbourSums]) {
-    #[target_cfg(all(target_arch = "x86_64", target_feature = "avx512f"))]
-    #[target_feature(enable = "avx512f,avx512dq,avx512vl,avx2,fma")]
+    // Also true in every version when the build itself targets a CPU with AVX-512 (`-C
+    // target-cpu=native` on such a machine): the binary then runs only where it is present.
+    #[target_cfg(all(
+        target_arch = "x86_64",
+        target_feature = "avx512f",
+        target_feature = "avx512dq",
+        target_feature = "avx512vl",
+        target_feature = "avx2",
+        target_feature = "fma"
+    ))]
+    #[expect(
+        unsafe_code,
+        reason = "a call to a `#[target_feature]` function from a function that does not list \
+                  the features; it has them, from its target or from the build's (without the \
+                  block, a build with `-C target-cpu=native` on an AVX-512 machine fails)"
+    )]
     fn pairs(buf: &CellBuf, q: &Query, agents: &[Agent], out: &mut [NeighbourSums]) -> usize {
-        avx512::pairs(buf, q, agents, out)
+        // SAFETY: this function is compiled only where AVX-512F, DQ and VL, AVX2 and FMA are
+        // enabled (in the version for multiversion's AVX-512 target, chosen at run time only
+        // where the processor has them, or in every version of a build whose own target has
+        // them): the features `avx512::pairs` needs.
+        unsafe { avx512::pairs(buf, q, agents, out) }
     }
-    #[target_cfg(not(all(target_arch = "x86_64", target_feature = "avx512f")))]
+    #[target_cfg(not(all(
+        target_arch = "x86_64",
+        target_feature = "avx512f",
+        target_feature = "avx512dq",
+        target_feature = "avx512vl",
+        target_feature = "avx2",
+        target_feature = "fma"
+    )))]
     fn pairs(_: &CellBuf, _: &Query, _: &[Agent], _: &mut [NeighbourSums]) -> usize {
         0
     }
