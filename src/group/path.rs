@@ -1,8 +1,10 @@
 //! Paths (polylines, open or looping, with a radius) and Reynolds' path following.
 //!
 //! A [`Path`] is validated on construction (at least two finite points, a positive total length, a
-//! finite radius >= 0) and keeps the cumulative arc length at every point, so projecting a point
-//! costs one pass over the segments and [`Path::point_at`] one binary search. Arc lengths lie in
+//! finite radius >= 0) and keeps the cumulative arc length at every point and, for paths of more
+//! than 16 segments, a grid listing per cell the segments that can be nearest there: projecting a
+//! point near the path reads a few segments, elsewhere one pass over all of them in lanes, with
+//! the same result either way; [`Path::point_at`] is one binary search. Arc lengths lie in
 //! `[0, length]`; on a looping path they are taken modulo the length. Paths live in world
 //! coordinates and are not wrapped on a torus: keep them inside the world.
 
@@ -47,6 +49,8 @@ pub struct Path {
     cumulative: Vec<f32>,
     /// The segments in lanes, for [`Path::project`].
     lanes: SegmentLanes,
+    /// The segments that can be nearest, per cell around the path, for [`Path::project`].
+    grid: SegmentGrid,
 }
 
 /// Lanes per block of segments in [`Path::project`].
@@ -91,6 +95,182 @@ struct SegmentBlock {
     abx: [Vec4; LANES / 4],
     aby: [Vec4; LANES / 4],
     len_sq: [Vec4; LANES / 4],
+}
+
+/// The squared distance from `p` to the segment from `a` along `ab` (`len_sq` its squared
+/// length) and the nearest point's parameter: [`SegmentBlock::distances`] for one lane, the
+/// same operations in the same order.
+#[inline]
+fn segment_distance(a: Vec2, ab: Vec2, len_sq: f32, p: Vec2) -> (f32, f32) {
+    let q = ((p.x - a.x) * ab.x + (p.y - a.y) * ab.y) / len_sq;
+    let q = if q < 0.0 { 0.0 } else { q };
+    let q = if q > 1.0 { 1.0 } else { q };
+    let t = if len_sq > 0.0 { q } else { 0.0 };
+    let (dx, dy) = ((a.x + ab.x * t) - p.x, (a.y + ab.y * t) - p.y);
+    (dx * dx + dy * dy, t)
+}
+
+/// Segments to try first in [`Path::project`]: a grid of square cells over the path's bounding
+/// box widened by half its larger side, each cell listing (in segment order) every segment that
+/// can be the nearest one, or tie with it, for some point of the cell.
+///
+/// Invariant: for any query point `p` whose cell is found by [`SegmentGrid::candidates`], a
+/// segment left out of that cell's list is farther from `p`, as `project` computes distances in
+/// `f32`, than some listed one. A segment `s` is listed when `d(c, s) <= min_s' d(c, s') + 2h +
+/// margin`, with `c` the centre of the cell widened by a rounding allowance and `h` its half
+/// diagonal: a left-out segment is then more than `margin` farther from every point of the cell
+/// than the segment nearest the centre (triangle inequality), and `margin` (1e-5 of the largest
+/// coordinate in the grid plus the distances) is ten times the rounding of an `f32` distance. So the projection from the
+/// candidates is the one over all segments, bit for bit, ties to the earlier segment included.
+#[derive(Clone, Debug, Default, PartialEq)]
+struct SegmentGrid {
+    /// The lower corner of the grid.
+    origin: Vec2,
+    /// One over a cell's side.
+    inv_side: f32,
+    /// Cells along x and y (0: no grid, every query searches all segments).
+    nx: u32,
+    ny: u32,
+    /// Cell `c` lists `segments[starts[c]..starts[c + 1]]`.
+    starts: Vec<u32>,
+    segments: Vec<Listed>,
+}
+
+/// A segment in a [`SegmentGrid`] cell's list: its number, start, direction and squared
+/// length, read in one place.
+#[derive(Clone, Copy, Debug, PartialEq)]
+struct Listed {
+    a: Vec2,
+    ab: Vec2,
+    len_sq: f32,
+    k: u32,
+}
+
+/// Paths of at most this many segments search them all (one or two blocks of lanes).
+const GRID_MIN_SEGMENTS: usize = 2 * LANES;
+/// At most this many cells.
+const GRID_MAX_CELLS: usize = 4096;
+/// At most this many segments listed per cell on average (beyond that, no grid).
+const GRID_MAX_LISTED: usize = 32;
+/// At most this many cell-segment distances to build a grid (a longer path gets fewer, larger
+/// cells; beyond `GRID_MAX_CELLS * 64` segments, none).
+const GRID_BUILD_BUDGET: usize = 1 << 24;
+
+impl SegmentGrid {
+    /// The grid of the segments `a + t ab` (`t` in [0, 1]) given as `(a, ab)`, or no grid (a
+    /// short path, one too long to index within the build budget, or coordinates whose grid
+    /// would not be finite in `f32`).
+    fn build(segments: &[(Vec2, Vec2)]) -> SegmentGrid {
+        let n = segments.len();
+        let cells = (GRID_BUILD_BUDGET / n.max(1)).min(GRID_MAX_CELLS);
+        if n <= GRID_MIN_SEGMENTS || cells < 64 {
+            return SegmentGrid::default();
+        }
+        let (mut lo, mut hi) = ([f64::INFINITY; 2], [f64::NEG_INFINITY; 2]);
+        for &(a, ab) in segments {
+            for q in [a, a + ab] {
+                for (d, v) in [f64::from(q.x), f64::from(q.y)].into_iter().enumerate() {
+                    lo[d] = lo[d].min(v);
+                    hi[d] = hi[d].max(v);
+                }
+            }
+        }
+        let pad = 0.5 * (hi[0] - lo[0]).max(hi[1] - lo[1]);
+        let (w, h) = (hi[0] - lo[0] + 2.0 * pad, hi[1] - lo[1] + 2.0 * pad);
+        let side = (w * h / cells as f64).sqrt().max(w.max(h) / 64.0);
+        let origin = [lo[0] - pad, lo[1] - pad];
+        let (nx, ny) = ((w / side).ceil().max(1.0), (h / side).ceil().max(1.0));
+        // The largest coordinate of any point in the grid, of a query or of a segment.
+        let scale = [origin[0], origin[1], origin[0] + w, origin[1] + h]
+            .into_iter()
+            .fold(0.0_f64, |m, v| m.max(v.abs()));
+        let origin32 = Vec2::new(origin[0] as f32, origin[1] as f32);
+        let inv_side = (1.0 / side) as f32;
+        let far = Vec2::new((origin[0] + w) as f32, (origin[1] + h) as f32);
+        let finite = origin32.is_finite() && far.is_finite() && scale.is_finite();
+        if !(finite && inv_side.is_finite() && inv_side > 0.0) {
+            return SegmentGrid::default();
+        }
+        // The cell a point falls in is computed in f32: widen each cell for that rounding.
+        let slack = 1e-3 * side + 1e-6 * scale;
+        let half_diagonal = std::f64::consts::SQRT_2 * (0.5 * side + slack);
+        let (nx, ny) = (nx as usize, ny as usize);
+        let mut starts = Vec::with_capacity(nx * ny + 1);
+        let mut listed = Vec::new();
+        let mut dist = vec![0.0_f64; n];
+        starts.push(0);
+        for cy in 0..ny {
+            for cx in 0..nx {
+                let c = [
+                    origin[0] + (cx as f64 + 0.5) * side,
+                    origin[1] + (cy as f64 + 0.5) * side,
+                ];
+                let mut nearest = f64::INFINITY;
+                for (d, &(a, ab)) in dist.iter_mut().zip(segments) {
+                    *d = distance_f64(c, a, ab);
+                    nearest = nearest.min(*d);
+                }
+                // An f32 distance from `project` is within a few ulps of the largest coordinate
+                // and of itself (about 1e-6 of them): the margin is ten times that, for both
+                // distances compared.
+                let margin = 1e-5 * (scale + nearest + 2.0 * half_diagonal);
+                let reach = nearest + 2.0 * half_diagonal + margin;
+                listed.extend((0..n).filter(|&k| dist[k] <= reach).map(|k| {
+                    let (a, ab) = segments[k];
+                    Listed {
+                        a,
+                        ab,
+                        len_sq: ab.length_squared(),
+                        k: k as u32,
+                    }
+                }));
+                starts.push(listed.len() as u32);
+                if listed.len() > GRID_MAX_LISTED * nx * ny {
+                    // Segments so dense that a cell would list many: no gain over lanes.
+                    return SegmentGrid::default();
+                }
+            }
+        }
+        SegmentGrid {
+            origin: origin32,
+            inv_side,
+            nx: nx as u32,
+            ny: ny as u32,
+            starts,
+            segments: listed,
+        }
+    }
+
+    /// The segments that can be nearest to `p`, or `None` outside the grid (or without one).
+    #[inline]
+    fn candidates(&self, p: Vec2) -> Option<&[Listed]> {
+        let fx = (p.x - self.origin.x) * self.inv_side;
+        let fy = (p.y - self.origin.y) * self.inv_side;
+        // Also false for a NaN.
+        if !(fx >= 0.0 && fy >= 0.0 && fx < self.nx as f32 && fy < self.ny as f32) {
+            return None;
+        }
+        let cx = (fx as u32).min(self.nx - 1);
+        let cy = (fy as u32).min(self.ny - 1);
+        let c = (cy * self.nx + cx) as usize;
+        Some(&self.segments[self.starts[c] as usize..self.starts[c + 1] as usize])
+    }
+}
+
+/// The distance from `c` to the segment `a + t ab`, `t` in [0, 1], in `f64` (whose range holds
+/// the square of any `f32`).
+fn distance_f64(c: [f64; 2], a: Vec2, ab: Vec2) -> f64 {
+    let (ax, ay) = (f64::from(a.x), f64::from(a.y));
+    let (bx, by) = (f64::from(a.x + ab.x), f64::from(a.y + ab.y));
+    let (ux, uy) = (bx - ax, by - ay);
+    let len_sq = ux * ux + uy * uy;
+    let t = if len_sq > 0.0 {
+        (((c[0] - ax) * ux + (c[1] - ay) * uy) / len_sq).clamp(0.0, 1.0)
+    } else {
+        0.0
+    };
+    let (dx, dy) = (ax + ux * t - c[0], ay + uy * t - c[1]);
+    (dx * dx + dy * dy).sqrt()
 }
 
 /// Where a point projects onto a path.
@@ -173,6 +353,7 @@ impl Path {
             looped,
             cumulative,
             lanes: SegmentLanes::default(),
+            grid: SegmentGrid::default(),
         };
         let mut blocks = vec![SegmentBlock::default(); path.segments().div_ceil(LANES)];
         for (k, block) in blocks.iter_mut().enumerate() {
@@ -191,6 +372,13 @@ impl Path {
             }
         }
         path.lanes = SegmentLanes { blocks };
+        let segments: Vec<(Vec2, Vec2)> = (0..path.segments())
+            .map(|k| {
+                let (a, b) = path.segment(k);
+                (a, b - a)
+            })
+            .collect();
+        path.grid = SegmentGrid::build(&segments);
         Ok(path)
     }
 
@@ -230,6 +418,11 @@ impl Path {
     #[must_use]
     pub fn normalize_arc(&self, arc: f32) -> f32 {
         let len = self.length();
+        // Already in range: what both forms below give, bit for bit (`-0.0` included), without
+        // the remainder's division.
+        if (0.0..len).contains(&arc) {
+            return arc;
+        }
         if self.looped {
             let a = arc.rem_euclid(len);
             if a >= len { 0.0 } else { a }
@@ -277,16 +470,28 @@ impl Path {
     /// the earlier segment, so the result is deterministic.
     #[must_use]
     pub fn project(&self, p: Vec2) -> Projection {
-        // Eight segments at a time: the same operations as the scalar form (`project_scalar`
-        // in the tests) in lanes, then the first strictly nearest in segment order.
+        // Around the path, the grid's candidates one at a time; elsewhere every segment, eight
+        // at a time in lanes. Both by the scalar form's operations (`project_scalar` in the
+        // tests), then the first strictly nearest in segment order.
         let mut best_sq = f32::INFINITY;
         let mut best: Option<(usize, f32)> = None;
-        for (b, block) in self.lanes.blocks.iter().enumerate() {
-            let (d, t) = block.distances(p);
-            for k in 0..LANES {
-                if d[k] < best_sq {
-                    best_sq = d[k];
-                    best = Some((b * LANES + k, t[k]));
+        if let Some(candidates) = self.grid.candidates(p) {
+            // The segments that can be nearest here, in segment order (see `SegmentGrid`).
+            for c in candidates {
+                let (d, t) = segment_distance(c.a, c.ab, c.len_sq, p);
+                if d < best_sq {
+                    best_sq = d;
+                    best = Some((c.k as usize, t));
+                }
+            }
+        } else {
+            for (b, block) in self.lanes.blocks.iter().enumerate() {
+                let (d, t) = block.distances(p);
+                for k in 0..LANES {
+                    if d[k] < best_sq {
+                        best_sq = d[k];
+                        best = Some((b * LANES + k, t[k]));
+                    }
                 }
             }
         }
@@ -490,6 +695,138 @@ mod tests {
                     bits(project_scalar(&path, p)),
                     "path of {n} points, looped {looped}, query {p}"
                 );
+            }
+        }
+    }
+
+    /// The projection over every segment in lanes, without the grid.
+    fn project_all(path: &Path, p: Vec2) -> Projection {
+        let without = Path {
+            grid: SegmentGrid::default(),
+            ..path.clone()
+        };
+        without.project(p)
+    }
+
+    #[test]
+    fn the_grid_s_candidates_give_the_projection_over_all_segments_bit_for_bit() {
+        let mut rng = crate::rng::AgentRng::new(11, 0, 0, 0);
+        let (mut listed, mut queries, mut segments) = (0_usize, 0_usize, 0_usize);
+        for (n, looped, scale, offset) in [
+            (18, false, 50.0, 0.0),
+            (24, true, 150.0, 0.0),
+            (60, false, 1.0, 0.0),
+            (200, true, 1000.0, 0.0),
+            (40, false, 1e6, 0.0),
+            (33, true, 1e-3, 0.0),
+            // Far from the origin, where an f32 ulp is a large part of a segment.
+            (50, false, 3.0, 1e7),
+            (50, true, 0.5, -3e6),
+        ] {
+            // A random walk (segments of similar length, some crossing), with repeated points
+            // (zero-length segments, and exact ties between segments).
+            let mut at = Vec2::splat(offset);
+            let mut points: Vec<Vec2> = (0..n)
+                .map(|_| {
+                    at += Vec2::new(rng.signed(), rng.signed()) * scale;
+                    at
+                })
+                .collect();
+            points[n / 2] = points[0];
+            points[n / 3] = points[n / 3 - 1];
+            let path = Path::new(points, 2.0, looped).unwrap();
+            // (Far from the origin, the margin lists every segment, and no grid pays.)
+            assert!(
+                path.grid.nx > 0 || offset != 0.0,
+                "a path of {n} segments has a grid"
+            );
+            let (lo, hi) = path
+                .points()
+                .iter()
+                .fold((Vec2::INFINITY, Vec2::NEG_INFINITY), |(lo, hi), &p| {
+                    (lo.min(p), hi.max(p))
+                });
+            let size = hi - lo;
+            for q in 0..2000 {
+                let u = Vec2::new(rng.unit(), rng.unit());
+                let p = match q % 5 {
+                    // On and near the path, on cell edges' scale.
+                    0 => {
+                        path.points()[q % n] + Vec2::new(rng.signed(), rng.signed()) * 1e-3 * scale
+                    }
+                    1 => path.point_at(rng.unit() * path.length()),
+                    // Anywhere in the grid, and beyond it.
+                    2 | 3 => lo - size + u * 3.0 * size,
+                    _ => lo + u * size,
+                };
+                let got = path.project(p);
+                assert_eq!(
+                    bits(got),
+                    bits(project_all(&path, p)),
+                    "path of {n} points, looped {looped}, query {p}"
+                );
+                assert_eq!(bits(got), bits(project_scalar(&path, p)));
+                if let Some(c) = path.grid.candidates(p)
+                    && offset == 0.0
+                {
+                    listed += c.len();
+                    queries += 1;
+                    segments += path.segments();
+                }
+            }
+        }
+        // The grid is what answers most queries, with a small part of the segments each.
+        assert!(queries > 6000, "{queries} queries in the grid");
+        let mean = listed as f64 / queries as f64;
+        assert!(
+            mean < 0.25 * segments as f64 / queries as f64,
+            "{mean} candidates per query"
+        );
+    }
+
+    #[test]
+    fn short_paths_very_long_ones_and_dense_ones_search_every_segment() {
+        let line = |n: usize, scale: f32| {
+            let points = (0..n).map(|k| Vec2::new(k as f32, (k % 2) as f32) * scale);
+            Path::new(points.collect(), 1.0, false).unwrap()
+        };
+        assert_eq!(line(17, 1.0).grid.nx, 0, "16 segments: no grid");
+        assert!(line(18, 1.0).grid.nx > 0);
+        // Too long to index within the build budget.
+        let long = line(GRID_BUILD_BUDGET / 63, 1.0);
+        assert_eq!(long.grid.nx, 0);
+        let p = Vec2::new(1e5, 3.0);
+        assert_eq!(bits(long.project(p)), bits(project_scalar(&long, p)));
+        // So dense that cells would list many segments each: a scribble in a unit square.
+        let mut rng = crate::rng::AgentRng::new(3, 0, 0, 0);
+        let points = (0..2000).map(|_| Vec2::new(rng.unit(), rng.unit()));
+        let scribble = Path::new(points.collect(), 0.1, true).unwrap();
+        assert_eq!(scribble.grid.nx, 0);
+        let p = Vec2::new(0.3, 0.6);
+        assert_eq!(
+            bits(scribble.project(p)),
+            bits(project_scalar(&scribble, p))
+        );
+    }
+
+    #[test]
+    fn arcs_in_range_are_normalised_to_themselves_as_the_remainder_gives_them() {
+        for looped in [false, true] {
+            let path = Path::new(
+                vec![Vec2::ZERO, Vec2::new(3.0, 0.0), Vec2::new(3.0, 7.1)],
+                1.0,
+                looped,
+            )
+            .unwrap();
+            let len = path.length();
+            for arc in [-0.0, 0.0, 1e-30, 1.5, len * 0.999_999, len, len * 1.5, -2.0] {
+                let slow = if looped {
+                    let a = arc.rem_euclid(len);
+                    if a >= len { 0.0 } else { a }
+                } else {
+                    arc.clamp(0.0, len)
+                };
+                assert_eq!(path.normalize_arc(arc).to_bits(), slow.to_bits(), "{arc}");
             }
         }
     }
