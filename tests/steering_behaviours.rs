@@ -355,7 +355,14 @@ fn assert_plan_equals_the_general_loop(
                     mass: 1.5,
                     ..GroupParams::dynamic(profile)
                 };
-                let mut b = World::builder().bounds(bounds).seed(4).group(g);
+                // A looping path for behaviours that follow one: 30 points on an ellipse,
+                // enough segments for the projection's grid of candidates.
+                let ellipse = (0..30).map(|k| {
+                    let a = k as f32 * std::f32::consts::TAU / 30.0;
+                    Vec2::new(40.0 + 30.0 * a.cos(), 30.0 + 20.0 * a.sin())
+                });
+                let path = throng::group::Path::new(ellipse.collect(), 3.0, true).unwrap();
+                let mut b = World::builder().bounds(bounds).seed(4).group(g).path(path);
                 let mut rng = throng::rng::AgentRng::new(4, 0, 0, 3);
                 for k in 0..203 {
                     let p = Vec2::new(rng.unit() * 80.0, rng.unit() * 60.0);
@@ -458,6 +465,21 @@ fn the_wander_plan_equals_the_general_loop_bit_for_bit() {
         // Kinematic wander turns its agents.
         OrientationMode::Integrate,
     );
+}
+
+#[test]
+fn the_follow_path_plan_equals_the_general_loop_bit_for_bit() {
+    // A lone follow_path runs without the general loop's dispatch; half the agents go each
+    // way, and those beyond the path's radius seek a point ahead.
+    assert_lane_plan_equals_the_general_loop(Behaviour::FollowPath {
+        path: throng::group::PathId(0),
+        params: throng::group::PathFollowParams {
+            predict_time: 0.4,
+            lead_distance: 5.0,
+            direction: throng::group::PathDirection::Alternate,
+            time_to_target: 0.3,
+        },
+    });
 }
 
 #[test]

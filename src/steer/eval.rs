@@ -100,7 +100,14 @@ pub(crate) fn evaluate(v: &SteerView, me: &Me, b: &Behaviour, d: &mut Draws) -> 
         Behaviour::Containment { margin, lookahead } => containment(v, me, margin, lookahead),
         Behaviour::AntiGravity => anti_gravity(v, me),
         Behaviour::AntiGravitySeek { target } => anti_gravity_seek(v, me, target),
-        Behaviour::FollowPath { path, params } => follow_path(v, me, path, &params),
+        Behaviour::FollowPath { path, params } => follow_path(
+            v,
+            me.i,
+            (me.position, me.velocity, me.max_speed),
+            &me.adapter,
+            path,
+            &params,
+        ),
         Behaviour::FollowLeader { leader, params } => follow_leader(v, me, leader, &params),
         Behaviour::KeepFormation { params } => keep_formation(v, me, &params),
         Behaviour::Jump {
@@ -430,21 +437,29 @@ fn anti_gravity_seek(v: &SteerView, me: &Me, t: Target) -> Steering {
     Steering::linear(me.adapter.toward(desired, me.velocity))
 }
 
-fn follow_path(v: &SteerView, me: &Me, path: PathId, params: &PathFollowParams) -> Steering {
+/// Agent `i`'s `follow_path` request (its position, velocity and maximum speed given): the
+/// general plan's evaluation and the `FollowPath` plan's.
+pub(crate) fn follow_path(
+    v: &SteerView,
+    i: usize,
+    (position, velocity, max_speed): (Vec2, Vec2, f32),
+    adapter: &Adapter,
+    path: PathId,
+    params: &PathFollowParams,
+) -> Steering {
     let Some(path) = v.group_movement.paths.get(path.0 as usize) else {
         return Steering::ZERO;
     };
-    let id = v.agents.ids[me.i];
+    let id = v.agents.ids[i];
     let desired = group::follow_path(
-        me.position,
-        me.velocity,
+        position,
+        velocity,
         path,
         params.direction.sign(id.0),
-        me.max_speed,
+        max_speed,
         params,
     );
-    me.adapter
-        .towards(desired, me.velocity, params.time_to_target)
+    adapter.towards(desired, velocity, params.time_to_target)
 }
 
 /// The frame of agent `j` as seen from `position` (nearest image on a torus), and its velocity.

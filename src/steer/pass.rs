@@ -3,7 +3,7 @@
 //! [`run`] evaluates each agent by its group's [`Plan`]: flocking-only plans in cell batches
 //! through the grid kernel when the uniform grid is ready ([`super::cells`]); a lone seek,
 //! arrive or wander eight agents at a time in lanes; everything else per agent
-//! ([`steer_agent`]: the flocking and flow-field plans without dispatch, the general plan by
+//! ([`steer_agent`]: the flocking, flow-field and path plans without dispatch, the general plan by
 //! [`evaluate`] over the profile's behaviours and their combination, over neighbour sums the
 //! cell batch computed for it when the plan has flocking terms the batch serves).
 //!
@@ -512,6 +512,23 @@ fn steer_agent_with(
             );
             // The general loop's sum without its dispatch (0 + f w, as there).
             let total = Steering::linear(glam::Vec2::ZERO + f * weight);
+            (adapter.finish(total), a.wander[i], 0.0)
+        }
+        PlanKind::FollowPath {
+            path,
+            params,
+            weight,
+        } => {
+            let s = eval::follow_path(
+                v,
+                i,
+                (a.position(i), velocity, a.max_speed[i]),
+                &adapter,
+                path,
+                &params,
+            );
+            // The general loop's sum without its dispatch (0 + s w, as there).
+            let total = Steering::ZERO + s.scaled(weight);
             (adapter.finish(total), a.wander[i], 0.0)
         }
         PlanKind::Wander { params, weight } => {

@@ -111,6 +111,16 @@ pub(crate) enum PlanKind {
         /// The behaviour's weight.
         weight: f32,
     },
+    /// One `follow_path` alone in a weighted sum: the behaviour itself per agent, without the
+    /// general loop's dispatch (no neighbour sums, no random stream).
+    FollowPath {
+        /// The path.
+        path: crate::group::PathId,
+        /// Prediction, lead and direction.
+        params: crate::group::PathFollowParams,
+        /// The behaviour's weight.
+        weight: f32,
+    },
     /// One `vicsek` alone in a weighted sum. Evaluated in cell batches when the grid is ready.
     Vicsek {
         /// The noise width, radians.
@@ -286,6 +296,15 @@ impl Plan {
             && profile.steering.combine == Combine::WeightedSum
         {
             PlanKind::Wander {
+                params,
+                weight: w.weight,
+            }
+        } else if let [w] = &profile.steering.behaviours[..]
+            && let Behaviour::FollowPath { path, params } = w.behaviour
+            && profile.steering.combine == Combine::WeightedSum
+        {
+            PlanKind::FollowPath {
+                path,
                 params,
                 weight: w.weight,
             }
