@@ -67,9 +67,15 @@ pub(crate) struct PassScratch {
 pub(crate) fn run(view: &SteerView, out: &mut SteerOut, scratch: &mut PassScratch, parallel: bool) {
     let batched = cells::run(view, &mut scratch.cells, parallel);
     let all = batched && (0..view.plans.len()).all(|g| cells::is_batched_group(view, g));
-    // The batch turns nobody and leaves wander angles as they are: with every agent batched,
-    // neither output is written (the step reads neither then).
-    (out.angular, out.wandered) = (!all, !all);
+    // The batch and the seek and arrive lanes turn nobody and leave wander angles as they are:
+    // with every agent served by them, neither output is written (the step reads neither then).
+    let still = (0..view.plans.len()).all(|g| {
+        matches!(
+            view.plans[g].kind,
+            PlanKind::Seek { .. } | PlanKind::Arrive { .. }
+        ) || (batched && cells::is_batched_group(view, g))
+    });
+    (out.angular, out.wandered) = (!still, !still);
     let kernel = |base: usize,
                   lx: &mut [f32],
                   ly: &mut [f32],
@@ -94,7 +100,7 @@ pub(crate) fn run(view: &SteerView, out: &mut SteerOut, scratch: &mut PassScratc
                     let run = groups[k..].iter().take_while(|&&h| h as usize == g).count();
                     for s in (k..k + run).step_by(LANES) {
                         seekers.fill(view, g, base + s, LANES.min(k + run - s));
-                        seekers.flush(view, (lx, ly, an, wa, nb), base);
+                        seekers.flush(view, (lx, ly, an, wa, nb), base, !still);
                     }
                     run
                 }
@@ -190,8 +196,16 @@ impl SeekLanes {
         (self.tx, self.ty) = ([point.x; LANES], [point.y; LANES]);
     }
 
-    /// Evaluates the filled lanes and writes their outputs into the chunks starting at `base`.
-    fn flush(&mut self, view: &SteerView, (lx, ly, an, wa, nb): cells::OutChunks, base: usize) {
+    /// Evaluates the filled lanes and writes their outputs into the chunks starting at `base`
+    /// (the angular outputs and wander angles only when `turns`: some agent of the frame may
+    /// turn or wander, so the step reads them).
+    fn flush(
+        &mut self,
+        view: &SteerView,
+        (lx, ly, an, wa, nb): cells::OutChunks,
+        base: usize,
+        turns: bool,
+    ) {
         let plan = &view.plans[self.group];
         let kinematic = plan.adapter.kinematic;
         let (tx, ty) = match plan.kind {
@@ -207,9 +221,11 @@ impl SeekLanes {
         let (n, k0) = (self.len, self.first - base);
         take(&mut lx[k0..], &ox, n);
         take(&mut ly[k0..], &oy, n);
-        take(&mut an[k0..], &[0.0; LANES], n);
         take(&mut nb[k0..], &[0.0; LANES], n);
-        wa[k0..k0 + n].copy_from_slice(&view.agents.wander[self.first..self.first + n]);
+        if turns {
+            take(&mut an[k0..], &[0.0; LANES], n);
+            wa[k0..k0 + n].copy_from_slice(&view.agents.wander[self.first..self.first + n]);
+        }
         self.len = 0;
     }
 }
