@@ -144,6 +144,50 @@ fn formation_world(shape: FormationShape, members: usize) -> (World, FormationId
     (w, f)
 }
 
+/// A lone `keep_formation` runs as a plan of its own; with an angular-only behaviour beside it
+/// the same request goes through the general loop. Both give the same bits, through a right
+/// angle turn of the anchor and in both movement models.
+#[test]
+fn the_keep_formation_plan_equals_the_general_loop_bit_for_bit() {
+    for kinematic in [false, true] {
+        let run = |general: bool| {
+            let (mut w, _) = formation_world(FormationShape::Wedge, 9);
+            if general || kinematic {
+                let mut profile = SteeringProfile::single(Behaviour::KeepFormation {
+                    params: SlotParams::default(),
+                });
+                if general {
+                    profile = profile.with(
+                        Behaviour::LookWhereYouAreGoing {
+                            params: Default::default(),
+                        },
+                        1.0,
+                    );
+                }
+                let mut g = w.groups()[1].clone();
+                g.steering = profile;
+                if kinematic {
+                    g.model = MovementModel::Kinematic;
+                }
+                w.set_group_params(1, g).unwrap();
+            }
+            let mut states = Vec::new();
+            for step in 0..150 {
+                if step == 60 {
+                    w.set_target(AgentId(0), Vec2::new(100.0, 1000.0)).unwrap();
+                }
+                w.step(DT).unwrap();
+                states.extend((0..w.len()).map(|i| {
+                    let s = w.agent(w.agents().id(i)).unwrap();
+                    [s.position, s.velocity].map(|v| v.to_array().map(f32::to_bits))
+                }));
+            }
+            states
+        };
+        assert!(run(false) == run(true), "kinematic {kinematic}");
+    }
+}
+
 fn worst_slot_error(w: &World, f: FormationId) -> f32 {
     w.formation(f)
         .unwrap()

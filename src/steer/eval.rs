@@ -109,7 +109,13 @@ pub(crate) fn evaluate(v: &SteerView, me: &Me, b: &Behaviour, d: &mut Draws) -> 
             &params,
         ),
         Behaviour::FollowLeader { leader, params } => follow_leader(v, me, leader, &params),
-        Behaviour::KeepFormation { params } => keep_formation(v, me, &params),
+        Behaviour::KeepFormation { params } => keep_formation(
+            v,
+            me.i,
+            (me.position, me.velocity, me.max_speed),
+            &me.adapter,
+            &params,
+        ),
         Behaviour::Jump {
             launch,
             landing,
@@ -496,28 +502,35 @@ fn follow_leader(v: &SteerView, me: &Me, leader: Target, params: &FollowParams) 
         .towards(desired, me.velocity, params.time_to_target)
 }
 
-fn keep_formation(v: &SteerView, me: &Me, params: &SlotParams) -> Steering {
+/// Agent `i`'s `keep_formation` request (its position, velocity and maximum speed given): the
+/// general plan's evaluation and the `KeepFormation` plan's.
+pub(crate) fn keep_formation(
+    v: &SteerView,
+    i: usize,
+    (position, velocity, max_speed): (Vec2, Vec2, f32),
+    adapter: &Adapter,
+    params: &SlotParams,
+) -> Steering {
     let a = v.agents;
     let gm = v.group_movement;
     let anchor = gm
-        .slot(a.ids[me.i])
+        .slot(a.ids[i])
         .and_then(|(f, s)| Some((a.index_of(gm.formations[f].anchor())?, s)));
     let desired = match anchor {
         Some((j, local)) => {
-            let (basis, anchor_velocity) = frame_of(v, j, me.position);
+            let (basis, anchor_velocity) = frame_of(v, j, position);
             group::slot_velocity(
-                me.position,
+                position,
                 basis.to_world(local),
                 anchor_velocity,
-                me.max_speed,
+                max_speed,
                 params,
             )
         }
         // No formation or no anchor: stop.
         None => Vec2::ZERO,
     };
-    me.adapter
-        .towards(desired, me.velocity, params.time_to_target)
+    adapter.towards(desired, velocity, params.time_to_target)
 }
 
 fn jump(me: &Me, launch: Vec2, landing: Vec2, params: &JumpParams) -> Steering {

@@ -3,9 +3,10 @@
 //! [`run`] evaluates each agent by its group's [`Plan`]: flocking-only plans in cell batches
 //! through the grid kernel when the uniform grid is ready ([`super::cells`]); a lone seek,
 //! arrive or wander eight agents at a time in lanes; everything else per agent
-//! ([`steer_agent`]: the flocking, flow-field and path plans without dispatch, the general plan by
-//! [`evaluate`] over the profile's behaviours and their combination, over neighbour sums the
-//! cell batch computed for it when the plan has flocking terms the batch serves).
+//! ([`steer_agent`]: the flocking, flow-field, path and formation plans without dispatch, the
+//! general plan by [`evaluate`] over the profile's behaviours and their combination, over
+//! neighbour sums the cell batch computed for it when the plan has flocking terms the batch
+//! serves).
 //!
 //! Invariants: the pass reads only frame-t state and writes only the outputs of the agent it
 //! evaluates, so results are independent of the thread count; the sequential pass runs the same
@@ -535,14 +536,15 @@ fn steer_agent_with(
             params,
             weight,
         } => {
-            let s = eval::follow_path(
-                v,
-                i,
-                (a.position(i), velocity, a.max_speed[i]),
-                &adapter,
-                path,
-                &params,
-            );
+            let me = (a.position(i), velocity, a.max_speed[i]);
+            let s = eval::follow_path(v, i, me, &adapter, path, &params);
+            // The general loop's sum without its dispatch (0 + s w, as there).
+            let total = Steering::ZERO + s.scaled(weight);
+            (adapter.finish(total), a.wander[i], 0.0)
+        }
+        PlanKind::KeepFormation { params, weight } => {
+            let me = (a.position(i), velocity, a.max_speed[i]);
+            let s = eval::keep_formation(v, i, me, &adapter, &params);
             // The general loop's sum without its dispatch (0 + s w, as there).
             let total = Steering::ZERO + s.scaled(weight);
             (adapter.finish(total), a.wander[i], 0.0)

@@ -121,6 +121,14 @@ pub(crate) enum PlanKind {
         /// The behaviour's weight.
         weight: f32,
     },
+    /// One `keep_formation` alone in a weighted sum: the behaviour itself per agent, without
+    /// the general loop's dispatch.
+    KeepFormation {
+        /// Arrival at the slot.
+        params: crate::group::SlotParams,
+        /// The behaviour's weight.
+        weight: f32,
+    },
     /// One `vicsek` alone in a weighted sum. Evaluated in cell batches when the grid is ready.
     Vicsek {
         /// The noise width, radians.
@@ -305,6 +313,14 @@ impl Plan {
         {
             PlanKind::FollowPath {
                 path,
+                params,
+                weight: w.weight,
+            }
+        } else if let [w] = &profile.steering.behaviours[..]
+            && let Behaviour::KeepFormation { params } = w.behaviour
+            && profile.steering.combine == Combine::WeightedSum
+        {
+            PlanKind::KeepFormation {
                 params,
                 weight: w.weight,
             }
