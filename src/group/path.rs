@@ -2,9 +2,10 @@
 //!
 //! A [`Path`] is validated on construction (at least two finite points, a positive total length, a
 //! finite radius >= 0) and keeps the cumulative arc length at every point and, for paths of more
-//! than 16 segments, a grid listing per cell the segments that can be nearest there: projecting a
-//! point near the path reads a few segments, elsewhere one pass over all of them in lanes, with
-//! the same result either way; [`Path::point_at`] is one binary search. Arc lengths lie in
+//! than 16 segments that a grid of at most 4,096 cells resolves (up to some hundreds of segments,
+//! spread out), a grid listing per cell the segments that can be nearest there: projecting a
+//! point near the path reads a few segments, elsewhere (and without a grid) one pass over all of
+//! them in lanes, with the same result either way; [`Path::point_at`] is one binary search. Arc lengths lie in
 //! `[0, length]`; on a looping path they are taken modulo the length. Paths live in world
 //! coordinates and are not wrapped on a torus: keep them inside the world.
 
@@ -120,7 +121,8 @@ fn segment_distance(a: Vec2, ab: Vec2, len_sq: f32, p: Vec2) -> (f32, f32) {
 /// margin`, with `c` the centre of the cell widened by a rounding allowance and `h` its half
 /// diagonal: a left-out segment is then more than `margin` farther from every point of the cell
 /// than the segment nearest the centre (triangle inequality), and `margin` (1e-5 of the largest
-/// coordinate in the grid plus the distances) is ten times the rounding of an `f32` distance. So the projection from the
+/// coordinate in the grid plus the distances, and 1e-21 for distances whose squares are
+/// subnormal) is well above the rounding of an `f32` distance. So the projection from the
 /// candidates is the one over all segments, bit for bit, ties to the earlier segment included.
 #[derive(Clone, Debug, Default, PartialEq)]
 struct SegmentGrid {
@@ -152,9 +154,9 @@ const GRID_MIN_SEGMENTS: usize = 2 * LANES;
 const GRID_MAX_CELLS: usize = 4096;
 /// At most this many segments listed per cell on average (beyond that, no grid).
 const GRID_MAX_LISTED: usize = 32;
-/// At most this many cell-segment distances to build a grid (a longer path gets fewer, larger
-/// cells; beyond `GRID_MAX_CELLS * 64` segments, none).
-const GRID_BUILD_BUDGET: usize = 1 << 24;
+/// At most this many cell-segment distances to build a grid, a few milliseconds (a longer path
+/// gets fewer, larger cells, which list more segments each; beyond 65,536 segments, none).
+const GRID_BUILD_BUDGET: usize = 1 << 22;
 
 impl SegmentGrid {
     /// The grid of the segments `a + t ab` (`t` in [0, 1]) given as `(a, ab)`, or no grid (a
@@ -211,9 +213,10 @@ impl SegmentGrid {
                     nearest = nearest.min(*d);
                 }
                 // An f32 distance from `project` is within a few ulps of the largest coordinate
-                // and of itself (about 1e-6 of them): the margin is ten times that, for both
-                // distances compared.
-                let margin = 1e-5 * (scale + nearest + 2.0 * half_diagonal);
+                // and of itself (about 1e-6 of them), and where its square is subnormal within
+                // about 4e-23 (the square root of the least subnormal): the margin is ten times
+                // and 25 times those, for both distances compared.
+                let margin = 1e-5 * (scale + nearest + 2.0 * half_diagonal) + 1e-21;
                 let reach = nearest + 2.0 * half_diagonal + margin;
                 listed.extend((0..n).filter(|&k| dist[k] <= reach).map(|k| {
                     let (a, ab) = segments[k];
@@ -782,6 +785,31 @@ mod tests {
             mean < 0.25 * segments as f64 / queries as f64,
             "{mean} candidates per query"
         );
+    }
+
+    #[test]
+    fn a_path_of_tiny_coordinates_projects_as_the_search_over_every_segment() {
+        // Distances whose squares are subnormal or underflow to zero: the f32 distances are then
+        // off by an absolute amount, not a relative one.
+        for scale in [1e-23_f32, 1e-22, 1e-21, 1e-19] {
+            let points = (0..18).map(|k| Vec2::new((k % 5) as f32, (k / 5) as f32) * scale);
+            let path = Path::new(points.collect(), 1.0, false).unwrap();
+            let mut rng = crate::rng::AgentRng::new(9, 0, 0, 0);
+            let mut queries: Vec<Vec2> = (0..3000)
+                .map(|_| Vec2::new(rng.unit() * 6.0 - 0.5, rng.unit() * 5.0 - 0.5) * scale)
+                .collect();
+            queries.push(Vec2::new(
+                f32::from_bits(0x1a04_fb5a),
+                f32::from_bits(0x199d_290e),
+            ));
+            for p in queries {
+                assert_eq!(
+                    bits(path.project(p)),
+                    bits(project_all(&path, p)),
+                    "scale {scale}, query {p}"
+                );
+            }
+        }
     }
 
     #[test]
