@@ -1,5 +1,5 @@
-//! Step throughput of the core behaviours (seek, wander) at 10,000 and 100,000 agents, on the
-//! parallel SIMD path and on the sequential scalar reference.
+//! Step throughput of the core behaviours (seek, wander), the Vicsek model and path following at
+//! 10,000 and 100,000 agents, on the parallel SIMD path and on the sequential scalar reference.
 
 use criterion::{BenchmarkId, Criterion, Throughput, criterion_group, criterion_main};
 use throng::World;
@@ -17,7 +17,7 @@ fn world(name: &str, n: usize) -> (World, f32) {
 fn step(c: &mut Criterion) {
     let mut g = c.benchmark_group("step");
     g.sample_size(20);
-    for name in ["seek", "wander"] {
+    for name in ["seek", "wander", "vicsek", "path"] {
         for n in [10_000, 100_000] {
             g.throughput(Throughput::Elements(n as u64));
             let (mut w, dt) = world(name, n);
