@@ -33,4 +33,6 @@ pub use jump::{JumpParams, JumpPhase, JumpPlan, jump_phase, jump_plan, run_up_le
 pub use leader::{FollowParams, follow_leader};
 pub use movement::Formation;
 pub(crate) use movement::{GroupMovement, NO_FORMATION, update_formations, update_formations_in};
-pub use path::{Path, PathDirection, PathFollowParams, PathId, PathSpec, Projection, follow_path};
+pub use path::{
+    GridBudget, Path, PathDirection, PathFollowParams, PathId, PathSpec, Projection, follow_path,
+};

@@ -21,6 +21,8 @@ pub(crate) const NO_FORMATION: u32 = u32::MAX;
 #[derive(Clone, Debug, Default)]
 pub(crate) struct GroupMovement {
     pub(crate) paths: Vec<Path>,
+    /// What the paths' grids of candidate segments may still cost.
+    pub(crate) path_grids: crate::group::GridBudget,
     pub(crate) formations: Vec<Formation>,
     /// Indexed by agent id: (formation index or `NO_FORMATION`, local slot offset).
     pub(crate) slot_of: Vec<(u32, Vec2)>,

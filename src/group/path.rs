@@ -1,11 +1,12 @@
 //! Paths (polylines, open or looping, with a radius) and Reynolds' path following.
 //!
 //! A [`Path`] is validated on construction (at least two finite points, a positive total length, a
-//! finite radius >= 0) and keeps the cumulative arc length at every point and, for paths of more
-//! than 16 segments that a grid of at most 4,096 cells resolves (up to some hundreds of segments,
-//! spread out), a grid listing per cell the segments that can be nearest there: projecting a
-//! point near the path reads a few segments, elsewhere (and without a grid) one pass over all of
-//! them in lanes, with the same result either way; [`Path::point_at`] is one binary search. Arc lengths lie in
+//! finite radius >= 0) and keeps the cumulative arc length at every point. Added to a world (or
+//! by [`Path::indexed`]), a path of more than 16 segments that a grid of at most 4,096 cells
+//! resolves (up to some hundreds of segments, spread out) also gets a grid listing per cell the
+//! segments that can be nearest there, within the world's [`GridBudget`]: projecting a point near
+//! the path reads a few segments, elsewhere (and without a grid) one pass over all of them in
+//! lanes, with the same result either way; [`Path::point_at`] is one binary search. Arc lengths lie in
 //! `[0, length]`; on a looping path they are taken modulo the length. Paths live in world
 //! coordinates and are not wrapped on a torus: keep them inside the world.
 
@@ -148,6 +149,28 @@ struct Listed {
     k: u32,
 }
 
+/// What building grids of candidate segments may still cost: cell-segment distances computed
+/// and segments listed (24 bytes each). A world's paths share one budget
+/// ([`GridBudget::default`]: 2^26 distances, a fraction of a second, and 2^21 entries, 48 MiB),
+/// so that a scenario of very many paths cannot make their grids hang the build or exhaust
+/// memory: paths beyond it are searched in lanes, with the same results.
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+pub struct GridBudget {
+    /// Cell-segment distances left.
+    pub distances: u64,
+    /// Listed segments left.
+    pub entries: u64,
+}
+
+impl Default for GridBudget {
+    fn default() -> Self {
+        GridBudget {
+            distances: 1 << 26,
+            entries: 1 << 21,
+        }
+    }
+}
+
 /// Paths of at most this many segments search them all (one or two blocks of lanes).
 const GRID_MIN_SEGMENTS: usize = 2 * LANES;
 /// At most this many cells.
@@ -160,9 +183,9 @@ const GRID_BUILD_BUDGET: usize = 1 << 22;
 
 impl SegmentGrid {
     /// The grid of the segments `a + t ab` (`t` in [0, 1]) given as `(a, ab)`, or no grid (a
-    /// short path, one too long to index within the build budget, or coordinates whose grid
-    /// would not be finite in `f32`).
-    fn build(segments: &[(Vec2, Vec2)]) -> SegmentGrid {
+    /// short path, one too long to index within the build budget or `budget`, or coordinates
+    /// whose grid would not be finite in `f32`); what it cost is taken out of `budget`.
+    fn build(segments: &[(Vec2, Vec2)], budget: &mut GridBudget) -> SegmentGrid {
         let n = segments.len();
         let cells = (GRID_BUILD_BUDGET / n.max(1)).min(GRID_MAX_CELLS);
         if n <= GRID_MIN_SEGMENTS || cells < 64 {
@@ -197,6 +220,11 @@ impl SegmentGrid {
         let slack = 1e-3 * side + 1e-6 * scale;
         let half_diagonal = std::f64::consts::SQRT_2 * (0.5 * side + slack);
         let (nx, ny) = (nx as usize, ny as usize);
+        let Some(left) = budget.distances.checked_sub((nx * ny * n) as u64) else {
+            return SegmentGrid::default();
+        };
+        budget.distances = left;
+        let max_listed = (GRID_MAX_LISTED * nx * ny).min(budget.entries as usize);
         let mut starts = Vec::with_capacity(nx * ny + 1);
         let mut listed = Vec::new();
         let mut dist = vec![0.0_f64; n];
@@ -228,12 +256,14 @@ impl SegmentGrid {
                     }
                 }));
                 starts.push(listed.len() as u32);
-                if listed.len() > GRID_MAX_LISTED * nx * ny {
-                    // Segments so dense that a cell would list many: no gain over lanes.
+                if listed.len() > max_listed {
+                    // Segments so dense that a cell would list many (no gain over lanes), or
+                    // the budget is spent.
                     return SegmentGrid::default();
                 }
             }
         }
+        budget.entries -= listed.len() as u64;
         SegmentGrid {
             origin: origin32,
             inv_side,
@@ -375,14 +405,36 @@ impl Path {
             }
         }
         path.lanes = SegmentLanes { blocks };
-        let segments: Vec<(Vec2, Vec2)> = (0..path.segments())
+        Ok(path)
+    }
+
+    /// The path with its grid of candidate segments built (see [`GridBudget`]), so that
+    /// [`Path::project`] reads a few segments near the path instead of all of them; the
+    /// projections are the same. [`World::add_path`](crate::World::add_path) does this itself
+    /// within the world's budget.
+    #[must_use]
+    pub fn indexed(mut self) -> Self {
+        self.index(&mut GridBudget::default());
+        self
+    }
+
+    /// Builds the grid of candidate segments when `budget` allows, and takes what it cost out
+    /// of the budget.
+    pub(crate) fn index(&mut self, budget: &mut GridBudget) {
+        let segments: Vec<(Vec2, Vec2)> = (0..self.segments())
             .map(|k| {
-                let (a, b) = path.segment(k);
+                let (a, b) = self.segment(k);
                 (a, b - a)
             })
             .collect();
-        path.grid = SegmentGrid::build(&segments);
-        Ok(path)
+        self.grid = SegmentGrid::build(&segments, budget);
+    }
+
+    /// Whether [`Path::project`] has a grid of candidate segments (a path of more than 16
+    /// segments, [`Path::indexed`] or added to a world, and within the budget).
+    #[must_use]
+    pub fn is_indexed(&self) -> bool {
+        self.grid.nx > 0
     }
 
     /// The points, in order.
@@ -737,7 +789,7 @@ mod tests {
                 .collect();
             points[n / 2] = points[0];
             points[n / 3] = points[n / 3 - 1];
-            let path = Path::new(points, 2.0, looped).unwrap();
+            let path = Path::new(points, 2.0, looped).unwrap().indexed();
             // (Far from the origin, the margin lists every segment, and no grid pays.)
             assert!(
                 path.grid.nx > 0 || offset != 0.0,
@@ -793,7 +845,7 @@ mod tests {
         // off by an absolute amount, not a relative one.
         for scale in [1e-23_f32, 1e-22, 1e-21, 1e-19] {
             let points = (0..18).map(|k| Vec2::new((k % 5) as f32, (k / 5) as f32) * scale);
-            let path = Path::new(points.collect(), 1.0, false).unwrap();
+            let path = Path::new(points.collect(), 1.0, false).unwrap().indexed();
             let mut rng = crate::rng::AgentRng::new(9, 0, 0, 0);
             let mut queries: Vec<Vec2> = (0..3000)
                 .map(|_| Vec2::new(rng.unit() * 6.0 - 0.5, rng.unit() * 5.0 - 0.5) * scale)
@@ -813,10 +865,61 @@ mod tests {
     }
 
     #[test]
+    fn grids_are_built_while_the_budget_lasts() {
+        let path = |k: usize| {
+            let points = (0..30).map(|j| Vec2::new(j as f32, ((j + k) % 3) as f32) * 10.0);
+            Path::new(points.collect(), 1.0, false).unwrap()
+        };
+        assert!(!path(0).is_indexed(), "Path::new builds no grid");
+        assert!(path(0).indexed().is_indexed());
+        // Room for two grids' distances: the third path gets none, and projects the same.
+        let mut first = path(0);
+        first.index(&mut GridBudget::default());
+        let per_grid = GridBudget::default().distances - {
+            let mut b = GridBudget::default();
+            path(0).index(&mut b);
+            b.distances
+        };
+        let mut budget = GridBudget {
+            distances: 2 * per_grid + per_grid / 2,
+            entries: u64::MAX,
+        };
+        let paths: Vec<Path> = (0..3)
+            .map(|k| {
+                let mut p = path(k);
+                p.index(&mut budget);
+                p
+            })
+            .collect();
+        assert_eq!(
+            paths.iter().map(Path::is_indexed).collect::<Vec<_>>(),
+            [true, true, false]
+        );
+        // Room for the entries of one grid and a half: the second stops, the third is not tried.
+        let entries = first.grid.segments.len() as u64;
+        let mut budget = GridBudget {
+            distances: u64::MAX,
+            entries: entries + entries / 2,
+        };
+        let indexed: Vec<bool> = (0..3)
+            .map(|k| {
+                let mut p = path(k);
+                p.index(&mut budget);
+                p.is_indexed()
+            })
+            .collect();
+        assert_eq!(indexed, [true, false, false]);
+        let p = Vec2::new(55.0, 7.0);
+        for q in &paths {
+            assert_eq!(bits(q.project(p)), bits(project_scalar(q, p)));
+        }
+    }
+
+    #[test]
     fn short_paths_very_long_ones_and_dense_ones_search_every_segment() {
         let line = |n: usize, scale: f32| {
             let points = (0..n).map(|k| Vec2::new(k as f32, (k % 2) as f32) * scale);
-            Path::new(points.collect(), 1.0, false).unwrap()
+            Path::new(points.collect(), 1.0, false).unwrap().indexed()
         };
         assert_eq!(line(17, 1.0).grid.nx, 0, "16 segments: no grid");
         assert!(line(18, 1.0).grid.nx > 0);
@@ -828,7 +931,7 @@ mod tests {
         // So dense that cells would list many segments each: a scribble in a unit square.
         let mut rng = crate::rng::AgentRng::new(3, 0, 0, 0);
         let points = (0..2000).map(|_| Vec2::new(rng.unit(), rng.unit()));
-        let scribble = Path::new(points.collect(), 0.1, true).unwrap();
+        let scribble = Path::new(points.collect(), 0.1, true).unwrap().indexed();
         assert_eq!(scribble.grid.nx, 0);
         let p = Vec2::new(0.3, 0.6);
         assert_eq!(

@@ -13,13 +13,18 @@ use crate::group::{
 use crate::steering::{Basis, Behaviour, Target};
 
 impl World {
-    /// Adds a path that `FollowPath` behaviours can refer to.
+    /// Adds a path that `FollowPath` behaviours can refer to, with its grid of candidate
+    /// segments built while the world's budget for them lasts (see
+    /// [`GridBudget`](crate::group::GridBudget); the projections are the same either way).
     ///
     /// # Errors
     /// None today beyond the path's own validation (done by [`Path::new`]); kept fallible for
     /// bounds checks.
-    pub fn add_path(&mut self, path: Path) -> Result<PathId> {
+    pub fn add_path(&mut self, mut path: Path) -> Result<PathId> {
         let id = PathId(self.group_movement.paths.len() as u32);
+        if !path.is_indexed() {
+            path.index(&mut self.group_movement.path_grids);
+        }
         self.group_movement.paths.push(path);
         self.plans_stale = true;
         Ok(id)
