@@ -378,7 +378,11 @@ impl Path {
         }
         positive("path length", total).map_err(|_| Error::Invalid {
             name: "path.points".into(),
-            reason: "all points coincide: the path has zero length".into(),
+            reason: if total.is_finite() {
+                "all points coincide: the path has zero length".into()
+            } else {
+                "the path's length overflows f32: its points lie too far apart".into()
+            },
         })?;
         let mut path = Path {
             points,
@@ -1004,6 +1008,11 @@ mod tests {
             Path::new(vec![Vec2::ZERO, Vec2::ONE], -1.0, false),
             Err(Error::Negative { .. })
         ));
+        // A length beyond f32: said as such, not as coinciding points.
+        match Path::new(vec![Vec2::ZERO, Vec2::new(3e38, -3e38)], 1.0, false) {
+            Err(Error::Invalid { reason, .. }) => assert!(reason.contains("overflows"), "{reason}"),
+            other => panic!("{other:?}"),
+        }
         assert!(matches!(
             Path::new(vec![Vec2::ZERO, Vec2::NAN], 1.0, false),
             Err(Error::NonFinite { .. })
