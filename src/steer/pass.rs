@@ -512,6 +512,9 @@ fn steer_agent_with(
     let plan = &v.plans[g];
     let adapter = plan.adapter;
     let velocity = a.velocity(i);
+    // A lone behaviour's request as the general loop sums and finishes it (0 + s w, as there),
+    // without its dispatch.
+    let lone = |s: Steering, weight: f32| adapter.finish(Steering::ZERO + s.scaled(weight));
     match plan.kind {
         PlanKind::FollowField {
             field,
@@ -538,16 +541,12 @@ fn steer_agent_with(
         } => {
             let me = (a.position(i), velocity, a.max_speed[i]);
             let s = eval::follow_path(v, i, me, &adapter, path, &params);
-            // The general loop's sum without its dispatch (0 + s w, as there).
-            let total = Steering::ZERO + s.scaled(weight);
-            (adapter.finish(total), a.wander[i], 0.0)
+            (lone(s, weight), a.wander[i], 0.0)
         }
         PlanKind::KeepFormation { params, weight } => {
             let me = (a.position(i), velocity, a.max_speed[i]);
             let s = eval::keep_formation(v, i, me, &adapter, &params);
-            // The general loop's sum without its dispatch (0 + s w, as there).
-            let total = Steering::ZERO + s.scaled(weight);
-            (adapter.finish(total), a.wander[i], 0.0)
+            (lone(s, weight), a.wander[i], 0.0)
         }
         PlanKind::Wander { params, weight } => {
             // The general loop's draws and sum without its dispatch (0 + s w, as there).
@@ -577,8 +576,7 @@ fn steer_agent_with(
                 );
                 (Steering::linear(f), angle)
             };
-            let total = Steering::ZERO + s.scaled(weight);
-            (adapter.finish(total), angle, 0.0)
+            (lone(s, weight), angle, 0.0)
         }
         PlanKind::Flock { terms, len } => {
             let sums = v.sums(i, velocity, a.orientation[i]);

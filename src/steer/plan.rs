@@ -267,73 +267,9 @@ impl Plan {
             }
         }
         let (spec, flock) = neighbour_spec(profile);
-        let kind = if let Some((terms, len)) = flock {
-            PlanKind::Flock { terms, len }
-        } else if let [w] = &profile.steering.behaviours[..]
-            && let Behaviour::FollowField { .. } | Behaviour::ChooseExit { .. } = w.behaviour
-            && let Some((field, channel)) = follow
-            && profile.steering.combine == Combine::WeightedSum
-        {
-            PlanKind::FollowField {
-                field,
-                channel,
-                weight: w.weight,
-            }
-        } else if let [w] = &profile.steering.behaviours[..]
-            && let Behaviour::Seek { target, threshold } = w.behaviour
-            && matches!(target, Target::Point(_) | Target::Slot(_) | Target::Own)
-            && profile.steering.combine == Combine::WeightedSum
-        {
-            PlanKind::Seek {
-                target,
-                threshold,
-                weight: w.weight,
-            }
-        } else if let [w] = &profile.steering.behaviours[..]
-            && let Behaviour::Arrive { target, params } = w.behaviour
-            && matches!(target, Target::Point(_) | Target::Slot(_) | Target::Own)
-            && profile.steering.combine == Combine::WeightedSum
-        {
-            PlanKind::Arrive {
-                target,
-                params,
-                weight: w.weight,
-            }
-        } else if let [w] = &profile.steering.behaviours[..]
-            && let Behaviour::Wander { params } = w.behaviour
-            && profile.steering.combine == Combine::WeightedSum
-        {
-            PlanKind::Wander {
-                params,
-                weight: w.weight,
-            }
-        } else if let [w] = &profile.steering.behaviours[..]
-            && let Behaviour::FollowPath { path, params } = w.behaviour
-            && profile.steering.combine == Combine::WeightedSum
-        {
-            PlanKind::FollowPath {
-                path,
-                params,
-                weight: w.weight,
-            }
-        } else if let [w] = &profile.steering.behaviours[..]
-            && let Behaviour::KeepFormation { params } = w.behaviour
-            && profile.steering.combine == Combine::WeightedSum
-        {
-            PlanKind::KeepFormation {
-                params,
-                weight: w.weight,
-            }
-        } else if let [w] = &profile.steering.behaviours[..]
-            && let Behaviour::Vicsek { noise, .. } = w.behaviour
-            && profile.steering.combine == Combine::WeightedSum
-        {
-            PlanKind::Vicsek {
-                noise,
-                weight: w.weight,
-            }
-        } else {
-            PlanKind::General
+        let kind = match flock {
+            Some((terms, len)) => PlanKind::Flock { terms, len },
+            None => lone_plan(profile, follow).unwrap_or(PlanKind::General),
         };
         Ok(Plan {
             adapter: Adapter::of(profile),
@@ -345,6 +281,49 @@ impl Plan {
             pedestrian: profile.pedestrian,
         })
     }
+}
+
+/// The plan of a profile whose only behaviour, in a weighted sum, has a plan of its own
+/// (`follow` is the field and channel of its `follow_field` or `choose_exit`), or `None`.
+fn lone_plan(profile: &Profile, follow: Option<(usize, FollowChannel)>) -> Option<PlanKind> {
+    let [w] = &profile.steering.behaviours[..] else {
+        return None;
+    };
+    if profile.steering.combine != Combine::WeightedSum {
+        return None;
+    }
+    let weight = w.weight;
+    // Seek and arrive lanes serve a fixed point, a target slot or each agent's own target.
+    let lanes = |t: Target| matches!(t, Target::Point(_) | Target::Slot(_) | Target::Own);
+    Some(match w.behaviour {
+        Behaviour::FollowField { .. } | Behaviour::ChooseExit { .. } => {
+            let (field, channel) = follow?;
+            PlanKind::FollowField {
+                field,
+                channel,
+                weight,
+            }
+        }
+        Behaviour::Seek { target, threshold } if lanes(target) => PlanKind::Seek {
+            target,
+            threshold,
+            weight,
+        },
+        Behaviour::Arrive { target, params } if lanes(target) => PlanKind::Arrive {
+            target,
+            params,
+            weight,
+        },
+        Behaviour::Wander { params } => PlanKind::Wander { params, weight },
+        Behaviour::FollowPath { path, params } => PlanKind::FollowPath {
+            path,
+            params,
+            weight,
+        },
+        Behaviour::KeepFormation { params } => PlanKind::KeepFormation { params, weight },
+        Behaviour::Vicsek { noise, .. } => PlanKind::Vicsek { noise, weight },
+        _ => return None,
+    })
 }
 
 /// The neighbour spec of a profile (a behaviour listed twice: the last one counts), and its
