@@ -124,6 +124,55 @@ fn axis_cell(x: f32, origin: f32, inv: f32, n: u32) -> u32 {
     if f >= 0.0 { (f as u32).min(n - 1) } else { 0 }
 }
 
+/// Pass 1 of a rebuild: the points copied into `pts`, each point's cell (row-major, as
+/// [`axis_cell`] computes it on each axis) into `cell`, and the largest magnitude of a
+/// coordinate. In vector lanes: the clamp is done in floating point before the conversion
+/// (`max(f, 0)` is 0 for a negative or NaN `f`, and truncating `min(f, n - 1)` equals clamping
+/// the truncation, `n - 1` being an integer that `f32` holds exactly), so the cells are
+/// [`axis_cell`]'s for every input.
+#[multiversion::multiversion(targets(
+    "x86_64+avx2+fma+avx512f+avx512vl+avx512bw+avx512dq",
+    "x86_64+avx2+fma"
+))]
+fn cell_keys(
+    (xs, ys): (&[f32], &[f32]),
+    (pts, cell): (&mut [Vec2], &mut [u32]),
+    (origin, inv): (Vec2, Vec2),
+    (cx, cy): (u32, u32),
+) -> f32 {
+    // Cells per axis are below 2^22 (`MAX_CELLS`), so `n - 1` is exact in `f32`, and the
+    // truncated clamp, a whole number in `[0, 2^23)`, is the low bits of its sum with 2^23 (a
+    // conversion in vector lanes, where `as` would test each lane for saturation).
+    let (top_x, top_y) = ((cx - 1) as f32, (cy - 1) as f32);
+    let axis = |v: f32, o: f32, inv: f32, top: f32| {
+        let whole = ((v - o) * inv).max(0.0).min(top).trunc();
+        (whole + 8_388_608.0).to_bits() - 0x4B00_0000
+    };
+    let n = pts.len();
+    let (xs, ys, cell) = (&xs[..n], &ys[..n], &mut cell[..n]);
+    for k in 0..n {
+        let (x, y) = (xs[k], ys[k]);
+        pts[k] = Vec2::new(x, y);
+        cell[k] = axis(y, origin.y, inv.y, top_y) * cx + axis(x, origin.x, inv.x, top_x);
+    }
+    // The largest magnitude in lanes, as selects (a NaN is never greater, so it is passed
+    // over as `f32::max` passes it over).
+    let mut lanes = [0.0_f32; 8];
+    for v in [xs, ys] {
+        let (blocks, tail) = v.as_chunks::<8>();
+        for b in blocks {
+            for l in 0..8 {
+                let a = b[l].abs();
+                lanes[l] = if a > lanes[l] { a } else { lanes[l] };
+            }
+        }
+        for &t in tail {
+            lanes[0] = lanes[0].max(t.abs());
+        }
+    }
+    lanes.iter().fold(0.0_f32, |m, &v| m.max(v))
+}
+
 impl GridIndex {
     /// Number of cell columns.
     #[must_use]
@@ -423,13 +472,7 @@ impl GridIndex {
         self.cell.resize(n, 0);
         let (origin, inv, cx, cy) = (self.origin, self.inv_cell, self.cells_x, self.cells_y);
         let fill = |pts: &mut [Vec2], cell: &mut [u32], xs: &[f32], ys: &[f32]| {
-            let mut max_abs = 0.0_f32;
-            for (((p, c), &x), &y) in pts.iter_mut().zip(cell.iter_mut()).zip(xs).zip(ys) {
-                *p = Vec2::new(x, y);
-                *c = axis_cell(y, origin.y, inv.y, cy) * cx + axis_cell(x, origin.x, inv.x, cx);
-                max_abs = max_abs.max(x.abs()).max(y.abs());
-            }
-            max_abs
+            cell_keys((xs, ys), (pts, cell), (origin, inv), (cx, cy))
         };
         let max_abs = if parallel {
             self.pts
@@ -519,6 +562,60 @@ impl NeighbourIndex for GridIndex {
 #[cfg(test)]
 mod tests {
     use super::*;
+
+    #[test]
+    fn cell_keys_in_lanes_equal_axis_cell_for_every_kind_of_coordinate() {
+        // Inside, on cell edges, on the last cell's edge and past it, negative, tiny, huge,
+        // infinite and NaN coordinates, in whole blocks of lanes and in the tail.
+        let special = [
+            0.0,
+            -0.0,
+            1e-30,
+            -1e-30,
+            2.5,
+            3.0,
+            9.999_999,
+            10.0,
+            10.5,
+            -3.0,
+            1e30,
+            -1e30,
+            f32::INFINITY,
+            f32::NEG_INFINITY,
+            f32::NAN,
+            f32::MAX,
+            f32::MIN_POSITIVE,
+        ];
+        let (rx, ry) = points(61, 12.0, 9);
+        let xs: Vec<f32> = special.iter().chain(&rx).copied().collect();
+        let ys: Vec<f32> = rx
+            .iter()
+            .chain(&special)
+            .chain(&ry)
+            .copied()
+            .take(xs.len())
+            .collect();
+        for (origin, inv, cells) in [
+            (Vec2::ZERO, Vec2::splat(0.4), (4, 4)),
+            (Vec2::new(-1.5, 2.0), Vec2::new(0.7, 1.3), (17, 3)),
+            (Vec2::ZERO, Vec2::splat(1.0), (1, 1)),
+        ] {
+            let n = xs.len();
+            let (mut pts, mut cell) = (vec![Vec2::ZERO; n], vec![0; n]);
+            let max_abs = cell_keys((&xs, &ys), (&mut pts, &mut cell), (origin, inv), cells);
+            let mut want_max = 0.0_f32;
+            for k in 0..n {
+                let (x, y) = (xs[k], ys[k]);
+                let want = axis_cell(y, origin.y, inv.y, cells.1) * cells.0
+                    + axis_cell(x, origin.x, inv.x, cells.0);
+                assert_eq!(cell[k], want, "({x}, {y}) with {origin} {inv} {cells:?}");
+                assert_eq!(pts[k].x.to_bits(), x.to_bits());
+                assert_eq!(pts[k].y.to_bits(), y.to_bits());
+                want_max = want_max.max(x.abs()).max(y.abs());
+            }
+            assert_eq!(max_abs.to_bits(), want_max.to_bits());
+        }
+    }
 
     fn points(n: usize, w: f32, seed: u64) -> (Vec<f32>, Vec<f32>) {
         // A small xorshift: deterministic and dependency-free.
