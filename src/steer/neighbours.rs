@@ -45,6 +45,8 @@ pub(crate) struct SortedCopies {
     pub hy: Vec<f32>,
     /// Whether `hx` and `hy` hold this frame's headings.
     pub headings: bool,
+    /// Whether `g` holds zeros alone (the last fill had one group).
+    g_zero: bool,
 }
 
 /// `dst[k] = f(order[k])` for every `k`, in parallel chunks, with `LANES` zeros of padding.
@@ -72,8 +74,15 @@ fn copy_into(dst: &mut Vec<f32>, src: &[f32]) {
 
 impl SortedCopies {
     /// Fills the copies in the grid's order from the agents' buffers (the unit headings only
-    /// when `headings`).
-    pub(crate) fn fill(&mut self, grid: &GridIndex, agents: &Agents, headings: bool) {
+    /// when `headings`). With `one_group` (every agent in group 0) the groups are zeros, which
+    /// stay from the previous fill when it had them too and the number of agents is the same.
+    pub(crate) fn fill(
+        &mut self,
+        grid: &GridIndex,
+        agents: &Agents,
+        headings: bool,
+        one_group: bool,
+    ) {
         let order = grid.order();
         let (sx, sy) = (grid.sorted_x(), grid.sorted_y());
         let (vel_x, vel_y, group) = (&agents.vel_x, &agents.vel_y, &agents.group);
@@ -83,6 +92,7 @@ impl SortedCopies {
             vx,
             vy,
             g,
+            g_zero,
             hx,
             hy,
             headings: filled,
@@ -91,7 +101,13 @@ impl SortedCopies {
             || {
                 copy_into(x, sx);
                 copy_into(y, sy);
-                gather_into(g, order, |j| group[j] as f32);
+                if !one_group {
+                    gather_into(g, order, |j| group[j] as f32);
+                } else if !*g_zero || g.len() != order.len() + LANES {
+                    g.clear();
+                    g.resize(order.len() + LANES, 0.0);
+                }
+                *g_zero = one_group;
             },
             || {
                 gather_into(vx, order, |j| vel_x[j]);

@@ -537,7 +537,10 @@ impl World {
             let s = &p.spec;
             s.vicsek_r_sq.is_some() || (s.active && (0..3).any(|b| s.on[b] && s.cos[b] > -1.0))
         });
-        self.scratch.sorted.fill(grid, &self.agents, headings);
+        let one_group = self.plans.len() == 1;
+        self.scratch
+            .sorted
+            .fill(grid, &self.agents, headings, one_group);
         true
     }
 }
