@@ -305,9 +305,13 @@ fn wrap_turn(a: f32) -> f32 {
     if inside { a } else { r }
 }
 
-/// One task's agents, [`LANES`] at a time (runtime dispatch: AVX2 + FMA where the processor has
-/// it, the baseline otherwise; the same operations either way).
-#[multiversion::multiversion(targets("x86_64+avx2+fma", "x86_64+avx"))]
+/// One task's agents, [`LANES`] at a time (runtime dispatch: AVX-512 or AVX2 + FMA where the
+/// processor has them, the baseline otherwise; the same operations either way).
+#[multiversion::multiversion(targets(
+    "x86_64+avx2+fma+avx512f+avx512vl+avx512bw+avx512dq",
+    "x86_64+avx2+fma",
+    "x86_64+avx"
+))]
 fn integrate_chunk(
     s: MotionState<'_>,
     st: SteeringBuffers<'_>,

@@ -13,8 +13,8 @@
 //!   `max(0, 1 - drag * dt)`.
 //!
 //! [`integrate`] runs each agent's step, one branch-free function, over blocks of 8 agents
-//! loaded from contiguous `f32` slices, in parallel chunks and under runtime dispatch (AVX2 +
-//! FMA where the processor has it); [`integrate_scalar`] calls the same function one agent at a
+//! loaded from contiguous `f32` slices, in parallel chunks and under runtime dispatch (AVX-512
+//! or AVX2 + FMA where the processor has them); [`integrate_scalar`] calls the same function one agent at a
 //! time, the reference the lanes are tested against bit for bit (the compiler's vectorisation
 //! keeps the operations and their order; no fused multiply-add is formed).
 

@@ -674,7 +674,11 @@ impl Runs {
 /// time over the whole run (long loops of vector instructions): the same operations in the same
 /// order as [`flock_total`] and [`Adapter::finish`] per agent (exact square roots and
 /// divisions), so each agent's result equals the scalar evaluation bit for bit.
-#[multiversion(targets("x86_64+avx2+fma", "x86_64+avx"))]
+#[multiversion(targets(
+    "x86_64+avx2+fma+avx512f+avx512vl+avx512bw+avx512dq",
+    "x86_64+avx2+fma",
+    "x86_64+avx"
+))]
 fn evaluate_run(
     r: &mut Runs,
     range: std::ops::Range<usize>,
@@ -714,7 +718,11 @@ fn evaluate_run(
 /// normalised and turned ([`crate::steering::vicsek_heading`]'s operations), times its speed
 /// and the weight, then the model adapter, in long loops over the run: each agent equals the
 /// scalar evaluation bit for bit.
-#[multiversion(targets("x86_64+avx2+fma", "x86_64+avx"))]
+#[multiversion(targets(
+    "x86_64+avx2+fma+avx512f+avx512vl+avx512bw+avx512dq",
+    "x86_64+avx2+fma",
+    "x86_64+avx"
+))]
 fn vicsek_run(
     r: &mut Runs,
     range: std::ops::Range<usize>,

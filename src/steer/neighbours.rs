@@ -7,7 +7,8 @@
 //!   them one by one; it also serves repulsion and neighbour caps;
 //! - the **grid kernel** reads the neighbour cells of the uniform grid as contiguous runs of
 //!   cell-ordered copies of the positions, velocities and groups, eight lanes at a time, with
-//!   runtime CPU-feature dispatch (AVX2 where the processor has it, SSE2 otherwise). It sums in
+//!   runtime CPU-feature dispatch (AVX-512 or AVX2 where the processor has them, SSE2
+//!   otherwise). It sums in
 //!   a different order than the reference, so the two agree to rounding, not bit for bit; each is
 //!   deterministic and independent of the thread count.
 
@@ -123,7 +124,11 @@ impl SortedCopies {
 
 /// `(hx, hy) = (vx, vy) / |(vx, vy)|` where that is defined (glam's `try_normalize`: the
 /// reciprocal length, when positive and finite); returns whether some velocity has no direction.
-#[multiversion(targets("x86_64+avx2+fma", "x86_64+avx"))]
+#[multiversion(targets(
+    "x86_64+avx2+fma+avx512f+avx512vl+avx512bw+avx512dq",
+    "x86_64+avx2+fma",
+    "x86_64+avx"
+))]
 fn unit_lanes((vx, vy): (&[f32], &[f32]), (hx, hy): (&mut [f32], &mut [f32])) -> bool {
     let n = hx.len();
     let (hy, vx, vy) = (&mut hy[..n], &vx[..n], &vy[..n]);
@@ -384,7 +389,11 @@ fn add_sums(total: &mut NeighbourSums, part: &NeighbourSums) {
     total.count += part.count;
 }
 
-#[multiversion(targets("x86_64+avx2+fma", "x86_64+avx"))]
+#[multiversion(targets(
+    "x86_64+avx2+fma+avx512f+avx512vl+avx512bw+avx512dq",
+    "x86_64+avx2+fma",
+    "x86_64+avx"
+))]
 fn kernel(runs: &[(u32, u32)], s: &SortedCopies, q: &KernelQuery, mode: u8) -> NeighbourSums {
     match mode {
         0 => kernel_body::<false, false, false>(runs, s, q),

@@ -87,8 +87,6 @@ pub(crate) fn run(view: &SteerView, out: &mut SteerOut, scratch: &mut PassScratc
             scratch.cells.take_all(base, (lx, ly, nb));
             return;
         }
-        let mut seekers = SeekLanes::default();
-        let mut wanderers = WanderLanes::default();
         let groups = &view.agents.group[base..base + lx.len()];
         let mut k = 0;
         while k < lx.len() {
@@ -99,18 +97,14 @@ pub(crate) fn run(view: &SteerView, out: &mut SteerOut, scratch: &mut PassScratc
                 PlanKind::Seek { .. } | PlanKind::Arrive { .. } => {
                     // The run of this group's agents, a block of lanes at a time.
                     let run = groups[k..].iter().take_while(|&&h| h as usize == g).count();
-                    for s in (k..k + run).step_by(LANES) {
-                        seekers.fill(view, g, base + s, LANES.min(k + run - s));
-                        seekers.flush(view, (lx, ly, an, wa, nb), base, !still);
-                    }
+                    let outs = (&mut *lx, &mut *ly, &mut *an, &mut *wa, &mut *nb);
+                    seek_run(view, g, (base + k, base + k + run), base, outs, !still);
                     run
                 }
                 PlanKind::Wander { .. } => {
                     let run = groups[k..].iter().take_while(|&&h| h as usize == g).count();
-                    for s in (k..k + run).step_by(LANES) {
-                        wanderers.fill(view, g, base + s, LANES.min(k + run - s));
-                        wanderers.flush(view, (lx, ly, an, wa, nb), base);
-                    }
+                    let outs = (&mut *lx, &mut *ly, &mut *an, &mut *wa, &mut *nb);
+                    wander_run(view, g, (base + k, base + k + run), base, outs);
                     run
                 }
                 _ if batched && cells::is_batched(view, i) => {
@@ -153,6 +147,56 @@ pub(crate) fn run(view: &SteerView, out: &mut SteerOut, scratch: &mut PassScratc
     }
 }
 
+/// The agents at storage indices `from..to`, all of seek or arrive group `g`, a block of
+/// [`LANES`] at a time into the chunks starting at `base` (the angular outputs and wander angles
+/// too when `turns`). Compiled for each dispatch target with the lane evaluations, the model
+/// adapter and the copies inlined: the whole run is vector code of the processor's width (a
+/// baseline build of the glue around a dispatched kernel cost more than the kernel).
+#[multiversion::multiversion(targets(
+    "x86_64+avx2+fma+avx512f+avx512vl+avx512bw+avx512dq",
+    "x86_64+avx2+fma",
+    "x86_64+avx"
+))]
+fn seek_run(
+    view: &SteerView,
+    g: usize,
+    (from, to): (usize, usize),
+    base: usize,
+    (lx, ly, an, wa, nb): cells::OutChunks,
+    turns: bool,
+) {
+    let mut lanes = SeekLanes::default();
+    for s in (from..to).step_by(LANES) {
+        lanes.fill(view, g, s, LANES.min(to - s));
+        let outs = (&mut *lx, &mut *ly, &mut *an, &mut *wa, &mut *nb);
+        lanes.flush(view, outs, base, turns);
+    }
+}
+
+/// [`seek_run`] for the agents of wander group `g`.
+#[multiversion::multiversion(targets(
+    "x86_64+avx2+fma+avx512f+avx512vl+avx512bw+avx512dq",
+    "x86_64+avx2+fma",
+    "x86_64+avx"
+))]
+fn wander_run(
+    view: &SteerView,
+    g: usize,
+    (from, to): (usize, usize),
+    base: usize,
+    (lx, ly, an, wa, nb): cells::OutChunks,
+) {
+    let mut lanes = WanderLanes::default();
+    for s in (from..to).step_by(LANES) {
+        lanes.fill(view, g, s, LANES.min(to - s));
+        lanes.flush(
+            view,
+            (&mut *lx, &mut *ly, &mut *an, &mut *wa, &mut *nb),
+            base,
+        );
+    }
+}
+
 /// Up to [`LANES`] consecutive agents of one seek or arrive plan, evaluated together.
 #[derive(Debug, Default)]
 struct SeekLanes {
@@ -172,6 +216,7 @@ struct SeekLanes {
 
 impl SeekLanes {
     /// Takes the `len` (at most [`LANES`]) agents from storage index `i` on, all of `group`.
+    #[inline(always)]
     fn fill(&mut self, view: &SteerView, group: usize, i: usize, len: usize) {
         let a = view.agents;
         (self.group, self.first, self.len) = (group, i, len);
@@ -200,6 +245,7 @@ impl SeekLanes {
     /// Evaluates the filled lanes and writes their outputs into the chunks starting at `base`
     /// (the angular outputs and wander angles only when `turns`: some agent of the frame may
     /// turn or wander, so the step reads them).
+    #[inline(always)]
     fn flush(
         &mut self,
         view: &SteerView,
@@ -233,7 +279,7 @@ impl SeekLanes {
 
 /// The weighted seek request of every lane: the same operations in the same order as
 /// resolving the point target (its nearest image) and `steering::seek` / `kinematic_seek`.
-#[multiversion::multiversion(targets("x86_64+avx2+fma", "x86_64+avx"))]
+#[inline(always)]
 fn seek_lanes(
     l: &SeekLanes,
     bounds: crate::bounds::Bounds,
@@ -276,7 +322,7 @@ fn seek_lanes(
 /// it (its nearest image), then `steering::arrive` / `kinematic_arrive` themselves, so the lanes
 /// equal the general plan bit for bit; the gain is the dispatch the general plan does per
 /// agent.
-#[multiversion::multiversion(targets("x86_64+avx2+fma", "x86_64+avx"))]
+#[inline(always)]
 fn arrive_lanes(
     l: &SeekLanes,
     bounds: crate::bounds::Bounds,
@@ -330,6 +376,7 @@ struct WanderOut {
 
 impl WanderLanes {
     /// Takes the `len` (at most [`LANES`]) agents from storage index `i` on, all of `group`.
+    #[inline(always)]
     fn fill(&mut self, view: &SteerView, group: usize, i: usize, len: usize) {
         let a = view.agents;
         (self.group, self.first, self.len) = (group, i, len);
@@ -345,6 +392,7 @@ impl WanderLanes {
 
     /// Evaluates the filled lanes and writes their outputs into the chunks starting at `base`;
     /// lanes the vector form does not serve exactly take [`steer_agent`].
+    #[inline(always)]
     fn flush(&mut self, view: &SteerView, (lx, ly, an, wa, nb): cells::OutChunks, base: usize) {
         let plan = &view.plans[self.group];
         let PlanKind::Wander { params, weight } = plan.kind else {
@@ -408,7 +456,7 @@ fn binomial_lanes(l: &WanderLanes, frame_key: u64) -> [f32; LANES] {
 
 /// The weighted kinematic wander of every lane: `kinematic_wander`'s operations in its order,
 /// then `Steering::ZERO + s * weight` as the plan sums it.
-#[multiversion::multiversion(targets("x86_64+avx2+fma", "x86_64+avx"))]
+#[inline(always)]
 fn kinematic_wander_lanes(
     l: &WanderLanes,
     frame_key: u64,
@@ -442,7 +490,7 @@ fn kinematic_wander_lanes(
 /// The weighted wander circle of every lane: `steering::wander`'s operations in its order (the
 /// heading from the velocity, the angle's step and wrap, the circle point, the seek of it), then
 /// `Steering::ZERO + s * weight` as the plan sums it.
-#[multiversion::multiversion(targets("x86_64+avx2+fma", "x86_64+avx"))]
+#[inline(always)]
 fn wander_lanes(
     l: &WanderLanes,
     frame_key: u64,

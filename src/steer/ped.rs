@@ -100,7 +100,11 @@ pub(crate) fn run(view: &SteerView, out: &mut SteerOut, parallel: bool) {
 }
 
 /// The requests of agents `base..base + lx.len()`, replaced where the group has a model.
-#[multiversion(targets("x86_64+avx2+fma", "x86_64+avx"))]
+#[multiversion(targets(
+    "x86_64+avx2+fma+avx512f+avx512vl+avx512bw+avx512dq",
+    "x86_64+avx2+fma",
+    "x86_64+avx"
+))]
 #[allow(clippy::too_many_arguments)]
 fn requests(
     view: &SteerView,
@@ -383,7 +387,11 @@ fn neighbours(b: &Buffers, count: usize, n: usize) -> Neighbours<'_> {
 /// The social force model's pair forces on an agent with velocity `v` and preferred direction
 /// `e` from its `count` filled neighbours (`n` with the padding); without the contact terms
 /// when no neighbour may touch (`touching` false, as [`fill`] finds it).
-#[multiversion(targets("x86_64+avx2+fma", "x86_64+avx"))]
+#[multiversion(targets(
+    "x86_64+avx2+fma+avx512f+avx512vl+avx512bw+avx512dq",
+    "x86_64+avx2+fma",
+    "x86_64+avx"
+))]
 #[allow(clippy::too_many_arguments)]
 fn social_force_sum(
     sf: &SocialForce,
@@ -415,7 +423,11 @@ fn social_force_sum(
 
 /// The speed model's repulsion of the `count` filled neighbours (`n` with the padding); keeps
 /// their distances in `b.dist` for the spacing.
-#[multiversion(targets("x86_64+avx2+fma", "x86_64+avx"))]
+#[multiversion(targets(
+    "x86_64+avx2+fma+avx512f+avx512vl+avx512bw+avx512dq",
+    "x86_64+avx2+fma",
+    "x86_64+avx"
+))]
 fn speed_model_sum(cf: &Cfsm, b: &mut Buffers, count: usize, n: usize) -> Vec2 {
     let (mut fx, mut fy) = (std::mem::take(&mut b.fx), std::mem::take(&mut b.fy));
     let mut dist = std::mem::take(&mut b.dist);
@@ -431,7 +443,11 @@ fn speed_model_sum(cf: &Cfsm, b: &mut Buffers, count: usize, n: usize) -> Vec2 {
 
 /// The smallest spacing along `e` to the `count` filled neighbours ([`Cfsm::spacing_to`]) and
 /// how many of them lie behind.
-#[multiversion(targets("x86_64+avx2+fma", "x86_64+avx"))]
+#[multiversion(targets(
+    "x86_64+avx2+fma+avx512f+avx512vl+avx512bw+avx512dq",
+    "x86_64+avx2+fma",
+    "x86_64+avx"
+))]
 fn speed_model_spacing(cf: &Cfsm, b: &Buffers, count: usize, n: usize, e: Vec2) -> (f32, f32) {
     cf.min_spacing_lanes((e.x, e.y), &neighbours(b, count, n), &b.dist[..n])
 }

@@ -592,8 +592,17 @@ fn apply_bounds(a: &mut Agents, bounds: Bounds, parallel: bool) {
             each(&mut a.pos_y, &|c| wrap_all(c, size.y));
         }
         Bounds::Bounded { size } => {
-            clamp_axis(&mut a.pos_x, &mut a.vel_x, size.x);
-            clamp_axis(&mut a.pos_y, &mut a.vel_y, size.y);
+            let axis = |pos: &mut [f32], vel: &mut [f32], side: f32| {
+                if parallel {
+                    pos.par_chunks_mut(BOUNDS_CHUNK)
+                        .zip(vel.par_chunks_mut(BOUNDS_CHUNK))
+                        .for_each(|(p, v)| clamp_axis(p, v, side));
+                } else {
+                    clamp_axis(pos, vel, side);
+                }
+            };
+            axis(&mut a.pos_x, &mut a.vel_x, size.x);
+            axis(&mut a.pos_y, &mut a.vel_y, size.y);
         }
     }
 }
@@ -603,7 +612,11 @@ fn apply_bounds(a: &mut Agents, bounds: Bounds, parallel: bool) {
 /// general function for the rare values farther out (kept unchanged by the lanes).
 // `&` rather than a range test: no short circuit, so no branch in the lanes.
 #[allow(clippy::manual_range_contains)]
-#[multiversion::multiversion(targets("x86_64+avx2+fma", "x86_64+avx"))]
+#[multiversion::multiversion(targets(
+    "x86_64+avx2+fma+avx512f+avx512vl+avx512bw+avx512dq",
+    "x86_64+avx2+fma",
+    "x86_64+avx"
+))]
 fn wrap_all(v: &mut [f32], side: f32) {
     let mut outside = false;
     for x in v.iter_mut() {
@@ -627,21 +640,82 @@ fn wrap_all(v: &mut [f32], side: f32) {
     }
 }
 
+/// A bounded world's walls on one axis: a coordinate below 0 or above `side` is put on the wall
+/// and its velocity's outward part dropped. Every value is written, as selects in lanes (a NaN
+/// coordinate is neither below nor above and stays as it is, with its velocity).
+#[multiversion::multiversion(targets(
+    "x86_64+avx2+fma+avx512f+avx512vl+avx512bw+avx512dq",
+    "x86_64+avx2+fma",
+    "x86_64+avx"
+))]
 fn clamp_axis(pos: &mut [f32], vel: &mut [f32], side: f32) {
-    for (p, v) in pos.iter_mut().zip(vel.iter_mut()) {
-        if *p < 0.0 {
-            *p = 0.0;
-            *v = v.max(0.0);
-        } else if *p > side {
-            *p = side;
-            *v = v.min(0.0);
-        }
+    let n = pos.len().min(vel.len());
+    let (pos, vel) = (&mut pos[..n], &mut vel[..n]);
+    for k in 0..n {
+        let (p, v) = (pos[k], vel[k]);
+        let (below, above) = (p < 0.0, p > side);
+        pos[k] = if below {
+            0.0
+        } else if above {
+            side
+        } else {
+            p
+        };
+        vel[k] = if below {
+            v.max(0.0)
+        } else if above {
+            v.min(0.0)
+        } else {
+            v
+        };
     }
 }
 
 #[cfg(test)]
 mod tests {
     use super::*;
+
+    #[test]
+    fn wall_clamp_in_lanes_equals_the_branches_bit_for_bit() {
+        let side = 12.5_f32;
+        let coords = [
+            -1.0,
+            -0.0,
+            0.0,
+            1e-30,
+            -1e-30,
+            6.0,
+            side,
+            side + 1e-6,
+            1e9,
+            -1e9,
+            f32::NAN,
+            f32::INFINITY,
+            f32::NEG_INFINITY,
+        ];
+        let speeds = [-3.0, -0.0, 0.0, 2.0, f32::NAN];
+        let (mut pos, mut vel) = (Vec::new(), Vec::new());
+        for &p in &coords {
+            for &v in &speeds {
+                pos.push(p);
+                vel.push(v);
+            }
+        }
+        let (mut want_p, mut want_v) = (pos.clone(), vel.clone());
+        for (p, v) in want_p.iter_mut().zip(want_v.iter_mut()) {
+            if *p < 0.0 {
+                *p = 0.0;
+                *v = v.max(0.0);
+            } else if *p > side {
+                *p = side;
+                *v = v.min(0.0);
+            }
+        }
+        clamp_axis(&mut pos, &mut vel, side);
+        let bits = |v: &[f32]| v.iter().map(|x| x.to_bits()).collect::<Vec<_>>();
+        assert_eq!(bits(&pos), bits(&want_p));
+        assert_eq!(bits(&vel), bits(&want_v));
+    }
 
     #[test]
     fn lane_wrapping_equals_wrap_coord_bit_for_bit() {
