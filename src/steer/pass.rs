@@ -94,17 +94,11 @@ pub(crate) fn run(view: &SteerView, out: &mut SteerOut, scratch: &mut PassScratc
             let g = groups[k] as usize;
             // Each arm evaluates the agents from `k` on that it serves and says how many.
             let done = match view.plans[g].kind {
-                PlanKind::Seek { .. } | PlanKind::Arrive { .. } => {
+                PlanKind::Seek { .. } | PlanKind::Arrive { .. } | PlanKind::Wander { .. } => {
                     // The run of this group's agents, a block of lanes at a time.
                     let run = groups[k..].iter().take_while(|&&h| h as usize == g).count();
                     let outs = (&mut *lx, &mut *ly, &mut *an, &mut *wa, &mut *nb);
-                    seek_run(view, g, (base + k, base + k + run), base, outs, !still);
-                    run
-                }
-                PlanKind::Wander { .. } => {
-                    let run = groups[k..].iter().take_while(|&&h| h as usize == g).count();
-                    let outs = (&mut *lx, &mut *ly, &mut *an, &mut *wa, &mut *nb);
-                    wander_run(view, g, (base + k, base + k + run), base, outs);
+                    lane_run(view, g, (base + k, base + k + run), base, outs, !still);
                     run
                 }
                 _ if batched && cells::is_batched(view, i) => {
@@ -147,17 +141,18 @@ pub(crate) fn run(view: &SteerView, out: &mut SteerOut, scratch: &mut PassScratc
     }
 }
 
-/// The agents at storage indices `from..to`, all of seek or arrive group `g`, a block of
-/// [`LANES`] at a time into the chunks starting at `base` (the angular outputs and wander angles
-/// too when `turns`). Compiled for each dispatch target with the lane evaluations, the model
-/// adapter and the copies inlined: the whole run is vector code of the processor's width (a
-/// baseline build of the glue around a dispatched kernel cost more than the kernel).
+/// The agents at storage indices `from..to`, all of lane group `g` (seek, arrive or wander), a
+/// block of [`LANES`] at a time into the chunks starting at `base` (a seek or arrive run writes
+/// the angular outputs and wander angles too only when `turns`). Compiled for each dispatch
+/// target with the lane evaluations, the model adapter and the copies inlined: the whole run is
+/// vector code of the processor's width (a baseline build of the glue around a dispatched
+/// kernel cost more than the kernel).
 #[multiversion::multiversion(targets(
     "x86_64+avx2+fma+avx512f+avx512vl+avx512bw+avx512dq",
     "x86_64+avx2+fma",
     "x86_64+avx"
 ))]
-fn seek_run(
+fn lane_run(
     view: &SteerView,
     g: usize,
     (from, to): (usize, usize),
@@ -165,35 +160,20 @@ fn seek_run(
     (lx, ly, an, wa, nb): cells::OutChunks,
     turns: bool,
 ) {
-    let mut lanes = SeekLanes::default();
+    let wander = matches!(view.plans[g].kind, PlanKind::Wander { .. });
+    let (mut seekers, mut wanderers) = (SeekLanes::default(), WanderLanes::default());
     for s in (from..to).step_by(LANES) {
-        lanes.fill(view, g, s, LANES.min(to - s));
-        let outs = (&mut *lx, &mut *ly, &mut *an, &mut *wa, &mut *nb);
-        lanes.flush(view, outs, base, turns);
-    }
-}
-
-/// [`seek_run`] for the agents of wander group `g`.
-#[multiversion::multiversion(targets(
-    "x86_64+avx2+fma+avx512f+avx512vl+avx512bw+avx512dq",
-    "x86_64+avx2+fma",
-    "x86_64+avx"
-))]
-fn wander_run(
-    view: &SteerView,
-    g: usize,
-    (from, to): (usize, usize),
-    base: usize,
-    (lx, ly, an, wa, nb): cells::OutChunks,
-) {
-    let mut lanes = WanderLanes::default();
-    for s in (from..to).step_by(LANES) {
-        lanes.fill(view, g, s, LANES.min(to - s));
-        lanes.flush(
-            view,
+        let (len, outs) = (
+            LANES.min(to - s),
             (&mut *lx, &mut *ly, &mut *an, &mut *wa, &mut *nb),
-            base,
         );
+        if wander {
+            wanderers.fill(view, g, s, len);
+            wanderers.flush(view, outs, base);
+        } else {
+            seekers.fill(view, g, s, len);
+            seekers.flush(view, outs, base, turns);
+        }
     }
 }
 
