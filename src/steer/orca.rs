@@ -168,22 +168,7 @@ pub(crate) fn run(
                 b.js.resize(n + LANES, 0);
             }
             b.near.reserve(n.saturating_sub(b.near.len()));
-            for k in 0..lx.len() {
-                let i = base + k;
-                let g = a.group[i] as usize;
-                if let Some(orca) = view.plans[g].orca {
-                    let turb = if ctx.perturbs {
-                        let s = orca.perturbation * b.turb_len[k];
-                        Vec2::new(b.turb_cos[k], b.turb_sin[k]) * s
-                    } else {
-                        Vec2::ZERO
-                    };
-                    let (x, y, close) = filter(view, &ctx, &orca, i, (lx[k], ly[k]), turb, b);
-                    lx[k] = x;
-                    ly[k] = y;
-                    near[k] = close;
-                }
-            }
+            filter_chunk(view, &ctx, base, (lx, ly, near), b);
         });
     };
     let (lx, ly) = (&mut out.lin_x[..n], &mut out.lin_y[..n]);
@@ -355,10 +340,39 @@ fn insertion_sort(v: &mut [(u64, u32)]) {
     }
 }
 
-/// One agent's filtered request, and whether it may touch another agent after the move.
-/// Compiled for AVX2 too, where the candidate scan and the agent lines run in vectors (the
-/// same arithmetic, so the same bits).
+/// The filtered requests of the agents from storage index `base` on, one per slot of `lx`,
+/// `ly` and `near`. Compiled for AVX2 too, where the candidate scan and the agent lines run in
+/// vectors (the same arithmetic, so the same bits); dispatched once per chunk, with [`filter`]
+/// inlined, rather than once per agent.
 #[multiversion::multiversion(targets("x86_64+avx2+fma"))]
+fn filter_chunk(
+    view: &SteerView,
+    ctx: &Context,
+    base: usize,
+    (lx, ly, near): (&mut [f32], &mut [f32], &mut [bool]),
+    b: &mut Buffers,
+) {
+    let a = view.agents;
+    for k in 0..lx.len() {
+        let i = base + k;
+        let g = a.group[i] as usize;
+        if let Some(orca) = view.plans[g].orca {
+            let turb = if ctx.perturbs {
+                let s = orca.perturbation * b.turb_len[k];
+                Vec2::new(b.turb_cos[k], b.turb_sin[k]) * s
+            } else {
+                Vec2::ZERO
+            };
+            let (x, y, close) = filter(view, ctx, &orca, i, (lx[k], ly[k]), turb, b);
+            lx[k] = x;
+            ly[k] = y;
+            near[k] = close;
+        }
+    }
+}
+
+/// One agent's filtered request, and whether it may touch another agent after the move.
+#[inline(always)]
 fn filter(
     view: &SteerView,
     ctx: &Context,
