@@ -344,7 +344,10 @@ fn insertion_sort(v: &mut [(u64, u32)]) {
 /// `ly` and `near`. Compiled for AVX2 too, where the candidate scan and the agent lines run in
 /// vectors (the same arithmetic, so the same bits); dispatched once per chunk, with [`filter`]
 /// inlined, rather than once per agent.
-#[multiversion::multiversion(targets("x86_64+avx2+fma"))]
+#[multiversion::multiversion(targets(
+    "x86_64+avx2+fma+avx512f+avx512vl+avx512bw+avx512dq",
+    "x86_64+avx2+fma"
+))]
 fn filter_chunk(
     view: &SteerView,
     ctx: &Context,
