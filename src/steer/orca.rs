@@ -341,8 +341,8 @@ fn insertion_sort(v: &mut [(u64, u32)]) {
 }
 
 /// The filtered requests of the agents from storage index `base` on, one per slot of `lx`,
-/// `ly` and `near`. Compiled for AVX2 too, where the candidate scan and the agent lines run in
-/// vectors (the same arithmetic, so the same bits); dispatched once per chunk, with [`filter`]
+/// `ly` and `near`. Compiled for AVX-512 and AVX2 too, where the candidate scan and the agent
+/// lines run in vectors (the same arithmetic, so the same bits); dispatched once per chunk, with [`filter`]
 /// inlined, rather than once per agent.
 #[multiversion::multiversion(targets(
     "x86_64+avx2+fma+avx512f+avx512vl+avx512bw+avx512dq",
