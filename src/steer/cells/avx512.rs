@@ -31,13 +31,9 @@ pub(super) fn pairs(
     if q.mode & 8 != 0 || q.mode == VICSEK {
         return 0;
     }
-    let m = agents.len() / 2 * 2;
-    for (ab, o) in agents[..m]
-        .chunks_exact(2)
-        .zip(out[..m].chunks_exact_mut(2))
-    {
-        let (a, b) = (q.at(&ab[0]), q.at(&ab[1]));
-        let (sa, sb) = match q.mode {
+    let pair = |a: &Agent, b: &Agent| {
+        let (a, b) = (q.at(a), q.at(b));
+        match q.mode {
             0 => shared_pair::<0, false, false>(buf, &a, &b),
             1 => shared_pair::<1, false, false>(buf, &a, &b),
             2 => shared_pair::<2, false, false>(buf, &a, &b),
@@ -50,8 +46,14 @@ pub(super) fn pairs(
             20 => shared_pair::<0, true, true>(buf, &a, &b),
             21 => shared_pair::<1, true, true>(buf, &a, &b),
             _ => shared_pair::<2, true, true>(buf, &a, &b),
-        };
-        (o[0], o[1]) = (sa, sb);
+        }
+    };
+    let m = agents.len().min(out.len()) / 2 * 2;
+    for (ab, o) in agents[..m]
+        .chunks_exact(2)
+        .zip(out[..m].chunks_exact_mut(2))
+    {
+        (o[0], o[1]) = pair(&ab[0], &ab[1]);
     }
     m
 }
@@ -73,30 +75,75 @@ fn both(v: &[f32]) -> __m512 {
     ))
 }
 
-/// The lanes of one half summed as [`super::tree_sum`] sums them: halves, quarters, the pair.
+/// Every accumulator's two halves summed, as [`super::tree_sum`] sums eight lanes (lane `i` plus
+/// lane `i + 4`, then `i` plus `i + 2`, then the pair), for all of them at once: three levels of
+/// shuffles and adds over the eight accumulators instead of a tree per half and accumulator.
+/// Returns `[[agent a's sums], [agent b's sums]]` in the accumulators' order.
 #[inline]
 #[target_feature(enable = "avx512f,avx512dq,avx512vl,avx2,fma")]
-fn tree<const H: i32>(v: __m512) -> f32 {
-    let a = _mm512_extractf32x8_ps::<H>(v);
-    let h = _mm_add_ps(_mm256_castps256_ps128(a), _mm256_extractf128_ps::<1>(a));
-    let q = _mm_add_ps(h, _mm_movehl_ps(h, h));
-    _mm_cvtss_f32(_mm_add_ss(q, _mm_movehdup_ps(q)))
+fn reduce(acc: &[__m512; 8]) -> [[f32; 8]; 2] {
+    // Level 1, per accumulator and half: lanes 0..4 plus lanes 4..8. With the 128-bit blocks
+    // of `p` as p0 p1 (a) p2 p3 (b): [p0 + p1, p2 + p3, q0 + q1, q2 + q3].
+    let l1 = |p: __m512, q: __m512| {
+        _mm512_add_ps(
+            _mm512_shuffle_f32x4::<0b10_00_10_00>(p, q),
+            _mm512_shuffle_f32x4::<0b11_01_11_01>(p, q),
+        )
+    };
+    // Level 2, within each 128-bit block of `p` and of `q`: [p0 + p2, p1 + p3, q0 + q2, q1 + q3].
+    let l2 = |p: __m512, q: __m512| {
+        _mm512_add_ps(
+            _mm512_shuffle_ps::<0b01_00_01_00>(p, q),
+            _mm512_shuffle_ps::<0b11_10_11_10>(p, q),
+        )
+    };
+    // Level 3, within each block: [p0 + p1, p2 + p3, q0 + q1, q2 + q3].
+    let l3 = |p: __m512, q: __m512| {
+        _mm512_add_ps(
+            _mm512_shuffle_ps::<0b10_00_10_00>(p, q),
+            _mm512_shuffle_ps::<0b11_01_11_01>(p, q),
+        )
+    };
+    let [s0, s1, s2, s3, s4, s5, s6, s7] = *acc;
+    // Blocks: [s0 a, s0 b, s1 a, s1 b], [s2 a, s2 b, s3 a, s3 b], ...
+    let (a, b, c, d) = (l1(s0, s1), l1(s2, s3), l1(s4, s5), l1(s6, s7));
+    // Block k of l2(a, b): the level-2 pairs of a's block k, then of b's block k.
+    let (e, f) = (l2(a, b), l2(c, d));
+    // Block k of l3(e, f): [a_k, b_k, c_k, d_k] summed, where block k of `a` is
+    // (k = 0) s0 a, (1) s0 b, (2) s1 a, (3) s1 b.
+    let r = l3(e, f);
+    let mut out = [0.0_f32; 16];
+    #[expect(
+        unsafe_code,
+        reason = "a store of the 16 lanes into an array (the intrinsic takes a raw pointer)"
+    )]
+    // SAFETY: `out` holds 16 `f32`, the 64 bytes the unaligned store writes.
+    unsafe {
+        _mm512_storeu_ps(out.as_mut_ptr(), r);
+    }
+    // Lane 4k + j: accumulator pair j (j = 0: s0/s1 from `a`, 1: s2/s3, 2: s4/s5, 3: s6/s7),
+    // block k of its level-1 vector (k = 0: first accumulator of agent a, 1: of agent b,
+    // 2: second accumulator of agent a, 3: of agent b).
+    let at = |acc: usize, agent: usize| out[4 * (2 * (acc % 2) + agent) + acc / 2];
+    [
+        std::array::from_fn(|k| at(k, 0)),
+        std::array::from_fn(|k| at(k, 1)),
+    ]
 }
 
-/// One half's sums, as [`super::Acc::sums`] with a shared alignment and cohesion count.
+/// One agent's sums from its reduced accumulators, as [`super::Acc::sums`] with a shared
+/// alignment and cohesion count.
 #[inline]
-#[target_feature(enable = "avx512f,avx512dq,avx512vl,avx2,fma")]
-fn sums<const H: i32>(acc: &[__m512; 8]) -> NeighbourSums {
-    let [sx, sy, ax, ay, an, cx, cy, n] = *acc;
-    let alignment_count = tree::<H>(an);
+fn sums(r: &[f32; 8]) -> NeighbourSums {
+    let [sx, sy, ax, ay, an, cx, cy, n] = *r;
     NeighbourSums {
-        separation: Vec2::new(tree::<H>(sx), tree::<H>(sy)),
-        alignment: Vec2::new(tree::<H>(ax), tree::<H>(ay)),
-        alignment_count,
-        cohesion: Vec2::new(tree::<H>(cx), tree::<H>(cy)),
-        cohesion_count: alignment_count,
+        separation: Vec2::new(sx, sy),
+        alignment: Vec2::new(ax, ay),
+        alignment_count: an,
+        cohesion: Vec2::new(cx, cy),
+        cohesion_count: an,
         repulsion: Vec2::ZERO,
-        count: tree::<H>(n),
+        count: n,
         heading: Vec2::ZERO,
     }
 }
@@ -168,6 +215,6 @@ fn shared_pair<const CONE: u8, const GROUPS: bool, const Q_AC: bool>(
         };
         n = _mm512_mask_add_ps(n, counted, n, one);
     }
-    let acc = [sx, sy, ax, ay, an, cx, cy, n];
-    (sums::<0>(&acc), sums::<1>(&acc))
+    let [ra, rb] = reduce(&[sx, sy, ax, ay, an, cx, cy, n]);
+    (sums(&ra), sums(&rb))
 }
