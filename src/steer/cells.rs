@@ -376,6 +376,8 @@ struct Outputs<'o> {
     sums: &'o mut [NeighbourSums],
     /// The flocking agents' sums, waiting for [`Outputs::finish`].
     runs: &'o mut Runs,
+    /// The copies in the grid's order (the flocking agents' velocities).
+    sorted: &'o SortedCopies,
 }
 
 impl Outputs<'_> {
@@ -398,6 +400,9 @@ impl Outputs<'_> {
             let outs = (&mut self.lx[j..end], &mut self.ly[j..end]);
             match plan.kind {
                 PlanKind::Flock { terms, len } => {
+                    let (a, b) = (self.base + j, self.base + end);
+                    let vel = (&self.sorted.vx[a..b], &self.sorted.vy[a..b]);
+                    self.runs.without_self_run(j..end, vel, plan.spec.on);
                     evaluate_run(
                         self.runs,
                         j..end,
@@ -463,24 +468,22 @@ impl Batch {
             self.len = 0;
             return;
         }
-        let spec = &plan.spec;
         if !matches!(plan.kind, PlanKind::Flock { .. }) {
             // A summed plan: the sums alone, for the agent's evaluation in the pass.
             for k in 0..m {
                 let p = self.slots[k].0;
                 let velocity = Vec2::new(sorted.vx[p], sorted.vy[p]);
-                out.sums[p - out.base] = without_self(self.sums[k], velocity, spec);
+                out.sums[p - out.base] = without_self(self.sums[k], velocity, &plan.spec);
             }
             self.len = 0;
             return;
         }
+        // The sums still hold the agent itself: `Outputs::finish` takes it out in lanes.
         for k in 0..m {
             let (p, i) = self.slots[k];
-            let velocity = Vec2::new(sorted.vx[p], sorted.vy[p]);
-            let s = without_self(self.sums[k], velocity, spec);
             let max_speed = view.agents.max_speed[i];
             out.runs
-                .put(p - out.base, self.group, &s, velocity, max_speed);
+                .put(p - out.base, self.group, &self.sums[k], max_speed);
         }
         self.len = 0;
     }
@@ -514,6 +517,7 @@ fn chunk(
         nb,
         sums,
         runs,
+        sorted,
     };
     let mut batch = Batch {
         agents: [Agent::default(); CELL_BATCH],
@@ -642,9 +646,10 @@ impl Runs {
         self.mark[..n].fill(0);
     }
 
-    /// Puts the sums of the agent at slot `j` (of `group`).
+    /// Puts the sums of the agent at slot `j` (of `group`), the agent itself still in them
+    /// (as the kernel summed its buffer).
     #[inline(always)]
-    fn put(&mut self, j: usize, group: usize, s: &NeighbourSums, v: Vec2, max_speed: f32) {
+    fn put(&mut self, j: usize, group: usize, s: &NeighbourSums, max_speed: f32) {
         assert!(j < CELL_CHUNK, "a slot of the task");
         self.mark[j] = group as u32 + 1;
         (self.sep[0][j], self.sep[1][j]) = (s.separation.x, s.separation.y);
@@ -652,9 +657,42 @@ impl Runs {
         self.ali_n[j] = s.alignment_count;
         (self.coh[0][j], self.coh[1][j]) = (s.cohesion.x, s.cohesion.y);
         self.coh_n[j] = s.cohesion_count;
-        (self.vel[0][j], self.vel[1][j]) = (v.x, v.y);
         self.max_speed[j] = max_speed;
         self.count[j] = s.count;
+    }
+
+    /// [`without_self`] over the agents at `range`, whose velocities are `(vx, vy)`: the same
+    /// subtractions in lanes, so the same bits; the velocities go to `vel`.
+    fn without_self_run(
+        &mut self,
+        range: std::ops::Range<usize>,
+        (vx, vy): (&[f32], &[f32]),
+        on: [bool; 3],
+    ) {
+        let n = range.len();
+        let (vx, vy) = (&vx[..n], &vy[..n]);
+        self.vel[0][range.clone()].copy_from_slice(vx);
+        self.vel[1][range.clone()].copy_from_slice(vy);
+        for c in &mut self.count[range.clone()] {
+            *c -= 1.0;
+        }
+        if on[ALI] {
+            let [ax, ay] = &mut self.ali;
+            let (ax, ay) = (&mut ax[range.clone()], &mut ay[range.clone()]);
+            let ay = &mut ay[..ax.len()];
+            for k in 0..n.min(ax.len()) {
+                ax[k] -= vx[k];
+                ay[k] -= vy[k];
+            }
+            for c in &mut self.ali_n[range.clone()] {
+                *c -= 1.0;
+            }
+        }
+        if on[COH] {
+            for c in &mut self.coh_n[range] {
+                *c -= 1.0;
+            }
+        }
     }
 
     /// Puts the Vicsek sums of the agent at slot `j` (of `group`, id `id`): the summed unit

@@ -66,6 +66,40 @@ fn gather_into(dst: &mut Vec<f32>, order: &[u32], f: impl Fn(usize) -> f32 + Syn
         });
 }
 
+/// `dst_x[k] = src_x[order[k]]` and `dst_y[k] = src_y[order[k]]` for every `k`, in parallel
+/// chunks, with `LANES` zeros of padding: both columns in one pass over the order, whose indices
+/// are clamped below the length (a select, instead of a bounds-check branch per load; the order
+/// is a permutation, so the clamp never changes an index).
+fn gather_pair_into(
+    (dst_x, dst_y): (&mut Vec<f32>, &mut Vec<f32>),
+    order: &[u32],
+    (src_x, src_y): (&[f32], &[f32]),
+) {
+    const CHUNK: usize = 8192;
+    let n = order.len();
+    for d in [&mut *dst_x, &mut *dst_y] {
+        d.resize(n + LANES, 0.0);
+        d[n..].fill(0.0);
+    }
+    let last = src_x.len().min(src_y.len()).saturating_sub(1);
+    if n == 0 {
+        return;
+    }
+    let (src_x, src_y) = (&src_x[..=last], &src_y[..=last]);
+    dst_x[..n]
+        .par_chunks_mut(CHUNK)
+        .zip(dst_y[..n].par_chunks_mut(CHUNK))
+        .zip(order.par_chunks(CHUNK))
+        .for_each(|((dx, dy), o)| {
+            let dy = &mut dy[..dx.len()];
+            for (k, &j) in o.iter().enumerate().take(dx.len()) {
+                let j = (j as usize).min(last);
+                dx[k] = src_x[j];
+                dy[k] = src_y[j];
+            }
+        });
+}
+
 /// `dst = src` with `LANES` zeros of padding.
 fn copy_into(dst: &mut Vec<f32>, src: &[f32]) {
     dst.clear();
@@ -111,8 +145,7 @@ impl SortedCopies {
                 *g_zero = one_group;
             },
             || {
-                gather_into(vx, order, |j| vel_x[j]);
-                gather_into(vy, order, |j| vel_y[j]);
+                gather_pair_into((vx, vy), order, (vel_x, vel_y));
             },
         );
         *filled = headings;
