@@ -218,11 +218,18 @@ impl CellOut {
         let n = lx.len();
         let rank = &self.rank[base..base + n];
         let (ly, nb) = (&mut ly[..n], &mut nb[..n]);
+        // The columns cut to one length, and each rank clamped below it: a select instead of a
+        // bounds-check branch per load (ranks are grid positions, so the clamp changes none).
+        let m = self.lin_x.len().min(self.lin_y.len()).min(self.count.len());
+        let Some(last) = m.checked_sub(1) else {
+            return;
+        };
+        let (px, py, pc) = (&self.lin_x[..m], &self.lin_y[..m], &self.count[..m]);
         for k in 0..n {
-            let r = rank[k].load(Ordering::Relaxed) as usize;
-            lx[k] = self.lin_x[r];
-            ly[k] = self.lin_y[r];
-            nb[k] = self.count[r];
+            let r = (rank[k].load(Ordering::Relaxed) as usize).min(last);
+            lx[k] = px[r];
+            ly[k] = py[r];
+            nb[k] = pc[r];
         }
     }
 
