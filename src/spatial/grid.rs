@@ -19,6 +19,8 @@ const PARALLEL_MIN_POINTS: usize = 8 * 1024;
 const CHUNK: usize = 8 * 1024;
 /// The largest number of cells a grid ever has.
 const MAX_CELLS: usize = 1 << 22;
+/// Zeros after the sorted positions ([`GridIndex::sorted_padded`]): one block of lanes.
+pub(crate) const SORTED_PAD: usize = 8;
 
 /// A uniform-grid neighbour index: cell lists rebuilt by counting sort.
 ///
@@ -226,13 +228,20 @@ impl GridIndex {
     /// x coordinates in [`order`](Self::order).
     #[must_use]
     pub fn sorted_x(&self) -> &[f32] {
-        &self.sort.sorted_x
+        &self.sort.sorted_x[..self.sort.order.len()]
     }
 
     /// y coordinates in [`order`](Self::order).
     #[must_use]
     pub fn sorted_y(&self) -> &[f32] {
-        &self.sort.sorted_y
+        &self.sort.sorted_y[..self.sort.order.len()]
+    }
+
+    /// [`sorted_x`](Self::sorted_x) and [`sorted_y`](Self::sorted_y) followed by
+    /// [`SORTED_PAD`] zeros, so that a kernel can read whole blocks of lanes from any point.
+    #[must_use]
+    pub(crate) fn sorted_padded(&self) -> (&[f32], &[f32]) {
+        (&self.sort.sorted_x, &self.sort.sorted_y)
     }
 
     /// Makes the grid the one a rebuild would give after the points were permuted into its
@@ -496,7 +505,7 @@ impl GridIndex {
                 (p.x, p.y)
             },
             parts,
-            0,
+            (SORTED_PAD, 0.0),
         );
     }
 }

@@ -127,7 +127,8 @@ impl HashGrid {
             fill(&mut self.bucket, xs, ys);
         }
         let pos = |i: usize| (xs[i], ys[i]);
-        self.sort.sort(&self.bucket, table, pos, parts, PAD);
+        self.sort
+            .sort(&self.bucket, table, pos, parts, (PAD, f32::MAX));
     }
 
     /// How many points the grid holds.

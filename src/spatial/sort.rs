@@ -76,13 +76,19 @@ impl CountingSort {
     }
 
     /// Sorts the points `0..key.len()` by `key` (each `< keys`) into `start`, `order`,
-    /// `sorted_x` and `sorted_y` (`pos(i)` is point `i`'s position; `pad` entries of `f32::MAX`
+    /// `sorted_x` and `sorted_y` (`pos(i)` is point `i`'s position; `pad.0` entries of `pad.1`
     /// follow the sorted positions), using `parts` chunks of points (1 = on this thread; more:
     /// on the current rayon pool). The result does not depend on `parts`.
     ///
     /// The caller guarantees `key.len() <= u32::MAX`.
-    pub(super) fn sort<P>(&mut self, key: &[u32], keys: usize, pos: P, parts: usize, pad: usize)
-    where
+    pub(super) fn sort<P>(
+        &mut self,
+        key: &[u32],
+        keys: usize,
+        pos: P,
+        parts: usize,
+        (pad, pad_value): (usize, f32),
+    ) where
         P: Fn(usize) -> (f32, f32) + Sync,
     {
         let n = key.len();
@@ -173,8 +179,8 @@ impl CountingSort {
         self.order.resize(n, 0);
         self.sorted_x.resize(n + pad, 0.0);
         self.sorted_y.resize(n + pad, 0.0);
-        self.sorted_x[n..].fill(f32::MAX);
-        self.sorted_y[n..].fill(f32::MAX);
+        self.sorted_x[n..].fill(pad_value);
+        self.sorted_y[n..].fill(pad_value);
         let shared = Shared {
             bucket_start: &self.bucket_start,
             pairs,
@@ -330,7 +336,7 @@ mod tests {
             let (start, order) = reference(&key, keys);
             let mut sort = CountingSort::default();
             for parts in [1, 2, 3, 4, 7, 64, 100] {
-                sort.sort(&key, keys, |i| (xs[i], ys[i]), parts, 3);
+                sort.sort(&key, keys, |i| (xs[i], ys[i]), parts, (3, f32::MAX));
                 assert_eq!(sort.start, start, "{n} points, {parts} parts");
                 assert_eq!(sort.order, order, "{n} points, {parts} parts");
                 for (k, &i) in order.iter().enumerate() {

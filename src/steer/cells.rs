@@ -534,6 +534,7 @@ fn chunk(
         group: 0,
     };
     let single = specs.len() == 1 && specs[0].is_some();
+    let (xs, ys) = grid.sorted_padded();
     // The first cell holding position `base`.
     let mut cell = starts.partition_point(|&s| s as usize <= base) - 1;
     let mut k = base;
@@ -572,8 +573,8 @@ fn chunk(
                 (0.0, 0.0)
             };
             batch.agents[batch.len] = Agent {
-                x: sorted.x[p],
-                y: sorted.y[p],
+                x: xs[p],
+                y: ys[p],
                 hx,
                 hy,
                 g: sorted.g[p],
@@ -918,7 +919,14 @@ fn gather(
                     v.resize(need.max(MIN_CELL_BUF), 0.0);
                 }
             }
-            append_motion(buf, len, s, a, b, (shift_x, shift_y));
+            append_motion(
+                buf,
+                len,
+                (grid.sorted_padded(), s),
+                a,
+                b,
+                (shift_x, shift_y),
+            );
             if groups {
                 append(&mut buf.g, len, &s.g, a, b);
             }
@@ -944,7 +952,7 @@ fn gather(
 }
 
 /// Writes `src[a..b]` at `dst[len..]` in whole blocks of lanes: up to `LANES - 1` values past
-/// `b` are read (the sorted copies are padded for it) and written past the run (the next run or
+/// `b` are read (the grid's positions and the sorted copies are padded for it) and written past the run (the next run or
 /// the padding overwrites them). The slices are cut once, so the block loop carries no bounds
 /// checks.
 #[inline(always)]
@@ -963,7 +971,7 @@ fn append(dst: &mut [f32], len: usize, src: &[f32], a: usize, b: usize) {
 fn append_motion(
     buf: &mut CellBuf,
     len: usize,
-    s: &SortedCopies,
+    ((sx, sy), s): ((&[f32], &[f32]), &SortedCopies),
     a: usize,
     b: usize,
     (shift_x, shift_y): (f32, f32),
@@ -975,7 +983,7 @@ fn append_motion(
         v[len..len + blocks].as_chunks_mut::<LANES>().0
     }
     let blocks = (b - a).div_ceil(LANES) * LANES;
-    let (x, y) = (src(&s.x, a, blocks), src(&s.y, a, blocks));
+    let (x, y) = (src(sx, a, blocks), src(sy, a, blocks));
     let (vx, vy) = (src(&s.vx, a, blocks), src(&s.vy, a, blocks));
     let n = x.len();
     let (x, y, vx, vy) = (&x[..n], &y[..n], &vx[..n], &vy[..n]);

@@ -6,7 +6,8 @@
 //!   radius (ascending index order, so every backend gives bit-identical sums) and accumulates
 //!   them one by one; it also serves repulsion and neighbour caps;
 //! - the **grid kernel** reads the neighbour cells of the uniform grid as contiguous runs of
-//!   cell-ordered copies of the positions, velocities and groups, eight lanes at a time, with
+//!   the grid's cell-ordered positions (padded with a block of zeros) and cell-ordered copies of
+//!   the velocities and groups, eight lanes at a time, with
 //!   runtime CPU-feature dispatch (AVX-512 or AVX2 where the processor has them, SSE2
 //!   otherwise). It sums in
 //!   a different order than the reference, so the two agree to rounding, not bit for bit; each is
@@ -32,12 +33,11 @@ pub(crate) fn positive_finite(x: f32) -> bool {
     (x > 0.0) & (x <= f32::MAX)
 }
 
-/// Cell-ordered copies of what the kernel reads, padded with `LANES` zeros so that a block of
-/// eight lanes never reads past the end.
+/// Cell-ordered copies of what the kernel reads besides the positions (which the grid keeps in
+/// that order, [`GridIndex::sorted_padded`]), padded with `LANES` zeros so that a block of eight
+/// lanes never reads past the end.
 #[derive(Debug, Default)]
 pub(crate) struct SortedCopies {
-    pub x: Vec<f32>,
-    pub y: Vec<f32>,
     pub vx: Vec<f32>,
     pub vy: Vec<f32>,
     pub g: Vec<f32>,
@@ -100,13 +100,6 @@ fn gather_pair_into(
         });
 }
 
-/// `dst = src` with `LANES` zeros of padding.
-fn copy_into(dst: &mut Vec<f32>, src: &[f32]) {
-    dst.clear();
-    dst.extend_from_slice(src);
-    dst.extend_from_slice(&[0.0; LANES]);
-}
-
 impl SortedCopies {
     /// Fills the copies in the grid's order from the agents' buffers (the unit headings only
     /// when `headings`). With `one_group` (every agent in group 0) the groups are zeros, which
@@ -119,11 +112,8 @@ impl SortedCopies {
         one_group: bool,
     ) {
         let order = grid.order();
-        let (sx, sy) = (grid.sorted_x(), grid.sorted_y());
         let (vel_x, vel_y, group) = (&agents.vel_x, &agents.vel_y, &agents.group);
         let SortedCopies {
-            x,
-            y,
             vx,
             vy,
             g,
@@ -134,8 +124,6 @@ impl SortedCopies {
         } = self;
         rayon::join(
             || {
-                copy_into(x, sx);
-                copy_into(y, sy);
                 if !one_group {
                     gather_into(g, order, |j| group[j] as f32);
                 } else if !*g_zero || g.len() != order.len() + LANES {
@@ -354,7 +342,7 @@ pub(crate) fn sums_grid(
     let mut nr = 0;
     let mut total = NeighbourSums::default();
     let flush = |runs: &[(u32, u32)], total: &mut NeighbourSums| {
-        let part = kernel(runs, sorted, &q, mode);
+        let part = kernel(runs, (grid.sorted_padded(), sorted), &q, mode);
         add_sums(total, &part);
     };
     if wrapping {
@@ -427,7 +415,12 @@ fn add_sums(total: &mut NeighbourSums, part: &NeighbourSums) {
     "x86_64+avx2+fma",
     "x86_64+avx"
 ))]
-fn kernel(runs: &[(u32, u32)], s: &SortedCopies, q: &KernelQuery, mode: u8) -> NeighbourSums {
+fn kernel(
+    runs: &[(u32, u32)],
+    s: ((&[f32], &[f32]), &SortedCopies),
+    q: &KernelQuery,
+    mode: u8,
+) -> NeighbourSums {
     match mode {
         0 => kernel_body::<false, false, false>(runs, s, q),
         1 => kernel_body::<true, false, false>(runs, s, q),
@@ -461,7 +454,7 @@ fn one_if(b: bool) -> f32 {
 #[inline(always)]
 fn kernel_body<const VIEW: bool, const WRAP: bool, const ALL_GROUPS: bool>(
     runs: &[(u32, u32)],
-    s: &SortedCopies,
+    ((xs, ys), s): ((&[f32], &[f32]), &SortedCopies),
     q: &KernelQuery,
 ) -> NeighbourSums {
     let z = [0.0_f32; LANES];
@@ -472,9 +465,9 @@ fn kernel_body<const VIEW: bool, const WRAP: bool, const ALL_GROUPS: bool>(
         let (a, b) = (a as usize, b as usize);
         // Whole blocks of eight, the last one reaching into the padding.
         let end = a + (b - a).div_ceil(LANES) * LANES;
-        let blocks = s.x[a..end]
+        let blocks = xs[a..end]
             .chunks_exact(LANES)
-            .zip(s.y[a..end].chunks_exact(LANES))
+            .zip(ys[a..end].chunks_exact(LANES))
             .zip(s.vx[a..end].chunks_exact(LANES))
             .zip(s.vy[a..end].chunks_exact(LANES))
             .zip(s.g[a..end].chunks_exact(LANES));

@@ -206,59 +206,31 @@ fn gather(
             at_least(&mut b.js, candidates + LANES);
             let (rx, ry, js) = (&mut b.rx[..], &mut b.ry[..], &mut b.js[..]);
             let order = grid.order();
+            let (sx, sy) = grid.sorted_padded();
             let r_sq = r * r;
             for run in &b.runs {
                 let len = run.len();
-                match view.sorted {
-                    // The kernels' copies are padded with a block of zeros, so every block of
-                    // a run is read whole, in lanes, its tail masked off, and the lanes within
-                    // the cut-off packed without a branch per lane (`steer::pack`).
-                    Some(s) => {
-                        let end = run.start + len.div_ceil(LANES) * LANES;
-                        let blocks = s.x[run.start..end]
-                            .chunks_exact(LANES)
-                            .zip(s.y[run.start..end].chunks_exact(LANES));
-                        for (c, (xs, ys)) in blocks.enumerate() {
-                            let xs: &[f32; LANES] = xs.try_into().expect("a block");
-                            let ys: &[f32; LANES] = ys.try_into().expect("a block");
-                            let at = run.start + c * LANES;
-                            let mut out = Packed {
-                                rx,
-                                ry,
-                                js,
-                                p: (pos.x, pos.y),
-                                r_sq,
-                                me: i as u32,
-                            };
-                            let left = len - c * LANES;
-                            count = pack_block(xs, ys, order, at, left, &mut out, count, avx2);
-                        }
-                    }
-                    None => {
-                        // Writes the hits of a block (offsets `dx`, `dy`) at `count`, in order.
-                        let mut keep =
-                            |mut hits: u32, dx: &[f32; LANES], dy: &[f32; LANES], at: usize| {
-                                while hits != 0 {
-                                    let l = hits.trailing_zeros() as usize;
-                                    hits &= hits - 1;
-                                    let j = order[at + l];
-                                    (rx[count], ry[count], js[count]) = (dx[l], dy[l], j);
-                                    count += usize::from(j as usize != i);
-                                }
-                            };
-                        let (sx, sy) = (grid.sorted_x(), grid.sorted_y());
-                        for k in run.clone().step_by(LANES) {
-                            let n = LANES.min(run.end - k);
-                            let (mut dx, mut dy) = ([0.0f32; LANES], [0.0f32; LANES]);
-                            let mut hits = 0u32;
-                            for l in 0..n {
-                                dx[l] = sx[k + l] - pos.x;
-                                dy[l] = sy[k + l] - pos.y;
-                                hits |= u32::from(dx[l] * dx[l] + dy[l] * dy[l] <= r_sq) << l;
-                            }
-                            keep(hits, &dx, &dy, k);
-                        }
-                    }
+                // The grid's positions are padded with a block of zeros, so every block of a
+                // run is read whole, in lanes, its tail masked off, and the lanes within the
+                // cut-off packed without a branch per lane (`steer::pack`).
+                let end = run.start + len.div_ceil(LANES) * LANES;
+                let blocks = sx[run.start..end]
+                    .chunks_exact(LANES)
+                    .zip(sy[run.start..end].chunks_exact(LANES));
+                for (c, (xs, ys)) in blocks.enumerate() {
+                    let xs: &[f32; LANES] = xs.try_into().expect("a block");
+                    let ys: &[f32; LANES] = ys.try_into().expect("a block");
+                    let at = run.start + c * LANES;
+                    let mut out = Packed {
+                        rx,
+                        ry,
+                        js,
+                        p: (pos.x, pos.y),
+                        r_sq,
+                        me: i as u32,
+                    };
+                    let left = len - c * LANES;
+                    count = pack_block(xs, ys, order, at, left, &mut out, count, avx2);
                 }
             }
         }
