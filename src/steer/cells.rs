@@ -952,9 +952,9 @@ fn gather(
 }
 
 /// Writes `src[a..b]` at `dst[len..]` in whole blocks of lanes: up to `LANES - 1` values past
-/// `b` are read (the grid's positions and the sorted copies are padded for it) and written past the run (the next run or
-/// the padding overwrites them). The slices are cut once, so the block loop carries no bounds
-/// checks.
+/// `b` are read (the grid's positions and the sorted copies are padded for it) and written past
+/// the run (the next run or the padding overwrites them). The slices are cut once, so the block
+/// loop carries no bounds checks.
 #[inline(always)]
 fn append(dst: &mut [f32], len: usize, src: &[f32], a: usize, b: usize) {
     let blocks = (b - a).div_ceil(LANES) * LANES;
