@@ -8,8 +8,14 @@
 //! same IEEE operations on the same operands in the same order (no fused multiply-add, exact
 //! division); where the 8-lane kernel keeps a term by a mask (a bitwise and) and adds, this kernel
 //! adds under a mask, which is the same value because an accumulator starts at +0 and so is never
-//! -0 (adding or subtracting a zero then leaves it as it is); the halves are reduced as [`super::tree_sum`]
-//! reduces the lanes. `tests/flocking.rs` and `tests/determinism.rs` compare the paths.
+//! -0 (adding or subtracting a zero then leaves it as it is); the halves are reduced as
+//! [`super::tree_sum`] reduces the lanes ([`reduce`], all eight accumulators at once).
+//! `tests/flocking.rs` and `tests/determinism.rs` compare the paths, and so does the unit test
+//! `every_dispatch_target_gives_the_scalar_lanes_bits_for_every_flock_shape`.
+//!
+//! Where a 16-lane operation costs two 8-lane ones (Zen 4 splits them), the pairing saves
+//! instructions, not arithmetic: an odd last agent therefore takes the 8-lane kernel rather than
+//! both halves of a vector.
 
 use std::arch::x86_64::*;
 
