@@ -23,7 +23,7 @@ use std::cell::RefCell;
 use glam::Vec2;
 use rayon::prelude::*;
 
-use super::pack::{Block, Packed, pack_block, pack_lanes};
+use super::pack::{Block, Packed, pack_lanes};
 use super::pass::{STEER_CHUNK, SteerOut};
 use super::view::SteerView;
 use crate::agents::AgentId;
@@ -59,9 +59,16 @@ struct Buffers {
     /// The squared distance of the previous agent's `k`-th nearest neighbour (infinite when it
     /// had fewer, and at the start of every chunk).
     kth_sq: f32,
-    /// The last query's block of cells and its runs (reset for every chunk of agents: the grid
-    /// is rebuilt between steps).
-    runs: (Option<[i32; 4]>, Runs),
+    /// The last query's block of cells (reset for every chunk of agents: the grid is rebuilt
+    /// between steps), and its points gathered from the hashed grid's runs into one contiguous
+    /// list (positions and indices, then [`LANES`] of padding), which every agent of the block
+    /// scans eight lanes at a time.
+    block: Option<[i32; 4]>,
+    block_x: Vec<f32>,
+    block_y: Vec<f32>,
+    block_j: Vec<u32>,
+    /// Points in the block (without the padding).
+    block_len: usize,
 }
 
 thread_local! {
@@ -154,7 +161,7 @@ pub(crate) fn run(
     scratch.near.resize(n, false);
     let chunk = |base: usize, lx: &mut [f32], ly: &mut [f32], near: &mut [bool]| {
         BUFFERS.with_borrow_mut(|b| {
-            b.runs.0 = None;
+            b.block = None;
             b.kth_sq = f32::INFINITY;
             if ctx.perturbs {
                 let ids = &a.ids[base..base + lx.len()];
@@ -163,9 +170,11 @@ pub(crate) fn run(
             // Room for every agent as a candidate: a warm step allocates nothing however
             // crowded a neighbourhood becomes.
             if b.js.len() < n + LANES {
-                b.rx.resize(n + LANES, 0.0);
-                b.ry.resize(n + LANES, 0.0);
+                for v in [&mut b.rx, &mut b.ry, &mut b.block_x, &mut b.block_y] {
+                    v.resize(n + LANES, 0.0);
+                }
                 b.js.resize(n + LANES, 0);
+                b.block_j.resize(n + LANES, 0);
             }
             b.near.reserve(n.saturating_sub(b.near.len()));
             filter_chunk(view, &ctx, base, (lx, ly, near), b);
@@ -216,39 +225,38 @@ fn perturbations(ids: &[AgentId], frame_key: u64, b: &mut Buffers) {
     }
 }
 
-/// Packs the candidates of the points `run` of the hashed grid within reach of `out.p` into
-/// `out` from slot `count` on, eight lanes at a time without a branch per lane
-/// (`steer::pack`); returns the new count. The grid's positions are padded, so every block is
-/// read whole and its tail masked off; only a block that runs past the end of the order takes
-/// [`pack_block`]'s copy of the indices.
+/// Gathers the points of the runs `runs` of the hashed grid into `b.block_*`, one contiguous
+/// list, then [`LANES`] entries of padding (far away, never kept).
 #[inline(always)]
-fn scan(
-    hash: &HashGrid,
-    run: std::ops::Range<usize>,
-    avx2: bool,
-    out: &mut Packed,
-    mut count: usize,
-) -> usize {
+fn gather_block(hash: &HashGrid, runs: &Runs, b: &mut Buffers) {
     let (sx, sy, order) = (hash.sorted_x(), hash.sorted_y(), hash.order());
-    let blocks = run.len().div_ceil(LANES);
-    // Blocks whose indices lie within the order, read as whole arrays.
-    let whole = blocks.min(order.len().saturating_sub(run.start) / LANES);
-    let end = run.start + whole * LANES;
-    let xs = sx[run.start..end].as_chunks::<LANES>().0;
-    let ys = sy[run.start..end].as_chunks::<LANES>().0;
-    let js = order[run.start..end].as_chunks::<LANES>().0;
-    let mut left = run.len();
-    for ((xs, ys), js) in xs.iter().zip(ys).zip(js) {
-        let block = Block { xs, ys, js, left };
-        count = pack_lanes(&block, out, count, avx2);
-        left = left.saturating_sub(LANES);
+    let mut len = 0;
+    for run in runs.iter() {
+        // Eight lanes at a time (the sorted positions are padded); the next copy starts where
+        // this one's points end.
+        let mut at = run.start;
+        while at < run.end {
+            let take = (run.end - at).min(LANES);
+            let x: &[f32; LANES] = sx[at..at + LANES].try_into().expect("padded positions");
+            let y: &[f32; LANES] = sy[at..at + LANES].try_into().expect("padded positions");
+            let to: &mut [f32; LANES] =
+                (&mut b.block_x[len..len + LANES]).try_into().expect("room");
+            *to = *x;
+            let to: &mut [f32; LANES] =
+                (&mut b.block_y[len..len + LANES]).try_into().expect("room");
+            *to = *y;
+            match order.get(at..at + LANES) {
+                Some(js) => b.block_j[len..len + LANES].copy_from_slice(js),
+                None => b.block_j[len..len + take].copy_from_slice(&order[at..at + take]),
+            }
+            len += take;
+            at += take;
+        }
     }
-    if whole < blocks {
-        let xs = sx[end..end + LANES].try_into().expect("padded positions");
-        let ys = sy[end..end + LANES].try_into().expect("padded positions");
-        count = pack_block(xs, ys, order, end, left, out, count, avx2);
-    }
-    count
+    b.block_x[len..len + LANES].fill(f32::MAX);
+    b.block_y[len..len + LANES].fill(f32::MAX);
+    b.block_j[len..len + LANES].fill(u32::MAX);
+    b.block_len = len;
 }
 
 /// The `k` nearest agents within `r` of agent `i` at `pos` (itself left out) in `b.near`,
@@ -269,16 +277,24 @@ fn candidates(
     b.near.clear();
     match ctx.source {
         Source::Hash(hash) => {
-            // Agents lie in cell order, so the next agent's block of cells is often this one's.
+            // Agents lie in the order of a hashed grid of these cells (the world reorders them
+            // every few frames), so the next agent's block of cells is often this one's: its
+            // points are gathered once, for all of them.
             let cells = hash.cells(pos, r);
-            if b.runs.0 != Some(cells) {
-                b.runs = (Some(cells), hash.runs_of(cells));
+            if b.block != Some(cells) {
+                b.block = Some(cells);
+                gather_block(hash, &hash.runs_of(cells), b);
             }
             // In a crowd, first within a little more than the distance of the previous
             // agent's `k`-th neighbour (its neighbourhood is this one's): when `k` agents lie
             // that close, the `k` nearest within `r` are among them, the same agents in the
             // same order, with fewer hits to choose from. Otherwise within `r`.
             let tight = (b.kth_sq * TIGHT_SQ).min(r_sq);
+            let len = b.block_len;
+            let blocks = len.div_ceil(LANES);
+            let xs = b.block_x[..blocks * LANES].as_chunks::<LANES>().0;
+            let ys = b.block_y[..blocks * LANES].as_chunks::<LANES>().0;
+            let js = b.block_j[..blocks * LANES].as_chunks::<LANES>().0;
             let mut count = 0;
             for reach_sq in [tight, r_sq] {
                 let mut out = Packed {
@@ -290,8 +306,11 @@ fn candidates(
                     me: i as u32,
                 };
                 count = 0;
-                for run in b.runs.1.iter() {
-                    count = scan(hash, run, ctx.avx2, &mut out, count);
+                let mut left = len;
+                for ((xs, ys), js) in xs.iter().zip(ys).zip(js) {
+                    let block = Block { xs, ys, js, left };
+                    count = pack_lanes(&block, &mut out, count, ctx.avx2);
+                    left = left.saturating_sub(LANES);
                 }
                 if count >= k || reach_sq >= r_sq {
                     break;

@@ -38,8 +38,9 @@ pub(crate) struct Scratch {
     prev_y: Vec<f32>,
     /// The reordering permutation.
     perm: Vec<u32>,
-    /// The grid that orders ORCA agents in memory when nothing else builds the world's grid.
-    order_grid: crate::spatial::GridIndex,
+    /// The hashed grid that orders ORCA agents in memory when nothing else builds the world's
+    /// grid.
+    order_grid: crate::spatial::HashGrid,
     /// The walls as ORCA edge chains, built for `orca_walls_of` walls.
     orca_walls: crate::orca::WallChains,
     orca_walls_of: usize,
@@ -504,13 +505,14 @@ impl World {
                 0.0
             };
             if orca_r > 0.0 {
-                // Nothing else sorts the agents: a grid's cell order (rows of cells, the agents
-                // of a cell in their previous order) keeps ORCA's neighbours close in memory.
-                // That grid is the step's own, built for this alone every few frames; the
-                // world's index is left as it is.
+                // Nothing else sorts the agents: the order of a hashed grid of ORCA's neighbour
+                // distance (the agents of a cell together, in their previous order; the cells of
+                // a row one after another) keeps ORCA's neighbours close in memory and lets the
+                // agents of a cell share their gathered candidates. That grid is the step's own,
+                // built for this alone every few frames; the world's index is left as it is.
                 let a = &self.agents;
                 let grid = &mut self.scratch.order_grid;
-                grid.rebuild(&a.pos_x, &a.pos_y, self.bounds, orca_r);
+                grid.rebuild(&a.pos_x, &a.pos_y, orca_r);
                 self.scratch.perm.clear();
                 self.scratch.perm.extend_from_slice(grid.order());
                 self.agents.reorder(&self.scratch.perm);
