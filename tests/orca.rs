@@ -559,12 +559,13 @@ fn contact_keeps_its_floor_beside_smaller_neighbours_and_for_agents_started_too_
 }
 
 /// The filter reads its candidates from its own hashed grid in open worlds (each block of cells
-/// gathered once for the agents that query it) and from the world's index on a torus. Far from
+/// gathered once for the agents that query it) and from the world's index on a torus; the
+/// contact pass searches its pairs through a hashed grid, or on a torus a dense one. Far from
 /// the torus's seams the two worlds are the same, so they must give the same bits: through the
 /// ring, the crowded centre and the way out (250 agents at their preferred speed of 1 reach the
 /// centre at about step 800).
 #[test]
-fn the_hashed_grids_candidates_equal_the_world_indexs_on_a_seamless_torus() {
+fn hashed_grids_find_what_the_torus_grids_find_far_from_the_seams() {
     let text = |kind: &str| {
         let s = std::fs::read_to_string(concat!(
             env!("CARGO_MANIFEST_DIR"),

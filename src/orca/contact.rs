@@ -3,7 +3,7 @@
 //! ORCA guarantees collision-free velocities only while its linear program is feasible; in a
 //! dense crowd it is not, and the 3D program lets pairs overlap. This pass takes the positions
 //! after the move, lists the pairs near contact (within 1.5 times their summed radii, searched
-//! in parallel through a grid from the agents flagged as near, sorted by their ids), and then
+//! in parallel through a grid (hashed cells as wide as the search, except on a torus) from the agents flagged as near, sorted by their ids), and then
 //! sweeps the list in that order, Gauss-Seidel fashion: each overlapping pair is moved apart along the line between its
 //! centres to exactly touching, each agent by its share (half when both take part, all of it
 //! when the other does not move). Sweeps stop when no pair overlaps by more than `tolerance` of
@@ -24,7 +24,7 @@ use glam::Vec2;
 use rayon::prelude::*;
 
 use crate::bounds::Bounds;
-use crate::spatial::{GridIndex, Neighbour, NeighbourIndex};
+use crate::spatial::{GridIndex, HashGrid, Neighbour, NeighbourIndex};
 
 /// Agents per parallel task of the pair search.
 const CHUNK: usize = 2048;
@@ -36,7 +36,11 @@ const NEAR: f32 = 1.5;
 /// Reused buffers of the contact pass.
 #[derive(Debug, Default)]
 pub(crate) struct ContactScratch {
+    /// The pair search's grid on a torus (minimum-image offsets).
     grid: GridIndex,
+    /// The pair search's grid in open and walled worlds: cells as wide as the search however
+    /// large and sparse the world (the dense grid caps its cells at `4 N`).
+    hash: HashGrid,
     /// Near pairs per search chunk, then all of them in order.
     chunks: Vec<Vec<(u32, u32)>>,
     pairs: Vec<(u32, u32)>,
@@ -299,12 +303,16 @@ fn list_pairs(
     from: impl Fn(usize) -> bool + Sync,
 ) {
     let n = xs.len();
-    scratch
-        .grid
-        .rebuild(xs, ys, input.bounds, factor * 2.0 * max_r);
+    let side = factor * 2.0 * max_r;
+    let torus = input.bounds.is_torus();
+    if torus {
+        scratch.grid.rebuild(xs, ys, input.bounds, side);
+    } else {
+        scratch.hash.rebuild(xs, ys, side);
+    }
     let chunks = n.div_ceil(CHUNK);
     scratch.chunks.resize_with(chunks, Vec::new);
-    let grid = &scratch.grid;
+    let (grid, hash) = (&scratch.grid, &scratch.hash);
     let search = |c: usize, out: &mut Vec<(u32, u32)>| {
         out.clear();
         FOUND.with_borrow_mut(|found| {
@@ -313,13 +321,29 @@ fn list_pairs(
                     continue;
                 }
                 let ri = input.radius[i];
-                grid.neighbours_of(i, factor * (ri + max_r), found);
-                for nb in found.iter() {
-                    let j = nb.index as usize;
+                let mut offer = |j: usize, dist_sq: f32| {
                     let near = factor * (ri + input.radius[j]);
-                    if nb.dist_sq < near * near {
+                    if dist_sq < near * near {
                         out.push((i.min(j) as u32, i.max(j) as u32));
                     }
+                };
+                if torus {
+                    grid.neighbours_of(i, factor * (ri + max_r), found);
+                    for nb in found.iter() {
+                        offer(nb.index as usize, nb.dist_sq);
+                    }
+                } else {
+                    // The plain offset, as the dense grid's exact test computes it.
+                    let p = Vec2::new(xs[i], ys[i]);
+                    let (sx, sy, order) = (hash.sorted_x(), hash.sorted_y(), hash.order());
+                    hash.for_each_run(p, factor * (ri + max_r), |run| {
+                        for k in run {
+                            let j = order[k] as usize;
+                            if j != i {
+                                offer(j, (Vec2::new(sx[k], sy[k]) - p).length_squared());
+                            }
+                        }
+                    });
                 }
             }
         });
