@@ -11,7 +11,7 @@
 
 mod store;
 
-pub(crate) use store::AgentColumns;
+pub(crate) use store::{AgentColumns, any_both, largest};
 pub use store::{AgentId, AgentInit, Agents};
 
 /// Flags recording which per-agent overrides are set.

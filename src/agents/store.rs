@@ -482,6 +482,30 @@ impl Agents {
     }
 }
 
+/// The largest of `v` and 0 (`f32::max`, so NaN is passed over), in eight interleaved lanes
+/// rather than one chain of dependent comparisons. The maximum does not depend on the order,
+/// so this is the sequential fold's value (up to the sign of a zero).
+pub(crate) fn largest(v: &[f32]) -> f32 {
+    let (blocks, rest) = v.as_chunks::<8>();
+    let mut acc = [0.0_f32; 8];
+    for b in blocks {
+        for (a, &x) in acc.iter_mut().zip(b) {
+            *a = a.max(x);
+        }
+    }
+    acc.into_iter()
+        .chain(rest.iter().copied())
+        .fold(0.0, f32::max)
+}
+
+/// Whether `a[i] && b[i]` for some `i` (the slices' common length), in blocks that compile
+/// to vector ORs, stopping at the first block with a hit.
+pub(crate) fn any_both(a: &[bool], b: &[bool]) -> bool {
+    a.chunks(256)
+        .zip(b.chunks(256))
+        .any(|(a, b)| a.iter().zip(b).fold(false, |acc, (&x, &y)| acc | (x & y)))
+}
+
 fn is_permutation(perm: &[u32]) -> bool {
     let mut seen = vec![false; perm.len()];
     perm.iter().all(|&p| {
@@ -493,6 +517,29 @@ fn is_permutation(perm: &[u32]) -> bool {
 #[cfg(test)]
 mod tests {
     use super::*;
+
+    /// The lanes give the sequential folds' answers at every length, NaN and zeros included.
+    #[test]
+    fn largest_and_any_both_equal_their_sequential_forms() {
+        let mut rng = crate::rng::AgentRng::new(17, 0, 0, 0);
+        for n in (0..40_usize).chain([255, 256, 257, 1000, 4099]) {
+            let v: Vec<f32> = (0..n)
+                .map(|k| match k % 13 {
+                    5 => f32::NAN,
+                    7 => -0.0,
+                    _ => rng.signed() * 100.0,
+                })
+                .collect();
+            let want = v.iter().copied().fold(0.0_f32, f32::max);
+            assert_eq!(largest(&v), want, "n {n}");
+            for hit in [None, Some(0), Some(n / 2), Some(n.saturating_sub(1))] {
+                let a: Vec<bool> = (0..n).map(|k| k % 3 == 0).collect();
+                let b: Vec<bool> = (0..n).map(|k| k % 3 != 0 || Some(k) == hit).collect();
+                let want = a.iter().zip(&b).any(|(&x, &y)| x && y);
+                assert_eq!(any_both(&a, &b), want, "n {n} hit {hit:?}");
+            }
+        }
+    }
 
     fn store(n: usize) -> Agents {
         let mut a = Agents::new();

@@ -23,6 +23,7 @@
 use glam::Vec2;
 use rayon::prelude::*;
 
+use crate::agents::{AgentId, any_both, largest};
 use crate::bounds::Bounds;
 use crate::spatial::{GridIndex, HashGrid, Neighbour, NeighbourIndex};
 
@@ -65,7 +66,7 @@ const MAX_ROUNDS: u32 = 64;
 pub(crate) struct ContactInput<'a> {
     pub bounds: Bounds,
     pub radius: &'a [f32],
-    pub ids: &'a [u32],
+    pub ids: &'a [AgentId],
     /// Whether each agent takes part (its group has contact on).
     pub moves: &'a [bool],
     /// Whether each agent may be near contact after the move (pairs are searched from these;
@@ -95,10 +96,10 @@ pub(crate) fn resolve(
     scratch.after_y.clear();
     scratch.after_y.extend_from_slice(ys);
     scratch.pairs.clear();
-    if n < 2 || !input.moves.iter().zip(input.near).any(|(&m, &c)| m && c) {
+    if n < 2 || !any_both(input.moves, input.near) {
         return 0;
     }
-    let max_r = input.radius.iter().copied().fold(0.0_f32, f32::max);
+    let max_r = largest(input.radius);
     if max_r <= 0.0 {
         return 0;
     }
@@ -184,8 +185,11 @@ pub(crate) fn guard(
     parallel: bool,
 ) -> usize {
     let n = xs.len();
-    let max_r = input.radius.iter().copied().fold(0.0_f32, f32::max);
-    if n < 2 || max_r <= 0.0 || !input.moves.iter().any(|&m| m) {
+    if n < 2 || !input.moves.iter().any(|&m| m) {
+        return 0;
+    }
+    let max_r = largest(input.radius);
+    if max_r <= 0.0 {
         return 0;
     }
     let mut back = std::mem::take(&mut scratch.back);
@@ -388,7 +392,7 @@ mod tests {
         let xs: Vec<f32> = (0..n).map(|_| rng.unit() * 40.0).collect();
         let ys: Vec<f32> = (0..n).map(|_| rng.unit() * 40.0).collect();
         let radius = vec![0.5; n];
-        let ids: Vec<u32> = (0..n as u32).collect();
+        let ids: Vec<AgentId> = (0..n as u32).map(AgentId).collect();
         let moves = vec![true; n];
         let input = ContactInput {
             bounds: Bounds::Open,
@@ -486,7 +490,7 @@ mod tests {
         sy.push(100.0);
         mv.push((0.3, 0.0));
         let radius = vec![0.5; n];
-        let ids: Vec<u32> = (0..n as u32).rev().collect();
+        let ids: Vec<AgentId> = (0..n as u32).rev().map(AgentId).collect();
         let all = vec![true; n];
         let input = ContactInput {
             bounds: Bounds::Open,
@@ -574,7 +578,7 @@ mod tests {
             let sy: Vec<f32> = agents.iter().map(|a| a.1).collect();
             let radius: Vec<f32> = agents.iter().map(|a| a.2).collect();
             let takes_part: Vec<bool> = agents.iter().map(|a| a.3).collect();
-            let ids: Vec<u32> = (0..n as u32).collect();
+            let ids: Vec<AgentId> = (0..n as u32).map(AgentId).collect();
             let mut rng = crate::rng::AgentRng::new(seed, 0, 0, 0);
             let mv: Vec<(f32, f32)> = (0..n)
                 .map(|k| {
@@ -621,7 +625,7 @@ mod tests {
         let input = ContactInput {
             bounds: Bounds::Open,
             radius: &[0.5, 0.5, 0.5],
-            ids: &[0, 1, 2],
+            ids: &[AgentId(0), AgentId(1), AgentId(2)],
             moves: &[true, true, false],
             near: &[true, true, true],
             iterations: 4,

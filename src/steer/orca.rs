@@ -145,8 +145,8 @@ pub(crate) fn run(
     let ctx = Context {
         walls,
         source,
-        r_max: a.radius.iter().copied().fold(0.0, f32::max),
-        v_max: a.max_speed.iter().copied().fold(0.0, f32::max),
+        r_max: crate::agents::largest(&a.radius),
+        v_max: crate::agents::largest(&a.max_speed),
         frame_key: rng::frame_key(view.seed, view.frame),
         #[cfg(target_arch = "x86_64")]
         avx2: std::arch::is_x86_feature_detected!("avx2"),

@@ -9,7 +9,7 @@ use std::time::Instant;
 use super::state::World;
 use super::stats::{PhaseTimes, StepStats};
 use crate::agents::Agents;
-use crate::bounds::Bounds;
+use crate::bounds::{Bounds, wrap_delta};
 use crate::error::{Error, MAX_DT, Result};
 use crate::group;
 use crate::movement::{self, IntegrationParams, MotionState, SteeringBuffers};
@@ -38,6 +38,8 @@ pub(crate) struct Scratch {
     prev_y: Vec<f32>,
     /// The reordering permutation.
     perm: Vec<u32>,
+    /// Per group, the squared arrival radius (-1 for none).
+    arrival_sq: Vec<f32>,
     /// The hashed grid that orders ORCA agents in memory when nothing else builds the world's
     /// grid.
     order_grid: crate::spatial::HashGrid,
@@ -46,10 +48,10 @@ pub(crate) struct Scratch {
     orca_walls_of: usize,
     /// The ORCA pass's state (its neighbour grid, the near-contact flags).
     orca: steer::orca::OrcaScratch,
-    /// Contact resolution: its buffers, which agents move, their ids.
+    /// Contact resolution: its buffers, which agents move, and per group whether its agents do.
     contact: crate::orca::contact::ContactScratch,
     moves: Vec<bool>,
-    ids: Vec<u32>,
+    contact_of: Vec<bool>,
 }
 
 /// How a step runs: on the rayon pool, or on the calling thread alone.
@@ -294,14 +296,16 @@ impl World {
         };
         let a = &self.agents;
         let groups = &self.groups;
-        self.scratch.moves.clear();
-        self.scratch.moves.extend(
-            a.group
-                .iter()
-                .map(|&g| groups[g as usize].orca.is_some_and(|o| o.contact)),
-        );
-        self.scratch.ids.clear();
-        self.scratch.ids.extend(a.ids.iter().map(|id| id.0));
+        let moves = &mut self.scratch.moves;
+        moves.clear();
+        if groups.iter().all(|g| g.orca.is_some_and(|o| o.contact)) {
+            moves.resize(a.len(), true);
+        } else {
+            let table = &mut self.scratch.contact_of;
+            table.clear();
+            table.extend(groups.iter().map(|g| g.orca.is_some_and(|o| o.contact)));
+            moves.extend(a.group.iter().map(|&g| table[g as usize]));
+        }
         self.contact_pass(exec, Some(iterations));
     }
 
@@ -311,7 +315,7 @@ impl World {
         let input = crate::orca::contact::ContactInput {
             bounds: self.bounds,
             radius: &a.radius,
-            ids: &self.scratch.ids,
+            ids: &a.ids,
             moves: &self.scratch.moves,
             near: &self.scratch.orca.near,
             iterations: sweeps.unwrap_or(0),
@@ -338,20 +342,41 @@ impl World {
     /// `(arrived, with_goal)`: agents of groups with an arrival radius, and those of them within
     /// it of their own target (counted in parallel chunks when `parallel`: integer sums, the
     /// same on any thread count).
-    fn arrivals(&self, parallel: bool) -> (usize, usize) {
+    fn arrivals(&mut self, parallel: bool) -> (usize, usize) {
         if self.groups.iter().all(|g| g.arrival_radius.is_none()) {
             return (0, 0);
         }
-        let a = &self.agents;
+        // Each group's squared arrival radius, -1 for none: a branch-free count per agent.
+        let r_sq = &mut self.scratch.arrival_sq;
+        r_sq.clear();
+        r_sq.extend(
+            self.groups
+                .iter()
+                .map(|g| g.arrival_radius.map_or(-1.0, |r| r * r)),
+        );
+        let (a, bounds, r_sq) = (&self.agents, self.bounds, &self.scratch.arrival_sq[..]);
         let count = |range: std::ops::Range<usize>| {
+            let (px, py) = (&a.pos_x[range.clone()], &a.pos_y[range.clone()]);
+            let (tx, ty) = (&a.target_x[range.clone()], &a.target_y[range.clone()]);
+            let group = &a.group[range];
             let (mut arrived, mut with_goal) = (0, 0);
-            for i in range {
-                if let Some(r) = self.groups[a.group[i] as usize].arrival_radius {
-                    with_goal += 1;
-                    let to = self
-                        .bounds
-                        .offset(a.position(i), glam::Vec2::new(a.target_x[i], a.target_y[i]));
-                    arrived += usize::from(to.length_squared() <= r * r);
+            let mut tally = |dx: f32, dy: f32, g: u32| {
+                let r_sq = r_sq[g as usize];
+                with_goal += usize::from(r_sq >= 0.0);
+                arrived += usize::from(dx * dx + dy * dy <= r_sq);
+            };
+            let each = px.iter().zip(py).zip(tx).zip(ty).zip(group);
+            match bounds {
+                Bounds::Torus { size } => {
+                    for ((((&px, &py), &tx), &ty), &g) in each {
+                        let (dx, dy) = (wrap_delta(tx - px, size.x), wrap_delta(ty - py, size.y));
+                        tally(dx, dy, g);
+                    }
+                }
+                _ => {
+                    for ((((&px, &py), &tx), &ty), &g) in each {
+                        tally(tx - px, ty - py, g);
+                    }
                 }
             }
             (arrived, with_goal)
