@@ -524,7 +524,10 @@ impl World {
         let reorder_due =
             self.reorder_every > 0 && self.frame.is_multiple_of(u64::from(self.reorder_every));
         if query_r <= 0.0 || self.agents.is_empty() {
-            let orca_r = if reorder_due && !self.agents.is_empty() {
+            // With fields, their prepare hook reorders the agents by field cell in this frame
+            // (nothing here queries neighbours), which would undo this order.
+            let orca_r = if reorder_due && !self.agents.is_empty() && self.fields.fields.is_empty()
+            {
                 steer::orca::reach(&self.plans)
             } else {
                 0.0
