@@ -143,6 +143,25 @@ impl HashGrid {
         self.sort.order.is_empty()
     }
 
+    /// The mean, over the points, of how many points share a point's bucket (itself included):
+    /// `sum(count^2) / N` over the buckets, 0 for an empty grid. About how many points a cell
+    /// holds where the points are, however many empty cells lie between them; a caller choosing
+    /// the cell side for its queries compares it between sides.
+    #[must_use]
+    pub fn crowding(&self) -> f32 {
+        let n = self.len();
+        if n == 0 {
+            return 0.0;
+        }
+        let squares: u64 = self
+            .sort
+            .start
+            .windows(2)
+            .map(|w| u64::from(w[1] - w[0]).pow(2))
+            .sum();
+        squares as f32 / n as f32
+    }
+
     /// Point indices sorted by bucket.
     #[must_use]
     pub fn order(&self) -> &[u32] {
@@ -320,6 +339,35 @@ mod tests {
                 .collect();
             assert_eq!(found, brute, "query {p} radius {r}");
         }
+    }
+
+    /// `crowding` against each point's bucket-mates counted one pair at a time, on clusters and
+    /// scattered points; empty grids give 0.
+    #[test]
+    fn crowding_is_the_mean_number_of_points_in_a_points_bucket() {
+        let mut rng = AgentRng::new(11, 0, 0, 0);
+        let mut g = HashGrid::default();
+        g.rebuild(&[], &[], 1.0);
+        assert_eq!(g.crowding(), 0.0);
+        for (n, extent) in [(1, 1.0), (40, 3.0), (300, 50.0), (2000, 4000.0)] {
+            let xs: Vec<f32> = (0..n).map(|_| rng.unit() * extent - 5.0).collect();
+            let ys: Vec<f32> = (0..n).map(|_| rng.unit() * extent).collect();
+            g.rebuild(&xs, &ys, 2.0);
+            let bucket = |i: usize| {
+                let (cx, cy) = (cell(xs[i], g.inv_side), cell(ys[i], g.inv_side));
+                ((cy as u32).wrapping_mul(ROW)).wrapping_add(cx as u32) & g.mask
+            };
+            let pairs: usize = (0..n)
+                .map(|i| (0..n).filter(|&j| bucket(j) == bucket(i)).count())
+                .sum();
+            assert_eq!(g.crowding(), pairs as f32 / n as f32, "{n} points");
+        }
+        // Ten points in one cell and ten alone: (10 * 10 + 10 * 1) / 20.
+        let xs: Vec<f32> = (0..20)
+            .map(|i| if i < 10 { 0.5 } else { i as f32 * 10.0 })
+            .collect();
+        g.rebuild(&xs, &[0.5; 20], 1.0);
+        assert_eq!(g.crowding(), 5.5);
     }
 
     #[test]

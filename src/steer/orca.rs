@@ -86,9 +86,30 @@ pub(crate) struct OrcaScratch {
     /// Per agent: whether it may touch another agent after this step's move (read by the
     /// contact pass).
     pub near: Vec<bool>,
-    /// Cells of the neighbour distance: the candidates in open and walled worlds.
+    /// Cells of the neighbour distance, or of twice it when [`wide`](Self::wide): the
+    /// candidates in open and walled worlds.
     hash: HashGrid,
+    /// Whether the cells are twice the neighbour distance: set by the world on the frames it
+    /// orders the agents by ORCA's grid ([`wide_cells`]), false otherwise. A query of the
+    /// neighbour distance then reads two cells per axis instead of three: more candidates, but
+    /// every agent of a cell shares one gathered block, and in a sparse crowd a cell's block is
+    /// gathered for few agents. The candidates within reach, and so every result, are the same
+    /// either way.
+    pub wide: bool,
 }
+
+/// Whether ORCA's cells should be twice the neighbour distance, given the [`HashGrid::crowding`]
+/// of a grid of such cells over the agents: where fewer than [`WIDE_BELOW`] agents share an
+/// agent's cell. Measured on `circle` (a ring of agents five units apart, about six per wide
+/// cell): 7.5% faster a step at 100,000 agents with wide cells; on `crossing` (hundreds per
+/// wide cell) 7% more instructions, so dense crowds keep the narrow cells.
+pub(crate) fn wide_cells(crowding: f32) -> bool {
+    crowding < WIDE_BELOW
+}
+
+/// Agents per wide cell (about four narrow cells in a crowd, two along a line of agents) below
+/// which wide cells gather fewer blocks than they cost in extra candidates.
+const WIDE_BELOW: f32 = 12.0;
 
 /// The largest `neighbour_dist` of the plans that use ORCA (0 when none does).
 pub(crate) fn reach(plans: &[super::plan::Plan]) -> f32 {
@@ -139,7 +160,8 @@ pub(crate) fn run(
     let source = if view.bounds.is_torus() {
         Source::Index
     } else {
-        scratch.hash.rebuild(&a.pos_x, &a.pos_y, reach(view.plans));
+        let side = if scratch.wide { 2.0 } else { 1.0 } * reach(view.plans);
+        scratch.hash.rebuild(&a.pos_x, &a.pos_y, side);
         Source::Hash(&scratch.hash)
     };
     let ctx = Context {

@@ -523,6 +523,10 @@ impl World {
             .fold(0.0_f32, f32::max);
         let reorder_due =
             self.reorder_every > 0 && self.frame.is_multiple_of(u64::from(self.reorder_every));
+        if query_r > 0.0 || !self.fields.fields.is_empty() {
+            // Agents are not in the order of ORCA's grid: its cells stay narrow.
+            self.scratch.orca.wide = false;
+        }
         if query_r <= 0.0 || self.agents.is_empty() {
             // With fields, their prepare hook reorders the agents by field cell in this frame
             // (nothing here queries neighbours), which would undo this order.
@@ -538,9 +542,18 @@ impl World {
                 // a row one after another) keeps ORCA's neighbours close in memory and lets the
                 // agents of a cell share their gathered candidates. That grid is the step's own,
                 // built for this alone every few frames; the world's index is left as it is.
+                // Cells twice the distance where agents are sparse (`steer::orca::wide_cells`;
+                // decided here, from this frame's positions alone, so that the order does not
+                // depend on earlier frames), and the ORCA pass uses the same cells until the
+                // next reorder.
                 let a = &self.agents;
                 let grid = &mut self.scratch.order_grid;
-                grid.rebuild(&a.pos_x, &a.pos_y, orca_r);
+                grid.rebuild(&a.pos_x, &a.pos_y, 2.0 * orca_r);
+                let wide = steer::orca::wide_cells(grid.crowding());
+                if !wide {
+                    grid.rebuild(&a.pos_x, &a.pos_y, orca_r);
+                }
+                self.scratch.orca.wide = wide;
                 self.scratch.perm.clear();
                 self.scratch.perm.extend_from_slice(grid.order());
                 self.agents.reorder(&self.scratch.perm);
