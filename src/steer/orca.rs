@@ -428,14 +428,18 @@ fn filter(
 ) -> (f32, f32, bool) {
     let walls = ctx.walls;
     let a = view.agents;
-    let g = a.group[i] as usize;
+    // The columns cut to one length: one bounds check per agent read serves all of them.
+    let n = a.len();
+    let (px, py, vx, vy) = (&a.pos_x[..n], &a.pos_y[..n], &a.vel_x[..n], &a.vel_y[..n]);
+    let (groups, radii, ids) = (&a.group[..n], &a.radius[..n], &a.ids[..n]);
+    let g = groups[i] as usize;
     let plan = &view.plans[g];
     let dt = view.dt;
-    let pos = a.position(i);
-    let vel = a.velocity(i);
-    let radius = a.radius[i];
-    let max_speed = a.max_speed[i];
-    let id = a.ids[i].0;
+    let pos = Vec2::new(px[i], py[i]);
+    let vel = Vec2::new(vx[i], vy[i]);
+    let radius = radii[i];
+    let max_speed = a.max_speed[..n][i];
+    let id = ids[i].0;
     let request = Vec2::new(request.0, request.1);
     let mut pref = if plan.adapter.kinematic {
         request
@@ -521,9 +525,9 @@ fn filter(
     // vectors, which the store buffer cannot forward).
     for &(key, j) in &b.near {
         let j = j as usize;
-        let rel = view.bounds.offset(pos, a.position(j));
-        let rel_vel = vel - a.velocity(j);
-        let gj = a.group[j] as usize;
+        let rel = view.bounds.offset(pos, Vec2::new(px[j], py[j]));
+        let rel_vel = vel - Vec2::new(vx[j], vy[j]);
+        let gj = groups[j] as usize;
         let share = if gj == g {
             own_share
         } else {
@@ -540,7 +544,7 @@ fn filter(
             }
         };
         let tie = if id < key as u32 { 1.0 } else { -1.0 };
-        let r = radius + a.radius[j];
+        let r = radius + radii[j];
         b.lines.push(agent_line(
             vel, rel, rel_vel, r, inv_tau, inv_dt, share, tie,
         ));
