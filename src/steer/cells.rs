@@ -501,7 +501,11 @@ impl Batch {
 /// cell is done, the sums of each run of agents of one group go through the flocking terms and
 /// the model adapter together ([`Outputs::finish`]).
 #[allow(clippy::too_many_arguments)]
-#[multiversion(targets("x86_64+avx2+fma", "x86_64+avx"))]
+#[multiversion(targets(
+    "x86_64+avx2+fma+avx512f+avx512vl+avx512bw+avx512dq",
+    "x86_64+avx2+fma",
+    "x86_64+avx"
+))]
 fn chunk(
     view: &SteerView,
     grid: &GridIndex,
