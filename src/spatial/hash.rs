@@ -56,6 +56,7 @@ pub const PAD: usize = 8;
 /// worlds (on a torus the world's own index serves).
 #[derive(Clone, Debug, Default)]
 pub struct HashGrid {
+    side: f32,
     inv_side: f32,
     /// Table size minus one (`T - 1`).
     mask: u32,
@@ -109,6 +110,7 @@ impl HashGrid {
         to_u32(n);
         let table = (2 * n).next_power_of_two().clamp(64, 1 << 31);
         self.mask = (table - 1) as u32;
+        self.side = side;
         self.inv_side = side.recip();
         let (inv, mask) = (self.inv_side, self.mask);
         let fill = |out: &mut [u32], xs: &[f32], ys: &[f32]| {
@@ -129,6 +131,50 @@ impl HashGrid {
         let pos = |i: usize| (xs[i], ys[i]);
         self.sort
             .sort(&self.bucket, table, pos, parts, (PAD, f32::MAX));
+    }
+
+    /// Replaces the sorted positions by `(xs[i], ys[i])` (the points' new positions, indexed as
+    /// at the last rebuild) while every point keeps the bucket of its position at that rebuild:
+    /// much cheaper than a rebuild when points have moved a little. A query must then widen its
+    /// radius by the farthest any point has moved since the rebuild: a point within `r` of the
+    /// query now was within `r + d` of it where it was bucketed. On the current rayon pool for
+    /// large N, like the rebuild.
+    ///
+    /// # Panics
+    /// If `xs` or `ys` does not hold one position per point.
+    pub fn refresh(&mut self, xs: &[f32], ys: &[f32]) {
+        let n = self.len();
+        assert!(
+            xs.len() == n && ys.len() == n,
+            "one position per point: {n} points, {} and {} positions",
+            xs.len(),
+            ys.len()
+        );
+        let sort = &mut self.sort;
+        let (order, sx, sy) = (
+            &sort.order,
+            &mut sort.sorted_x[..n],
+            &mut sort.sorted_y[..n],
+        );
+        let copy = |order: &[u32], sx: &mut [f32], sy: &mut [f32]| {
+            for ((&i, x), y) in order.iter().zip(sx).zip(sy) {
+                (*x, *y) = (xs[i as usize], ys[i as usize]);
+            }
+        };
+        if n >= PARALLEL_MIN_POINTS {
+            order
+                .par_chunks(CHUNK)
+                .zip(sx.par_chunks_mut(CHUNK).zip(sy.par_chunks_mut(CHUNK)))
+                .for_each(|(order, (sx, sy))| copy(order, sx, sy));
+        } else {
+            copy(order, sx, sy);
+        }
+    }
+
+    /// The side of the cells, as given to the last rebuild (0 before the first).
+    #[must_use]
+    pub fn side(&self) -> f32 {
+        self.side
     }
 
     /// How many points the grid holds.

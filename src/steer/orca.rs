@@ -89,6 +89,12 @@ pub(crate) struct OrcaScratch {
     /// Cells of the neighbour distance, or of twice it when [`wide`](Self::wide): the
     /// candidates in open and walled worlds.
     hash: HashGrid,
+    /// The agents' ids and positions at the last rebuild of `hash`, in storage order: while the
+    /// same agents are in the same order, the next frames refresh the positions instead of
+    /// rebuilding ([`OrcaScratch::prepare_hash`]).
+    built_ids: Vec<AgentId>,
+    built_x: Vec<f32>,
+    built_y: Vec<f32>,
     /// Whether the cells are twice the neighbour distance: set by the world on the frames it
     /// orders the agents by ORCA's grid ([`wide_cells`]), false otherwise. A query of the
     /// neighbour distance then reads two cells per axis instead of three: more candidates, but
@@ -96,6 +102,79 @@ pub(crate) struct OrcaScratch {
     /// gathered for few agents. The candidates within reach, and so every result, are the same
     /// either way.
     pub wide: bool,
+}
+
+impl OrcaScratch {
+    /// Makes `hash` hold the agents' current positions in cells of `side`, and returns how much
+    /// farther than their radius its queries must reach. While the same agents are in the same
+    /// storage order (no reorder, addition or removal since the last rebuild) and none has moved
+    /// farther than [`MAX_SLACK`] cells' sides from where it was at that rebuild, the points
+    /// keep their buckets and only their positions are refreshed; the queries then reach as
+    /// far beyond their radius as the farthest move (a bound on it), which keeps every agent
+    /// within the radius in the block. Otherwise the grid is rebuilt, and the queries reach
+    /// their radius. Which of the two happens changes the cost, not the candidates within
+    /// reach: the results are the same bits.
+    fn prepare_hash(&mut self, ids: &[AgentId], (xs, ys): (&[f32], &[f32]), side: f32) -> f32 {
+        if self.hash.side() == side && self.built_ids == ids {
+            let moved = farthest_move((xs, ys), (&self.built_x, &self.built_y));
+            if moved <= MAX_SLACK * side {
+                self.hash.refresh(xs, ys);
+                return moved;
+            }
+        }
+        self.hash.rebuild(xs, ys, side);
+        for (built, now) in [(&mut self.built_x, xs), (&mut self.built_y, ys)] {
+            built.clear();
+            built.extend_from_slice(now);
+        }
+        self.built_ids.clear();
+        self.built_ids.extend_from_slice(ids);
+        0.0
+    }
+}
+
+/// How far the hashed grid's points may move, in cells' sides, before it is rebuilt: each
+/// query reads a block that much wider.
+const MAX_SLACK: f32 = 0.25;
+
+/// An upper bound on the distance between `now[i]` and `then[i]` over every `i` (`|dx| + |dy|`,
+/// widened for the rounding of the differences); infinite when a coordinate is not finite. On
+/// the current rayon pool for large N.
+fn farthest_move((x, y): (&[f32], &[f32]), (x0, y0): (&[f32], &[f32])) -> f32 {
+    const CHUNK: usize = 8 * 1024;
+    let part = |x: &[f32], y: &[f32], x0: &[f32], y0: &[f32]| {
+        let mut most = 0.0f32;
+        for (((&x, &y), &x0), &y0) in x.iter().zip(y).zip(x0).zip(y0) {
+            let d = (x - x0).abs() + (y - y0).abs();
+            // A select rather than `f32::max`, so that the loop runs in lanes; `!(d <= most)`
+            // keeps a NaN once it is seen.
+            most = if d <= most { most } else { d };
+        }
+        most
+    };
+    let most = if x.len() >= 4 * CHUNK {
+        x.par_chunks(CHUNK)
+            .zip(y.par_chunks(CHUNK))
+            .zip(x0.par_chunks(CHUNK).zip(y0.par_chunks(CHUNK)))
+            .map(|((x, y), (x0, y0))| part(x, y, x0, y0))
+            .reduce(
+                || 0.0,
+                |a, b| {
+                    if a.is_nan() || b.is_nan() {
+                        f32::NAN
+                    } else {
+                        a.max(b)
+                    }
+                },
+            )
+    } else {
+        part(x, y, x0, y0)
+    };
+    if most.is_finite() {
+        most * (1.0 + 1e-5)
+    } else {
+        f32::INFINITY
+    }
 }
 
 /// Whether ORCA's cells should be twice the neighbour distance, given the [`HashGrid::crowding`]
@@ -136,6 +215,9 @@ struct Context<'a> {
     walls: &'a WallChains,
     /// Where the candidates come from.
     source: Source<'a>,
+    /// How much farther than their radius queries of the hashed grid reach: the farthest any
+    /// agent has moved since its rebuild ([`OrcaScratch::prepare_hash`]).
+    slack: f32,
     /// The largest radius and speed of any agent: what bounds a pair's approach in one step.
     r_max: f32,
     v_max: f32,
@@ -157,16 +239,18 @@ pub(crate) fn run(
 ) {
     let a = view.agents;
     let n = a.len();
+    let mut slack = 0.0;
     let source = if view.bounds.is_torus() {
         Source::Index
     } else {
         let side = if scratch.wide { 2.0 } else { 1.0 } * reach(view.plans);
-        scratch.hash.rebuild(&a.pos_x, &a.pos_y, side);
+        slack = scratch.prepare_hash(&a.ids, (&a.pos_x, &a.pos_y), side);
         Source::Hash(&scratch.hash)
     };
     let ctx = Context {
         walls,
         source,
+        slack,
         r_max: crate::agents::largest(&a.radius),
         v_max: crate::agents::largest(&a.max_speed),
         frame_key: rng::frame_key(view.seed, view.frame),
@@ -302,7 +386,7 @@ fn candidates(
             // Agents lie in the order of a hashed grid of these cells (the world reorders them
             // every few frames), so the next agent's block of cells is often this one's: its
             // points are gathered once, for all of them.
-            let cells = hash.cells(pos, r);
+            let cells = hash.cells(pos, r + ctx.slack);
             if b.block != Some(cells) {
                 b.block = Some(cells);
                 gather_block(hash, &hash.runs_of(cells), b);
@@ -568,6 +652,73 @@ fn filter(
 mod tests {
     use super::*;
     use crate::rng::AgentRng;
+
+    /// Refreshed positions with the returned slack find every agent within reach, as a rebuild
+    /// would; the slack bounds every move; a reorder, a long move or a non-finite position
+    /// rebuilds. The queries without the slack miss some agents, so the slack is needed.
+    #[test]
+    fn refreshed_grids_with_their_slack_find_every_agent_within_reach() {
+        let mut rng = AgentRng::new(5, 0, 0, 0);
+        let (side, r) = (15.0_f32, 15.0_f32);
+        let mut s = OrcaScratch::default();
+        let mut missed_without_slack = 0;
+        for n in [3_000_usize, 40_000] {
+            let extent = (n as f32).sqrt() * 6.0;
+            let mut ids: Vec<AgentId> = (0..n as u32).map(AgentId).collect();
+            let mut xs: Vec<f32> = (0..n).map(|_| rng.unit() * extent).collect();
+            let mut ys: Vec<f32> = (0..n).map(|_| rng.unit() * extent).collect();
+            assert_eq!(s.prepare_hash(&ids, (&xs, &ys), side), 0.0, "a first build");
+            for round in 0..4 {
+                let (x0, y0) = (xs.clone(), ys.clone());
+                for k in 0..n {
+                    xs[k] += (rng.unit() - 0.5) * 0.8;
+                    ys[k] += (rng.unit() - 0.5) * 0.8;
+                }
+                let slack = s.prepare_hash(&ids, (&xs, &ys), side);
+                assert!(slack > 0.0, "refreshed in round {round}");
+                let farthest = (0..n)
+                    .map(|k| f64::from(xs[k] - x0[k]).hypot(f64::from(ys[k] - y0[k])))
+                    .fold(0.0, f64::max);
+                assert!(f64::from(slack) >= farthest, "{slack} < {farthest}");
+                let (x0, y0) = (&s.built_x, &s.built_y);
+                assert!((0..n).all(|k| (x0[k] - xs[k]).abs() + (y0[k] - ys[k]).abs() <= slack));
+                for _ in 0..1000 {
+                    let p = Vec2::new(rng.unit() * extent, rng.unit() * extent);
+                    let within = |k: usize| (Vec2::new(xs[k], ys[k]) - p).length_squared() <= r * r;
+                    let found = |reach: f32| {
+                        let mut v: Vec<usize> = Vec::new();
+                        for run in s.hash.runs_of(s.hash.cells(p, reach)).iter() {
+                            for at in run {
+                                assert_eq!(s.hash.sorted_x()[at], xs[s.hash.order()[at] as usize]);
+                                v.push(s.hash.order()[at] as usize);
+                            }
+                        }
+                        v.retain(|&k| within(k));
+                        v.sort_unstable();
+                        v
+                    };
+                    let brute: Vec<usize> = (0..n).filter(|&k| within(k)).collect();
+                    assert_eq!(found(r + slack), brute, "round {round}");
+                    missed_without_slack += usize::from(found(r) != brute);
+                }
+            }
+            // Two agents swap places in storage: rebuilt.
+            ids.swap(0, 1);
+            xs.swap(0, 1);
+            ys.swap(0, 1);
+            assert_eq!(s.prepare_hash(&ids, (&xs, &ys), side), 0.0);
+            // One agent moves farther than the slack allows: rebuilt.
+            xs[7] += MAX_SLACK * side * 1.01;
+            assert_eq!(s.prepare_hash(&ids, (&xs, &ys), side), 0.0);
+            // Another side: rebuilt.
+            assert_eq!(s.prepare_hash(&ids, (&xs, &ys), 2.0 * side), 0.0);
+            // A position that is not finite: rebuilt.
+            xs[n - 1] = f32::NAN;
+            assert_eq!(s.prepare_hash(&ids, (&xs, &ys), 2.0 * side), 0.0);
+            assert_eq!(s.prepare_hash(&ids, (&xs, &ys), 2.0 * side), 0.0);
+        }
+        assert!(missed_without_slack > 0, "the slack was never needed");
+    }
 
     /// The lanes give every agent of a chunk (a partial block included) the same bits as its
     /// own stream drawn one number at a time.
