@@ -238,7 +238,11 @@ impl GridIndex {
     }
 
     /// [`sorted_x`](Self::sorted_x) and [`sorted_y`](Self::sorted_y) followed by
-    /// [`SORTED_PAD`] zeros, so that a kernel can read whole blocks of lanes from any point.
+    /// [`SORTED_PAD`] zeros (`order().len() + SORTED_PAD` values each), so that a kernel can read
+    /// whole blocks of lanes from any point. This holds after every rebuild, whatever the number
+    /// of points before it, and after [`adopt_order`](Self::adopt_order), which leaves the
+    /// sorted positions and their padding as they are; a grid never rebuilt has no points and
+    /// gives two empty slices.
     #[must_use]
     pub(crate) fn sorted_padded(&self) -> (&[f32], &[f32]) {
         (&self.sort.sorted_x, &self.sort.sorted_y)

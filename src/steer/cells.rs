@@ -6,8 +6,8 @@
 //! a contiguous, padded buffer, with the torus image already applied (a neighbour cell across a
 //! seam is shifted by the world's side), so the lane kernel needs neither run boundaries nor
 //! minimum-image arithmetic. Every agent of the cell then sums over the buffer in SIMD lanes
-//! (runtime dispatch: two agents per 16-lane vector on AVX-512, AVX2 + FMA where the processor
-//! has that, the baseline otherwise; the same bits on each). The sums wait in columns until the
+//! (runtime dispatch: two agents per 16-lane vector on AVX-512, clones for AVX2 + FMA and AVX,
+//! the baseline build otherwise; the same bits on each). The sums wait in columns until the
 //! task's cells are done; then the flocking terms and the model adapter run over each run of
 //! agents of one group, one term at a time in long vector loops, writing the outputs in the
 //! grid's order. Vicsek sums wait the same way; their turns (each agent's draw, computed from the
@@ -1108,10 +1108,14 @@ impl Query {
 
 /// The sums of every agent of `agents` over one cell buffer.
 ///
-/// Where the processor has AVX-512 (multiversion's AVX-512 target: Ice Lake and later, whose
-/// 512-bit units do not slow the clock much), the flock's shape runs two agents at a time, one
-/// per half of a 16-lane vector ([`avx512::pairs`]); each half gives the bits of the 8-lane
-/// kernel, so the sums are the same on every dispatch target.
+/// Where the processor has AVX-512, the flock's shape runs two agents at a time, one per half of
+/// a 16-lane vector ([`avx512::pairs`]); each half gives the bits of the 8-lane kernel, so the
+/// sums are the same on every dispatch target. The AVX-512 target string names AVX-512 F, VL, BW
+/// and DQ, but multiversion 0.9 adds the Ice Lake extensions to every AVX-512 target (BITALG,
+/// IFMA, VBMI, VBMI2, VNNI, VPOPCNTDQ, GFNI, VAES, VPCLMULQDQ; unless the build sets `--cfg
+/// multiversion_allow_slow_avx512`): the clone runs on Ice Lake and the later Intel parts with
+/// AVX-512, and on Zen 4, whose 512-bit units do not slow the clock much; Skylake-SP and Cascade
+/// Lake take the AVX2 clone.
 #[multiversion(targets(
     "x86_64+avx2+fma+avx512f+avx512vl+avx512bw+avx512dq",
     "x86_64+avx2+fma",

@@ -7,11 +7,10 @@
 //!   them one by one; it also serves repulsion and neighbour caps;
 //! - the **grid kernel** reads the neighbour cells of the uniform grid as contiguous runs of
 //!   the grid's cell-ordered positions (padded with a block of zeros) and cell-ordered copies of
-//!   the velocities and groups, eight lanes at a time, with
-//!   runtime CPU-feature dispatch (AVX-512 or AVX2 where the processor has them, SSE2
-//!   otherwise). It sums in
-//!   a different order than the reference, so the two agree to rounding, not bit for bit; each is
-//!   deterministic and independent of the thread count.
+//!   the velocities and groups, eight lanes at a time, with runtime CPU-feature dispatch (clones
+//!   for AVX-512, AVX2 + FMA and AVX, the first the processor has, else the baseline x86-64
+//!   build, SSE2). It sums in a different order than the reference, so the two agree to
+//!   rounding, not bit for bit; each is deterministic and independent of the thread count.
 
 use glam::Vec2;
 use multiversion::multiversion;

@@ -5,10 +5,10 @@
 //! within the model's cut-off (through the world's neighbour index) and the walls and circles
 //! within it (through the obstacles' broad phase).
 //!
-//! Per agent, the neighbours within the cut-off are gathered first (from the grid's cell-ordered
-//! copies, eight candidates at a time), then their pair terms are evaluated eight at a time in
-//! lanes ([`crate::ped::lanes`]) and summed per lane, the lanes added in a fixed order at the
-//! end.
+//! Per agent, the neighbours within the cut-off are gathered first (from the grid's own sorted
+//! positions, [`GridIndex::sorted_padded`], eight candidates at a time), then their pair terms
+//! are evaluated eight at a time in lanes ([`crate::ped::lanes`]) and summed per lane, the lanes
+//! added in a fixed order at the end.
 //!
 //! Runs before the ORCA filter, so a group with both walks by its pedestrian model and ORCA
 //! keeps the result collision-free.
