@@ -131,10 +131,12 @@ fn axis_cell(x: f32, origin: f32, inv: f32, n: u32) -> u32 {
 /// coordinate. In vector lanes: the clamp is done in floating point before the conversion
 /// (`max(f, 0)` is 0 for a negative or NaN `f`, and truncating `min(f, n - 1)` equals clamping
 /// the truncation, `n - 1` being an integer that `f32` holds exactly), so the cells are
-/// [`axis_cell`]'s for every input.
+/// [`axis_cell`]'s for every input. The SSE4.1 clone truncates with `roundps`, where the
+/// baseline x86-64 build calls libm's `truncf` per value (the same result: truncation is exact).
 #[multiversion::multiversion(targets(
     "x86_64+avx2+fma+avx512f+avx512vl+avx512bw+avx512dq",
-    "x86_64+avx2+fma"
+    "x86_64+avx2+fma",
+    "x86_64+sse4.1"
 ))]
 fn cell_keys(
     (xs, ys): (&[f32], &[f32]),
