@@ -19,11 +19,16 @@ use rayon::prelude::*;
 use super::plan::{ALI, COH, NeighbourSpec, SEP};
 use crate::agents::Agents;
 use crate::bounds::Bounds;
-use crate::spatial::{GridIndex, Neighbour, NeighbourIndex, SpatialIndex};
+use crate::spatial::{GridIndex, Neighbour, NeighbourIndex, SORTED_PAD, SpatialIndex};
 use crate::steering::NeighbourSums;
 
 /// SIMD width of the grid kernel.
 pub(crate) const LANES: usize = 8;
+
+// The grid kernel here and the cell batch's gather (`cells::append_motion`) read the grid's
+// sorted positions in whole blocks of `LANES`, up to `LANES - 1` values past a run's end: the
+// grid's padding must hold them.
+const _: () = assert!(SORTED_PAD >= LANES);
 
 /// `x.is_finite() && x > 0.0` as two ordered comparisons, which vectorise (the class test
 /// behind `is_finite` compiles to scalar bit tests per lane).

@@ -32,8 +32,12 @@ use crate::agents::Agents;
 use crate::ped::cfsm::{BLOCKED_SPACING, SIDESTEP_WALL_MARGIN};
 use crate::ped::lanes::{LANES, Neighbours, lane_sum};
 use crate::ped::{Cfsm, Model, Pedestrian, SocialForce};
-use crate::spatial::{GridIndex, Neighbour, NeighbourIndex, SpatialIndex};
+use crate::spatial::{GridIndex, Neighbour, NeighbourIndex, SORTED_PAD, SpatialIndex};
 use crate::steering::truncate;
+
+// The candidate scan (`gather`) reads the grid's sorted positions in whole blocks of `LANES`,
+// up to `LANES - 1` values past a run's end: the grid's padding must hold them.
+const _: () = assert!(SORTED_PAD >= LANES);
 
 /// One worker's buffers.
 #[derive(Default)]
