@@ -226,7 +226,10 @@ impl CellOut {
         };
         let (px, py, pc) = (&self.lin_x[..m], &self.lin_y[..m], &self.count[..m]);
         for k in 0..n {
-            let r = (rank[k].load(Ordering::Relaxed) as usize).min(last);
+            let r = rank[k].load(Ordering::Relaxed) as usize;
+            // A rank past the columns means outputs of another frame's batch (a stale grid).
+            debug_assert!(r < m, "rank {r} of agent {} past the batch's {m}", base + k);
+            let r = r.min(last);
             lx[k] = px[r];
             ly[k] = py[r];
             nb[k] = pc[r];

@@ -97,6 +97,9 @@ fn gather_pair_into(
         .for_each(|((dx, dy), o)| {
             let dy = &mut dy[..dx.len()];
             for (k, &j) in o.iter().enumerate().take(dx.len()) {
+                // An index past the sources means an order of another set of agents (a stale
+                // grid).
+                debug_assert!((j as usize) <= last, "order index {j} past {last}");
                 let j = (j as usize).min(last);
                 dx[k] = src_x[j];
                 dy[k] = src_y[j];
