@@ -1489,6 +1489,79 @@ mod tests {
         assert!(seen > 100, "{seen}");
     }
 
+    /// Neighbour sums with every field [`Runs`] holds random (counts whole, as the kernel counts),
+    /// the others zero.
+    fn random_sums(rng: &mut ChaCha8Rng) -> NeighbourSums {
+        let mut v = || Vec2::new(rng.random_range(-50.0..50.0), rng.random_range(-50.0..50.0));
+        let (separation, alignment, cohesion) = (v(), v(), v());
+        NeighbourSums {
+            separation,
+            alignment,
+            alignment_count: f32::from(rng.random_range(1u8..40)),
+            cohesion,
+            cohesion_count: f32::from(rng.random_range(1u8..40)),
+            count: f32::from(rng.random_range(1u8..80)),
+            ..NeighbourSums::default()
+        }
+    }
+
+    /// The sums [`Runs`] holds at slot `j`.
+    fn held(r: &Runs, j: usize) -> NeighbourSums {
+        NeighbourSums {
+            separation: Vec2::new(r.sep[0][j], r.sep[1][j]),
+            alignment: Vec2::new(r.ali[0][j], r.ali[1][j]),
+            alignment_count: r.ali_n[j],
+            cohesion: Vec2::new(r.coh[0][j], r.coh[1][j]),
+            cohesion_count: r.coh_n[j],
+            count: r.count[j],
+            ..NeighbourSums::default()
+        }
+    }
+
+    #[test]
+    fn without_self_over_a_run_equals_without_self_per_agent_bit_for_bit() {
+        // Every pattern of the separation, alignment and cohesion flags; a run that starts inside
+        // the columns and whose length is a multiple of no vector width, with slots on both
+        // sides of it that must keep their sums.
+        let mut rng = ChaCha8Rng::seed_from_u64(12);
+        let range = 3..3 + 4 * LANES + 5;
+        let slots = range.end + 4;
+        for pattern in 0..8u8 {
+            let on = [SEP, ALI, COH].map(|b| pattern & (1 << b) != 0);
+            let spec = NeighbourSpec {
+                on,
+                ..NeighbourSpec::default()
+            };
+            let sums: Vec<NeighbourSums> = (0..slots).map(|_| random_sums(&mut rng)).collect();
+            let mut runs = Runs::default();
+            for (j, s) in sums.iter().enumerate() {
+                runs.put(j, 0, s, 1.0);
+            }
+            let vel: Vec<Vec2> = range
+                .clone()
+                .map(|_| Vec2::new(rng.random_range(-4.0..4.0), rng.random_range(-4.0..4.0)))
+                .collect();
+            let (vx, vy): (Vec<f32>, Vec<f32>) = vel.iter().map(|v| (v.x, v.y)).unzip();
+            runs.without_self_run(range.clone(), (&vx, &vy), on);
+            for (j, s) in sums.iter().enumerate() {
+                let want = match j.checked_sub(range.start) {
+                    Some(k) if range.contains(&j) => {
+                        let got_vel = [runs.vel[0][j], runs.vel[1][j]].map(f32::to_bits);
+                        assert_eq!(got_vel, [vel[k].x, vel[k].y].map(f32::to_bits), "slot {j}");
+                        without_self(*s, vel[k], &spec)
+                    }
+                    _ => *s,
+                };
+                let got = held(&runs, j);
+                assert_eq!(
+                    bits(&got),
+                    bits(&want),
+                    "on {on:?}, slot {j}: {got:?} vs {want:?}"
+                );
+            }
+        }
+    }
+
     #[test]
     fn every_dispatch_target_gives_the_scalar_lanes_bits_for_every_flock_shape() {
         // `kernel_cell` runs the best target this processor has (on AVX-512, two agents per
