@@ -305,8 +305,9 @@ fn wrap_turn(a: f32) -> f32 {
     if inside { a } else { r }
 }
 
-/// One task's agents, [`LANES`] at a time (runtime dispatch: AVX-512 or AVX2 + FMA where the
-/// processor has them, the baseline otherwise; the same operations either way).
+/// One task's agents, [`LANES`] at a time (runtime dispatch: clones for AVX-512, AVX2 + FMA and
+/// AVX, the first the processor has, else the baseline x86-64 build; the same operations in
+/// every clone).
 #[multiversion::multiversion(targets(
     "x86_64+avx2+fma+avx512f+avx512vl+avx512bw+avx512dq",
     "x86_64+avx2+fma",

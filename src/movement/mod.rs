@@ -13,10 +13,11 @@
 //!   `max(0, 1 - drag * dt)`.
 //!
 //! [`integrate`] runs each agent's step, one branch-free function, over blocks of 8 agents
-//! loaded from contiguous `f32` slices, in parallel chunks and under runtime dispatch (AVX-512
-//! or AVX2 + FMA where the processor has them); [`integrate_scalar`] calls the same function one agent at a
-//! time, the reference the lanes are tested against bit for bit (the compiler's vectorisation
-//! keeps the operations and their order; no fused multiply-add is formed).
+//! loaded from contiguous `f32` slices, in parallel chunks and under runtime dispatch (clones for
+//! AVX-512, AVX2 + FMA and AVX, the first the processor has, else the baseline x86-64 build);
+//! [`integrate_scalar`] calls the same function one agent at a time, the reference the lanes are
+//! tested against bit for bit (the compiler's vectorisation keeps the operations and their order;
+//! no fused multiply-add is formed).
 
 mod integrate;
 

@@ -3,8 +3,9 @@
 //! ORCA guarantees collision-free velocities only while its linear program is feasible; in a
 //! dense crowd it is not, and the 3D program lets pairs overlap. This pass takes the positions
 //! after the move, lists the pairs near contact (within 1.5 times their summed radii, searched
-//! in parallel through a grid (hashed cells as wide as the search, except on a torus) from the agents flagged as near, sorted by their ids), and then
-//! sweeps the list in that order, Gauss-Seidel fashion: each overlapping pair is moved apart along the line between its
+//! in parallel through a grid (hashed cells as wide as the search, except on a torus) from the
+//! agents flagged as near, sorted by their ids), and then sweeps the list in that order,
+//! Gauss-Seidel fashion: each overlapping pair is moved apart along the line between its
 //! centres to exactly touching, each agent by its share (half when both take part, all of it
 //! when the other does not move). Sweeps stop when no pair overlaps by more than `tolerance` of
 //! its summed radii, or after `iterations`. The list and the sweep order depend neither on the
@@ -161,8 +162,8 @@ pub(crate) fn resolve(
 /// The guard after every other position change of the step. A pair of agents that ends closer
 /// than [`FLOOR`] of its summed radii and closer than it was at the frame's start is not
 /// allowed (unless one of them does not take part and moved this step, which sending the other
-/// back cannot undo): of its agents that take part, the one that moved farther this step goes back to
-/// its frame-start position with zero velocity, and the search repeats with it in place (a
+/// back cannot undo): of its agents that take part, the one that moved farther this step goes
+/// back to its frame-start position with zero velocity, and the search repeats with it in place (a
 /// pushed crowd goes back agent by agent, each round one rank further) until no such pair is
 /// left; after [`MAX_ROUNDS`] rounds every agent that takes part and still moved goes back at
 /// once. Two agents sent back stand as they stood at the frame's start, so a step never brings

@@ -19,7 +19,8 @@ const PARALLEL_MIN_POINTS: usize = 8 * 1024;
 const CHUNK: usize = 8 * 1024;
 /// The largest number of cells a grid ever has.
 const MAX_CELLS: usize = 1 << 22;
-/// Zeros after the sorted positions ([`GridIndex::sorted_padded`]): one block of lanes.
+/// Zeros after the sorted positions ([`GridIndex::sorted_padded`]): one block of lanes (the
+/// kernels that read past a run's end assert at compile time that it covers their blocks).
 pub(crate) const SORTED_PAD: usize = 8;
 
 /// A uniform-grid neighbour index: cell lists rebuilt by counting sort.
@@ -131,10 +132,12 @@ fn axis_cell(x: f32, origin: f32, inv: f32, n: u32) -> u32 {
 /// coordinate. In vector lanes: the clamp is done in floating point before the conversion
 /// (`max(f, 0)` is 0 for a negative or NaN `f`, and truncating `min(f, n - 1)` equals clamping
 /// the truncation, `n - 1` being an integer that `f32` holds exactly), so the cells are
-/// [`axis_cell`]'s for every input.
+/// [`axis_cell`]'s for every input. The SSE4.1 clone truncates with `roundps`, where the
+/// baseline x86-64 build calls libm's `truncf` per value (the same result: truncation is exact).
 #[multiversion::multiversion(targets(
     "x86_64+avx2+fma+avx512f+avx512vl+avx512bw+avx512dq",
-    "x86_64+avx2+fma"
+    "x86_64+avx2+fma",
+    "x86_64+sse4.1"
 ))]
 fn cell_keys(
     (xs, ys): (&[f32], &[f32]),
@@ -238,7 +241,11 @@ impl GridIndex {
     }
 
     /// [`sorted_x`](Self::sorted_x) and [`sorted_y`](Self::sorted_y) followed by
-    /// [`SORTED_PAD`] zeros, so that a kernel can read whole blocks of lanes from any point.
+    /// [`SORTED_PAD`] zeros (`order().len() + SORTED_PAD` values each), so that a kernel can read
+    /// whole blocks of lanes from any point. This holds after every rebuild, whatever the number
+    /// of points before it, and after [`adopt_order`](Self::adopt_order), which leaves the
+    /// sorted positions and their padding as they are; a grid never rebuilt has no points and
+    /// gives two empty slices.
     #[must_use]
     pub(crate) fn sorted_padded(&self) -> (&[f32], &[f32]) {
         (&self.sort.sorted_x, &self.sort.sorted_y)
@@ -665,6 +672,44 @@ mod tests {
                 assert_eq!(g.sorted_x()[k].to_bits(), xs[i].to_bits());
                 assert_eq!(g.sorted_y()[k].to_bits(), ys[i].to_bits());
             }
+        }
+    }
+
+    #[test]
+    fn sorted_padded_is_the_sorted_positions_then_zeros_after_every_rebuild_and_adoption() {
+        // One grid through a growing, shrinking and emptied point set (a shrink leaves old
+        // positions where the new padding goes), each rebuild then followed by an adoption of
+        // its order. The positions are all nonzero, so a stale one in the tail shows.
+        let mut g = GridIndex::default();
+        let check = |g: &GridIndex, what: &str| {
+            let n = g.order().len();
+            let (xs, ys) = g.sorted_padded();
+            assert_eq!(
+                (xs.len(), ys.len()),
+                (n + SORTED_PAD, n + SORTED_PAD),
+                "{what}"
+            );
+            assert_eq!((&xs[..n], &ys[..n]), (g.sorted_x(), g.sorted_y()), "{what}");
+            let (tx, ty) = (&xs[n..], &ys[n..]);
+            assert!(
+                tx.iter().chain(ty).all(|v| v.to_bits() == 0),
+                "{what}: tail {tx:?} {ty:?}"
+            );
+        };
+        for (n, bounds) in [
+            (20, Bounds::torus(40.0, 40.0).unwrap()),
+            (5, Bounds::Open),
+            (13, Bounds::bounded(40.0, 40.0).unwrap()),
+            (0, Bounds::Open),
+        ] {
+            let (xs, ys) = points(n, 30.0, n as u64 + 1);
+            let (xs, ys): (Vec<f32>, Vec<f32>) =
+                xs.iter().zip(&ys).map(|(x, y)| (x + 1.0, y + 1.0)).unzip();
+            g.rebuild(&xs, &ys, bounds, 4.0);
+            assert_eq!(g.order().len(), n);
+            check(&g, &format!("rebuild of {n} points"));
+            g.adopt_order();
+            check(&g, &format!("adoption after the rebuild of {n} points"));
         }
     }
 

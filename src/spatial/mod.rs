@@ -48,6 +48,7 @@ mod sort;
 
 pub use brute::BruteIndex;
 pub use grid::GridIndex;
+pub(crate) use grid::SORTED_PAD;
 pub use hash::{HashGrid, Runs};
 pub use kdtree::KdTreeIndex;
 

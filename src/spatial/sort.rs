@@ -21,7 +21,8 @@
 //! * `order` is the stable sort of `0..N` by key: the points of one key in ascending index order,
 //!   whatever the number of chunks, so the result does not depend on the thread count.
 //! * `start` holds its prefix sums, `keys + 1` long with `start[0] = 0`; the sorted positions
-//!   follow `order`, then `pad` entries of `f32::MAX`.
+//!   follow `order`, then the caller's padding (`pad.0` entries of `pad.1`: zeros for the grid,
+//!   `f32::MAX` for the hash grid).
 //! * Buffers are reused: once warm, a sort of the same size allocates nothing.
 //! * The positions come through a generic closure, so the inner loops are specialised for each
 //!   caller's layout (no dynamic dispatch).

@@ -6,8 +6,8 @@
 //! a contiguous, padded buffer, with the torus image already applied (a neighbour cell across a
 //! seam is shifted by the world's side), so the lane kernel needs neither run boundaries nor
 //! minimum-image arithmetic. Every agent of the cell then sums over the buffer in SIMD lanes
-//! (runtime dispatch: two agents per 16-lane vector on AVX-512, AVX2 + FMA where the processor
-//! has that, the baseline otherwise; the same bits on each). The sums wait in columns until the
+//! (runtime dispatch: two agents per 16-lane vector on AVX-512, clones for AVX2 + FMA and AVX,
+//! the baseline build otherwise; the same bits on each). The sums wait in columns until the
 //! task's cells are done; then the flocking terms and the model adapter run over each run of
 //! agents of one group, one term at a time in long vector loops, writing the outputs in the
 //! grid's order. Vicsek sums wait the same way; their turns (each agent's draw, computed from the
@@ -226,7 +226,10 @@ impl CellOut {
         };
         let (px, py, pc) = (&self.lin_x[..m], &self.lin_y[..m], &self.count[..m]);
         for k in 0..n {
-            let r = (rank[k].load(Ordering::Relaxed) as usize).min(last);
+            let r = rank[k].load(Ordering::Relaxed) as usize;
+            // A rank past the columns means outputs of another frame's batch (a stale grid).
+            debug_assert!(r < m, "rank {r} of agent {} past the batch's {m}", base + k);
+            let r = r.min(last);
             lx[k] = px[r];
             ly[k] = py[r];
             nb[k] = pc[r];
@@ -1112,10 +1115,14 @@ impl Query {
 
 /// The sums of every agent of `agents` over one cell buffer.
 ///
-/// Where the processor has AVX-512 (multiversion's AVX-512 target: Ice Lake and later, whose
-/// 512-bit units do not slow the clock much), the flock's shape runs two agents at a time, one
-/// per half of a 16-lane vector ([`avx512::pairs`]); each half gives the bits of the 8-lane
-/// kernel, so the sums are the same on every dispatch target.
+/// Where the processor has AVX-512, the flock's shape runs two agents at a time, one per half of
+/// a 16-lane vector ([`avx512::pairs`]); each half gives the bits of the 8-lane kernel, so the
+/// sums are the same on every dispatch target. The AVX-512 target string names AVX-512 F, VL, BW
+/// and DQ, but multiversion 0.9 adds the Ice Lake extensions to every AVX-512 target (BITALG,
+/// IFMA, VBMI, VBMI2, VNNI, VPOPCNTDQ, GFNI, VAES, VPCLMULQDQ; unless the build sets `--cfg
+/// multiversion_allow_slow_avx512`): the clone runs on Ice Lake and the later Intel parts with
+/// AVX-512, and on Zen 4, whose 512-bit units do not slow the clock much; Skylake-SP and Cascade
+/// Lake take the AVX2 clone.
 #[multiversion(targets(
     "x86_64+avx2+fma+avx512f+avx512vl+avx512bw+avx512dq",
     "x86_64+avx2+fma",
@@ -1484,6 +1491,79 @@ mod tests {
             }
         }
         assert!(seen > 100, "{seen}");
+    }
+
+    /// Neighbour sums with every field [`Runs`] holds random (counts whole, as the kernel counts),
+    /// the others zero.
+    fn random_sums(rng: &mut ChaCha8Rng) -> NeighbourSums {
+        let mut v = || Vec2::new(rng.random_range(-50.0..50.0), rng.random_range(-50.0..50.0));
+        let (separation, alignment, cohesion) = (v(), v(), v());
+        NeighbourSums {
+            separation,
+            alignment,
+            alignment_count: f32::from(rng.random_range(1u8..40)),
+            cohesion,
+            cohesion_count: f32::from(rng.random_range(1u8..40)),
+            count: f32::from(rng.random_range(1u8..80)),
+            ..NeighbourSums::default()
+        }
+    }
+
+    /// The sums [`Runs`] holds at slot `j`.
+    fn held(r: &Runs, j: usize) -> NeighbourSums {
+        NeighbourSums {
+            separation: Vec2::new(r.sep[0][j], r.sep[1][j]),
+            alignment: Vec2::new(r.ali[0][j], r.ali[1][j]),
+            alignment_count: r.ali_n[j],
+            cohesion: Vec2::new(r.coh[0][j], r.coh[1][j]),
+            cohesion_count: r.coh_n[j],
+            count: r.count[j],
+            ..NeighbourSums::default()
+        }
+    }
+
+    #[test]
+    fn without_self_over_a_run_equals_without_self_per_agent_bit_for_bit() {
+        // Every pattern of the separation, alignment and cohesion flags; a run that starts inside
+        // the columns and whose length is a multiple of no vector width, with slots on both
+        // sides of it that must keep their sums.
+        let mut rng = ChaCha8Rng::seed_from_u64(12);
+        let range = 3..3 + 4 * LANES + 5;
+        let slots = range.end + 4;
+        for pattern in 0..8u8 {
+            let on = [SEP, ALI, COH].map(|b| pattern & (1 << b) != 0);
+            let spec = NeighbourSpec {
+                on,
+                ..NeighbourSpec::default()
+            };
+            let sums: Vec<NeighbourSums> = (0..slots).map(|_| random_sums(&mut rng)).collect();
+            let mut runs = Runs::default();
+            for (j, s) in sums.iter().enumerate() {
+                runs.put(j, 0, s, 1.0);
+            }
+            let vel: Vec<Vec2> = range
+                .clone()
+                .map(|_| Vec2::new(rng.random_range(-4.0..4.0), rng.random_range(-4.0..4.0)))
+                .collect();
+            let (vx, vy): (Vec<f32>, Vec<f32>) = vel.iter().map(|v| (v.x, v.y)).unzip();
+            runs.without_self_run(range.clone(), (&vx, &vy), on);
+            for (j, s) in sums.iter().enumerate() {
+                let want = match j.checked_sub(range.start) {
+                    Some(k) if range.contains(&j) => {
+                        let got_vel = [runs.vel[0][j], runs.vel[1][j]].map(f32::to_bits);
+                        assert_eq!(got_vel, [vel[k].x, vel[k].y].map(f32::to_bits), "slot {j}");
+                        without_self(*s, vel[k], &spec)
+                    }
+                    _ => *s,
+                };
+                let got = held(&runs, j);
+                assert_eq!(
+                    bits(&got),
+                    bits(&want),
+                    "on {on:?}, slot {j}: {got:?} vs {want:?}"
+                );
+            }
+        }
     }
 
     #[test]

@@ -7,11 +7,10 @@
 //!   them one by one; it also serves repulsion and neighbour caps;
 //! - the **grid kernel** reads the neighbour cells of the uniform grid as contiguous runs of
 //!   the grid's cell-ordered positions (padded with a block of zeros) and cell-ordered copies of
-//!   the velocities and groups, eight lanes at a time, with
-//!   runtime CPU-feature dispatch (AVX-512 or AVX2 where the processor has them, SSE2
-//!   otherwise). It sums in
-//!   a different order than the reference, so the two agree to rounding, not bit for bit; each is
-//!   deterministic and independent of the thread count.
+//!   the velocities and groups, eight lanes at a time, with runtime CPU-feature dispatch (clones
+//!   for AVX-512, AVX2 + FMA and AVX, the first the processor has, else the baseline x86-64
+//!   build, SSE2). It sums in a different order than the reference, so the two agree to
+//!   rounding, not bit for bit; each is deterministic and independent of the thread count.
 
 use glam::Vec2;
 use multiversion::multiversion;
@@ -20,11 +19,16 @@ use rayon::prelude::*;
 use super::plan::{ALI, COH, NeighbourSpec, SEP};
 use crate::agents::Agents;
 use crate::bounds::Bounds;
-use crate::spatial::{GridIndex, Neighbour, NeighbourIndex, SpatialIndex};
+use crate::spatial::{GridIndex, Neighbour, NeighbourIndex, SORTED_PAD, SpatialIndex};
 use crate::steering::NeighbourSums;
 
 /// SIMD width of the grid kernel.
 pub(crate) const LANES: usize = 8;
+
+// The grid kernel here and the cell batch's gather (`cells::append_motion`) read the grid's
+// sorted positions in whole blocks of `LANES`, up to `LANES - 1` values past a run's end: the
+// grid's padding must hold them.
+const _: () = assert!(SORTED_PAD >= LANES);
 
 /// `x.is_finite() && x > 0.0` as two ordered comparisons, which vectorise (the class test
 /// behind `is_finite` compiles to scalar bit tests per lane).
@@ -93,6 +97,9 @@ fn gather_pair_into(
         .for_each(|((dx, dy), o)| {
             let dy = &mut dy[..dx.len()];
             for (k, &j) in o.iter().enumerate().take(dx.len()) {
+                // An index past the sources means an order of another set of agents (a stale
+                // grid).
+                debug_assert!((j as usize) <= last, "order index {j} past {last}");
                 let j = (j as usize).min(last);
                 dx[k] = src_x[j];
                 dy[k] = src_y[j];

@@ -5,10 +5,10 @@
 //! within the model's cut-off (through the world's neighbour index) and the walls and circles
 //! within it (through the obstacles' broad phase).
 //!
-//! Per agent, the neighbours within the cut-off are gathered first (from the grid's cell-ordered
-//! copies, eight candidates at a time), then their pair terms are evaluated eight at a time in
-//! lanes ([`crate::ped::lanes`]) and summed per lane, the lanes added in a fixed order at the
-//! end.
+//! Per agent, the neighbours within the cut-off are gathered first (from the grid's own sorted
+//! positions, [`GridIndex::sorted_padded`], eight candidates at a time), then their pair terms
+//! are evaluated eight at a time in lanes ([`crate::ped::lanes`]) and summed per lane, the lanes
+//! added in a fixed order at the end.
 //!
 //! Runs before the ORCA filter, so a group with both walks by its pedestrian model and ORCA
 //! keeps the result collision-free.
@@ -32,8 +32,12 @@ use crate::agents::Agents;
 use crate::ped::cfsm::{BLOCKED_SPACING, SIDESTEP_WALL_MARGIN};
 use crate::ped::lanes::{LANES, Neighbours, lane_sum};
 use crate::ped::{Cfsm, Model, Pedestrian, SocialForce};
-use crate::spatial::{GridIndex, Neighbour, NeighbourIndex, SpatialIndex};
+use crate::spatial::{GridIndex, Neighbour, NeighbourIndex, SORTED_PAD, SpatialIndex};
 use crate::steering::truncate;
+
+// The candidate scan (`gather`) reads the grid's sorted positions in whole blocks of `LANES`,
+// up to `LANES - 1` values past a run's end: the grid's padding must hold them.
+const _: () = assert!(SORTED_PAD >= LANES);
 
 /// One worker's buffers.
 #[derive(Default)]

@@ -11,7 +11,9 @@
 //! -0 (adding or subtracting a zero then leaves it as it is); the halves are reduced as
 //! [`super::tree_sum`] reduces the lanes ([`reduce`], all eight accumulators at once).
 //! `tests/flocking.rs` and `tests/determinism.rs` compare the paths, and so does the unit test
-//! `every_dispatch_target_gives_the_scalar_lanes_bits_for_every_flock_shape`.
+//! `every_dispatch_target_gives_the_scalar_lanes_bits_for_every_flock_shape`; the unit test
+//! `reduce_gives_tree_sum_bits_per_half_and_accumulator` compares [`reduce`] with `tree_sum`.
+//! All of them reach this code only on a processor with AVX-512.
 //!
 //! Where a 16-lane operation costs two 8-lane ones (Zen 4 splits them), the pairing saves
 //! instructions, not arithmetic: an odd last agent therefore takes the 8-lane kernel rather than
@@ -223,4 +225,81 @@ fn shared_pair<const CONE: u8, const GROUPS: bool, const Q_AC: bool>(
     }
     let [ra, rb] = reduce(&[sx, sy, ax, ay, an, cx, cy, n]);
     (sums(&ra), sums(&rb))
+}
+
+#[cfg(test)]
+mod tests {
+    use rand::{RngExt, SeedableRng};
+    use rand_chacha::ChaCha8Rng;
+
+    use super::*;
+    use crate::steer::cells::tree_sum;
+
+    /// [`reduce`] of eight accumulators given as 16 lanes each.
+    #[target_feature(enable = "avx512f,avx512dq,avx512vl,avx2,fma")]
+    fn reduce_lanes(lanes: &[[f32; 16]; 8]) -> [[f32; 8]; 2] {
+        let acc = lanes.map(|l| {
+            let half = |h: usize| {
+                _mm256_set_ps(
+                    l[h + 7],
+                    l[h + 6],
+                    l[h + 5],
+                    l[h + 4],
+                    l[h + 3],
+                    l[h + 2],
+                    l[h + 1],
+                    l[h],
+                )
+            };
+            _mm512_insertf32x8::<1>(_mm512_castps256_ps512(half(0)), half(8))
+        });
+        reduce(&acc)
+    }
+
+    /// Runs only on a processor with AVX-512 F, DQ and VL, AVX2 and FMA (the features `reduce`
+    /// is compiled for); elsewhere it returns at once and checks nothing.
+    #[test]
+    fn reduce_gives_tree_sum_bits_per_half_and_accumulator() {
+        let features = [
+            std::arch::is_x86_feature_detected!("avx512f"),
+            std::arch::is_x86_feature_detected!("avx512dq"),
+            std::arch::is_x86_feature_detected!("avx512vl"),
+            std::arch::is_x86_feature_detected!("avx2"),
+            std::arch::is_x86_feature_detected!("fma"),
+        ];
+        if features.contains(&false) {
+            return;
+        }
+        // Magnitudes far apart, so that a different order of additions rounds differently.
+        let mut rng = ChaCha8Rng::seed_from_u64(5);
+        let mut lane = || {
+            let sign = if rng.random_range(0u8..2) == 0 {
+                1.0
+            } else {
+                -1.0
+            };
+            sign * rng.random_range(1.0f32..2.0) * 2.0f32.powi(rng.random_range(-12..12))
+        };
+        for case in 0..2000 {
+            let lanes: [[f32; 16]; 8] = std::array::from_fn(|_| std::array::from_fn(|_| lane()));
+            #[expect(
+                unsafe_code,
+                reason = "a call to a `#[target_feature]` function from one without the features"
+            )]
+            // SAFETY: the processor has every feature `reduce_lanes` enables (checked above).
+            let got = unsafe { reduce_lanes(&lanes) };
+            for (half, got) in got.iter().enumerate() {
+                for (k, l) in lanes.iter().enumerate() {
+                    let lanes: &[f32; KLANES] = l[8 * half..8 * half + 8].try_into().expect("8");
+                    let want = tree_sum(lanes);
+                    assert_eq!(
+                        got[k].to_bits(),
+                        want.to_bits(),
+                        "case {case}, half {half}, accumulator {k}: {} vs {want}",
+                        got[k]
+                    );
+                }
+            }
+        }
+    }
 }
