@@ -171,6 +171,16 @@ impl HashGrid {
         }
     }
 
+    /// Makes the grid the one a rebuild would give after the points were permuted into its
+    /// [`order`](Self::order) (point `k` becomes the old point `order()[k]`), without sorting:
+    /// the same points give the same buckets and sorted positions, and a stable sort of points
+    /// already in bucket order is the identity.
+    pub fn adopt_order(&mut self) {
+        for (k, o) in self.sort.order.iter_mut().enumerate() {
+            *o = k as u32;
+        }
+    }
+
     /// The side of the cells, as given to the last rebuild (0 before the first).
     #[must_use]
     pub fn side(&self) -> f32 {
@@ -414,6 +424,27 @@ mod tests {
             .collect();
         g.rebuild(&xs, &[0.5; 20], 1.0);
         assert_eq!(g.crowding(), 5.5);
+    }
+
+    /// A grid that adopts its order equals a rebuild over the points permuted into it.
+    #[test]
+    fn adopting_the_order_equals_a_rebuild_of_the_permuted_points() {
+        let mut rng = AgentRng::new(13, 0, 0, 0);
+        for n in [0_usize, 1, 50, 3000] {
+            let xs: Vec<f32> = (0..n).map(|_| rng.unit() * 80.0 - 40.0).collect();
+            let ys: Vec<f32> = (0..n).map(|_| rng.unit() * 80.0).collect();
+            let mut g = HashGrid::default();
+            g.rebuild(&xs, &ys, 3.0);
+            let px: Vec<f32> = g.order().iter().map(|&i| xs[i as usize]).collect();
+            let py: Vec<f32> = g.order().iter().map(|&i| ys[i as usize]).collect();
+            g.adopt_order();
+            let mut fresh = HashGrid::default();
+            fresh.rebuild(&px, &py, 3.0);
+            assert_eq!(g.order(), fresh.order(), "{n}");
+            assert_eq!(g.sort.start, fresh.sort.start, "{n}");
+            assert_eq!(g.sorted_x(), fresh.sorted_x(), "{n}");
+            assert_eq!(g.sorted_y(), fresh.sorted_y(), "{n}");
+        }
     }
 
     #[test]

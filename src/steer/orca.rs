@@ -123,13 +123,35 @@ impl OrcaScratch {
             }
         }
         self.hash.rebuild(xs, ys, side);
+        self.remember(ids, (xs, ys));
+        0.0
+    }
+}
+
+impl OrcaScratch {
+    /// Takes `grid`, built over the agents now stored as `ids` at `(xs, ys)` (the world's order
+    /// grid after the agents were reordered by it and it adopted that order), as the pass's
+    /// hashed grid, and gives back the previous one in its place: the pass then refreshes
+    /// instead of rebuilding in this frame ([`OrcaScratch::prepare_hash`] still checks the
+    /// agents, their positions and the side).
+    pub(crate) fn adopt(
+        &mut self,
+        grid: &mut HashGrid,
+        ids: &[AgentId],
+        (xs, ys): (&[f32], &[f32]),
+    ) {
+        std::mem::swap(&mut self.hash, grid);
+        self.remember(ids, (xs, ys));
+    }
+
+    /// Records the agents and positions the hashed grid was built over.
+    fn remember(&mut self, ids: &[AgentId], (xs, ys): (&[f32], &[f32])) {
         for (built, now) in [(&mut self.built_x, xs), (&mut self.built_y, ys)] {
             built.clear();
             built.extend_from_slice(now);
         }
         self.built_ids.clear();
         self.built_ids.extend_from_slice(ids);
-        0.0
     }
 }
 

@@ -557,6 +557,10 @@ impl World {
                 self.scratch.perm.clear();
                 self.scratch.perm.extend_from_slice(grid.order());
                 self.agents.reorder(&self.scratch.perm);
+                // The grid of the reordered agents serves the ORCA pass of this frame.
+                grid.adopt_order();
+                let a = &self.agents;
+                self.scratch.orca.adopt(grid, &a.ids, (&a.pos_x, &a.pos_y));
             }
             return false;
         }
