@@ -42,9 +42,12 @@ struct Buffers {
     rx: Vec<f32>,
     ry: Vec<f32>,
     js: Vec<u32>,
-    /// The nearest candidates as `(dist_sq bits << 32 | id, index)`, ascending: the key orders
-    /// by distance, then id, as an integer.
-    near: Vec<(u64, u32)>,
+    /// The nearest candidates as `dist_sq bits << 32 | p`, `p` their place in `rx`, `ry` and
+    /// `js`, in order of `(dist_sq, id)` ([`nearest_in_order`]).
+    near: Vec<u64>,
+    /// Scratch of [`nearest_in_order`] for ties at the `k`-th distance: `(dist_sq bits << 32 |
+    /// id, p)`.
+    tied: Vec<(u64, u32)>,
     lines: Vec<Line>,
     projected: Vec<Line>,
     walls: Vec<u32>,
@@ -388,7 +391,8 @@ fn gather_block(hash: &HashGrid, runs: &Runs, b: &mut Buffers) {
 }
 
 /// The `k` nearest agents within `r` of agent `i` at `pos` (itself left out) in `b.near`,
-/// sorted by `(dist_sq, id)`.
+/// sorted by `(dist_sq, id)`: each entry is `dist_sq bits << 32 | p`, `p` the hit's place in
+/// `b.rx`, `b.ry` (its offset from `pos`) and `b.js` (its storage index).
 #[inline(always)]
 fn candidates(
     view: &SteerView,
@@ -401,7 +405,7 @@ fn candidates(
 ) {
     let a = view.agents;
     let r_sq = r * r;
-    let key = |d: f32, j: u32| (u64::from(d.to_bits()) << 32) | u64::from(a.ids[j as usize].0);
+    let key = |d: f32, p: usize| (u64::from(d.to_bits()) << 32) | p as u64;
     b.near.clear();
     match ctx.source {
         Source::Hash(hash) => {
@@ -444,42 +448,84 @@ fn candidates(
                     break;
                 }
             }
-            let hits = b.rx[..count].iter().zip(&b.ry[..count]).zip(&b.js[..count]);
+            let hits = b.rx[..count].iter().zip(&b.ry[..count]).enumerate();
             b.near
-                .extend(hits.map(|((&dx, &dy), &j)| (key(dx * dx + dy * dy, j), j)));
+                .extend(hits.map(|(p, (&dx, &dy))| key(dx * dx + dy * dy, p)));
         }
         Source::Index => {
             view.index.neighbours_at(pos, r, &mut b.found);
             let found = b.found.iter().filter(|nb| nb.index as usize != i);
-            b.near
-                .extend(found.map(|nb| (key(nb.dist_sq, nb.index), nb.index)));
+            for (p, nb) in found.enumerate() {
+                let j = nb.index as usize;
+                let rel = view.bounds.offset(pos, a.position(j));
+                (b.rx[p], b.ry[p], b.js[p]) = (rel.x, rel.y, nb.index);
+                b.near.push(key(nb.dist_sq, p));
+            }
         }
     }
-    // Keys are distinct (ids are), so the nearest `k` and their order are unique.
-    if b.near.len() > k {
-        b.near.select_nth_unstable(k - 1);
-        b.near.truncate(k);
-    }
-    insertion_sort(&mut b.near);
+    nearest_in_order(&mut b.near, k, &b.js, &a.ids, &mut b.tied);
     b.kth_sq = if b.near.len() == k {
-        f32::from_bits((b.near[k - 1].0 >> 32) as u32)
+        f32::from_bits((b.near[k - 1] >> 32) as u32)
     } else {
         f32::INFINITY
     };
+}
+
+/// Keeps the `k` smallest of `near` (entries `dist_sq bits << 32 | p`, the hit `p` being agent
+/// `ids[js[p]]`) by `(dist_sq, id)`, in that order. The keys carry the hit's place rather than
+/// its id (no load per hit): they order by distance as they are; only equal distances, rare,
+/// need the ids, and are put in id order afterwards, or, where they straddle the `k`-th place,
+/// chosen by id through `tied`.
+#[inline(always)]
+fn nearest_in_order(
+    near: &mut Vec<u64>,
+    k: usize,
+    js: &[u32],
+    ids: &[AgentId],
+    tied: &mut Vec<(u64, u32)>,
+) {
+    const PLACE: u64 = 0xFFFF_FFFF;
+    let id = |key: u64| ids[js[(key & PLACE) as usize] as usize].0;
+    if near.len() > k {
+        near.select_nth_unstable(k - 1);
+        let kth = near[k - 1] >> 32;
+        if near[k..].iter().any(|&key| key >> 32 == kth) {
+            // Agents at the `k`-th distance on both sides of it: which are kept goes by id.
+            tied.clear();
+            tied.extend(
+                near.iter()
+                    .map(|&key| ((key & !PLACE) | u64::from(id(key)), key as u32)),
+            );
+            tied.select_nth_unstable(k - 1);
+            tied.truncate(k);
+            tied.sort_unstable();
+            near.clear();
+            near.extend(tied.iter().map(|&(key, p)| (key & !PLACE) | u64::from(p)));
+            return;
+        }
+        near.truncate(k);
+    }
+    insertion_sort(near, |x, y| x > y);
+    // Equal distances in id order.
+    if near.windows(2).any(|w| w[0] >> 32 == w[1] >> 32) {
+        insertion_sort(near, |x, y| {
+            x >> 32 > y >> 32 || (x >> 32 == y >> 32 && id(x) > id(y))
+        });
+    }
 }
 
 /// The first search's squared radius over the previous agent's `k`-th squared distance
 /// (1.25 squared).
 const TIGHT_SQ: f32 = 1.5625;
 
-/// Sorts a handful of distinct keys in place (the library sort's call and set-up cost more than
-/// the sorting at ten entries).
+/// Sorts a handful of keys in place by `after` (whether the first goes after the second), stable
+/// (the library sort's call and set-up cost more than the sorting at ten entries).
 #[inline(always)]
-fn insertion_sort(v: &mut [(u64, u32)]) {
+fn insertion_sort(v: &mut [u64], after: impl Fn(u64, u64) -> bool) {
     for a in 1..v.len() {
         let x = v[a];
         let mut at = a;
-        while at > 0 && v[at - 1].0 > x.0 {
+        while at > 0 && after(v[at - 1], x) {
             v[at] = v[at - 1];
             at -= 1;
         }
@@ -614,7 +660,7 @@ fn filter(
     // when the nearest is not, and every other candidate is at least as far as the nearest.
     let limit = (max_speed + ctx.v_max) * dt + crate::orca::contact::REACH * (radius + ctx.r_max);
     let mut close = r < limit;
-    if let Some(&(key, _)) = b.near.first() {
+    if let Some(&key) = b.near.first() {
         let d_sq = f32::from_bits((key >> 32) as u32);
         close |= d_sq < limit * limit;
     }
@@ -629,9 +675,10 @@ fn filter(
     // One line per neighbour, only the case that applies computed (measured faster than
     // blocks of eight in lanes, whose inputs are written a lane at a time and read back as
     // vectors, which the store buffer cannot forward).
-    for &(key, j) in &b.near {
-        let j = j as usize;
-        let rel = view.bounds.offset(pos, Vec2::new(px[j], py[j]));
+    let (rx, ry, js) = (&b.rx[..], &b.ry[..], &b.js[..]);
+    for &key in &b.near {
+        let p = key as u32 as usize;
+        let (rel, j) = (Vec2::new(rx[p], ry[p]), js[p] as usize);
         let rel_vel = vel - Vec2::new(vx[j], vy[j]);
         let gj = groups[j] as usize;
         let share = if gj == g {
@@ -649,7 +696,7 @@ fn filter(
                 None => 1.0,
             }
         };
-        let tie = if id < key as u32 { 1.0 } else { -1.0 };
+        let tie = if id < ids[j].0 { 1.0 } else { -1.0 };
         let r = radius + radii[j];
         b.lines.push(agent_line(
             vel, rel, rel_vel, r, inv_tau, inv_dt, share, tie,
@@ -674,6 +721,44 @@ fn filter(
 mod tests {
     use super::*;
     use crate::rng::AgentRng;
+
+    /// The `k` nearest by `(distance, id)` in that order, against a full sort, with many equal
+    /// distances (on both sides of the `k`-th place too) and hits in any order.
+    #[test]
+    fn nearest_in_order_sorts_by_distance_then_id() {
+        let mut rng = AgentRng::new(21, 0, 0, 0);
+        let (mut near, mut tied) = (Vec::new(), Vec::new());
+        let mut straddled = 0;
+        for case in 0..3000 {
+            let m = 1 + (rng.unit() * 24.0) as usize;
+            let k = 1 + (rng.unit() * 12.0) as usize;
+            // Storage indices of the hits, and the ids stored there (a permutation).
+            let js: Vec<u32> = (0..m as u32).map(|p| (p * 7 + case) % m as u32).collect();
+            let ids: Vec<AgentId> = (0..m as u32)
+                .map(|j| AgentId((j * 13 + 5) % m as u32 + 100))
+                .collect();
+            let levels = 1 + (rng.unit() * 6.0) as u32;
+            let dist: Vec<f32> = (0..m)
+                .map(|_| (rng.unit() * levels as f32).floor())
+                .collect();
+            near.clear();
+            near.extend((0..m).map(|p| (u64::from(dist[p].to_bits()) << 32) | p as u64));
+            let mut want: Vec<(u32, u32, usize)> = (0..m)
+                .map(|p| (dist[p].to_bits(), ids[js[p] as usize].0, p))
+                .collect();
+            want.sort_unstable();
+            straddled += usize::from(m > k && want[k].0 == want[k - 1].0);
+            want.truncate(k);
+            nearest_in_order(&mut near, k, &js, &ids, &mut tied);
+            let got: Vec<usize> = near.iter().map(|&key| key as u32 as usize).collect();
+            let want: Vec<usize> = want.iter().map(|w| w.2).collect();
+            assert_eq!(got, want, "case {case}");
+            for &key in &near {
+                assert_eq!((key >> 32) as u32, dist[key as u32 as usize].to_bits());
+            }
+        }
+        assert!(straddled > 100, "{straddled}");
+    }
 
     /// Refreshed positions with the returned slack find every agent within reach, as a rebuild
     /// would; the slack bounds every move; a reorder, a long move or a non-finite position
