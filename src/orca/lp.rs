@@ -52,7 +52,36 @@ pub fn solve(
     } else {
         result
     };
-    // Rounding may leave the optimum a hair outside the circle.
+    within(v, max_speed)
+}
+
+/// [`solve`]'s answer when the point of the speed circle closest to `pref` violates none of
+/// `lines`: that point, the same bits whatever the order of the lines (the programs then never
+/// leave it). `None` when some line cuts it off, and the answer depends on their order.
+#[inline]
+#[must_use]
+pub fn unconstrained(lines: &[Line], max_speed: f32, pref: Vec2) -> Option<Vec2> {
+    let v = closest_in_circle(pref, max_speed);
+    if lines.iter().any(|line| line.violation(v) > 0.0) {
+        None
+    } else {
+        Some(within(v, max_speed))
+    }
+}
+
+/// The point of the circle of radius `radius` about the origin closest to `opt`.
+#[inline]
+fn closest_in_circle(opt: Vec2, radius: f32) -> Vec2 {
+    if opt.length_squared() > radius * radius {
+        opt.normalize_or_zero() * radius
+    } else {
+        opt
+    }
+}
+
+/// `v` scaled back onto the circle of radius `max_speed` where rounding left it a hair outside.
+#[inline]
+fn within(v: Vec2, max_speed: f32) -> Vec2 {
     let len_sq = v.length_squared();
     if len_sq > max_speed * max_speed {
         v * (max_speed / len_sq.sqrt())
@@ -109,10 +138,8 @@ fn program_1d(lines: &[Line], i: usize, radius: f32, opt: Vec2, direction: bool)
 fn program_2d(lines: &[Line], radius: f32, opt: Vec2, direction: bool) -> (usize, Vec2) {
     let mut result = if direction {
         opt * radius
-    } else if opt.length_squared() > radius * radius {
-        opt.normalize_or_zero() * radius
     } else {
-        opt
+        closest_in_circle(opt, radius)
     };
     for i in 0..lines.len() {
         if lines[i].violation(result) > 0.0 {
@@ -244,6 +271,36 @@ mod tests {
                 }
                 let w = solve(&lines, 0, r, pref, &mut scratch);
                 prop_assert!(w.length() <= r * (1.0 + 1e-4));
+            }
+        }
+
+        /// Where it answers, `unconstrained` gives `solve`'s bits for the lines in any order
+        /// (reversed and rotated here), and it answers exactly when the 2D program never leaves
+        /// the point of the circle closest to `pref`.
+        #[test]
+        fn unconstrained_answers_as_solve_does_in_any_order(
+            lines in prop::collection::vec(line_strategy(), 0..8),
+            px in -4.0f32..4.0, py in -4.0f32..4.0, r in 0.5f32..3.0,
+            hard in 0usize..3, turn in 0usize..8,
+        ) {
+            let pref = Vec2::new(px, py);
+            let mut scratch = Vec::new();
+            let hard = hard.min(lines.len());
+            let start = closest_in_circle(pref, r);
+            let free = lines.iter().all(|l| l.violation(start) <= 0.0);
+            let got = unconstrained(&lines, r, pref);
+            prop_assert_eq!(got.is_some(), free);
+            let mut reversed = lines.clone();
+            reversed.reverse();
+            let mut rotated = lines.clone();
+            rotated.rotate_left(turn.min(lines.len()));
+            for order in [&lines, &reversed, &rotated] {
+                let bits = |v: Option<Vec2>| v.map(|v| v.to_array().map(f32::to_bits));
+                prop_assert_eq!(bits(unconstrained(order, r, pref)), bits(got));
+                if let Some(v) = got {
+                    let w = solve(order, hard, r, pref, &mut scratch);
+                    prop_assert_eq!(v.to_array().map(f32::to_bits), w.to_array().map(f32::to_bits));
+                }
             }
         }
 

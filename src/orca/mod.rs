@@ -33,7 +33,7 @@ use serde::{Deserialize, Serialize};
 use crate::error::{Error, Result, non_negative, positive};
 
 pub use lines::{LineBlock, agent_line};
-pub use lp::{Line, solve};
+pub use lp::{Line, solve, unconstrained};
 pub use obstacles::WallChains;
 
 /// The largest `max_neighbours` a group may ask for.

@@ -28,7 +28,7 @@ use super::pass::{STEER_CHUNK, SteerOut};
 use super::view::SteerView;
 use crate::agents::AgentId;
 use crate::orca::lines::LANES;
-use crate::orca::{Line, Orca, WallChains, agent_line, solve};
+use crate::orca::{Line, Orca, WallChains, agent_line, solve, unconstrained};
 use crate::rng::{self, Stream};
 use crate::spatial::{HashGrid, Neighbour, NeighbourIndex, Runs};
 use crate::steering::trig;
@@ -390,9 +390,21 @@ fn gather_block(hash: &HashGrid, runs: &Runs, b: &mut Buffers) {
     b.block_len = len;
 }
 
-/// The `k` nearest agents within `r` of agent `i` at `pos` (itself left out) in `b.near`,
-/// sorted by `(dist_sq, id)`: each entry is `dist_sq bits << 32 | p`, `p` the hit's place in
-/// `b.rx`, `b.ry` (its offset from `pos`) and `b.js` (its storage index).
+/// What [`candidates`] found.
+#[derive(Clone, Copy, Debug)]
+enum Hits {
+    /// The `k` nearest, in order, in `b.near`.
+    Ordered,
+    /// Fewer than `k` agents within reach of a hashed grid's query: all of them, places
+    /// `0..n` of `b.rx`, `b.ry` and `b.js`, in no order (`b.near` unused). The order is made
+    /// only when the linear program needs it ([`order_lines`]).
+    All(usize),
+}
+
+/// The `k` nearest agents within `r` of agent `i` at `pos` (itself left out), sorted by
+/// `(dist_sq, id)` in `b.near` ([`Hits::Ordered`]; each entry is `dist_sq bits << 32 | p`, `p`
+/// the hit's place in `b.rx`, `b.ry` (its offset from `pos`) and `b.js` (its storage index)),
+/// or when fewer than `k` lie within reach of the hashed grid, all of them ([`Hits::All`]).
 #[inline(always)]
 fn candidates(
     view: &SteerView,
@@ -402,7 +414,7 @@ fn candidates(
     r: f32,
     k: usize,
     b: &mut Buffers,
-) {
+) -> Hits {
     let a = view.agents;
     let r_sq = r * r;
     let key = |d: f32, p: usize| (u64::from(d.to_bits()) << 32) | p as u64;
@@ -448,6 +460,10 @@ fn candidates(
                     break;
                 }
             }
+            if count < k {
+                b.kth_sq = f32::INFINITY;
+                return Hits::All(count);
+            }
             let hits = b.rx[..count].iter().zip(&b.ry[..count]).enumerate();
             b.near
                 .extend(hits.map(|(p, (&dx, &dy))| key(dx * dx + dy * dy, p)));
@@ -469,6 +485,31 @@ fn candidates(
     } else {
         f32::INFINITY
     };
+    Hits::Ordered
+}
+
+/// Puts the agent lines `lines[hard..]` of [`Hits::All`]'s `n` hits (line `hard + p` for the
+/// hit at place `p`) in the order of [`Hits::Ordered`]: nearest first, ties by id.
+#[inline(always)]
+fn order_lines(b: &mut Buffers, hard: usize, n: usize, k: usize, ids: &[AgentId]) {
+    let key = |d: f32, p: usize| (u64::from(d.to_bits()) << 32) | p as u64;
+    b.near.clear();
+    b.near.extend(
+        b.rx[..n]
+            .iter()
+            .zip(&b.ry[..n])
+            .enumerate()
+            .map(|(p, (&dx, &dy))| key(dx * dx + dy * dy, p)),
+    );
+    nearest_in_order(&mut b.near, k, &b.js, ids, &mut b.tied);
+    b.projected.clear();
+    b.projected.extend(
+        b.near
+            .iter()
+            .map(|&key| b.lines[hard + key as u32 as usize]),
+    );
+    b.lines.truncate(hard);
+    b.lines.extend_from_slice(&b.projected);
 }
 
 /// Keeps the `k` smallest of `near` (entries `dist_sq bits << 32 | p`, the hit `p` being agent
@@ -648,9 +689,11 @@ fn filter(
     b.projected.clear();
     b.projected.reserve(hard + orca.max_neighbours as usize);
 
-    // Agent lines, nearest first (ties by id).
+    // Agent lines, nearest first (ties by id); or, with fewer than `k` hits, in the order
+    // found, put nearest first only when the linear program's answer depends on it.
     let r = orca.neighbour_dist;
-    candidates(view, ctx, i, pos, r, orca.max_neighbours as usize, b);
+    let k = orca.max_neighbours as usize;
+    let hits = candidates(view, ctx, i, pos, r, k, b);
     let inv_tau = 1.0 / orca.time_horizon;
     let inv_dt = 1.0 / dt;
     // Whether the agent may touch another after the move: its nearest neighbour is closer than
@@ -660,10 +703,6 @@ fn filter(
     // when the nearest is not, and every other candidate is at least as far as the nearest.
     let limit = (max_speed + ctx.v_max) * dt + crate::orca::contact::REACH * (radius + ctx.r_max);
     let mut close = r < limit;
-    if let Some(&key) = b.near.first() {
-        let d_sq = f32::from_bits((key >> 32) as u32);
-        close |= d_sq < limit * limit;
-    }
     let own_share = {
         let sum = orca.responsibility + orca.responsibility;
         if sum > 0.0 {
@@ -676,8 +715,23 @@ fn filter(
     // blocks of eight in lanes, whose inputs are written a lane at a time and read back as
     // vectors, which the store buffer cannot forward).
     let (rx, ry, js) = (&b.rx[..], &b.ry[..], &b.js[..]);
-    for &key in &b.near {
-        let p = key as u32 as usize;
+    let (count, mut nearest) = match hits {
+        Hits::Ordered => (
+            b.near.len(),
+            b.near.first().map_or(u32::MAX, |&key| (key >> 32) as u32),
+        ),
+        Hits::All(n) => (n, u32::MAX),
+    };
+    for q in 0..count {
+        let p = match hits {
+            Hits::Ordered => b.near[q] as u32 as usize,
+            Hits::All(_) => {
+                // The nearest's squared distance as its key would hold it (the bits of
+                // non-negative floats order as their values).
+                nearest = nearest.min((rx[q] * rx[q] + ry[q] * ry[q]).to_bits());
+                q
+            }
+        };
         let (rel, j) = (Vec2::new(rx[p], ry[p]), js[p] as usize);
         let rel_vel = vel - Vec2::new(vx[j], vy[j]);
         let gj = groups[j] as usize;
@@ -702,8 +756,18 @@ fn filter(
             vel, rel, rel_vel, r, inv_tau, inv_dt, share, tie,
         ));
     }
-
-    let chosen = solve(&b.lines, hard, max_speed, pref, &mut b.projected);
+    if count > 0 {
+        close |= f32::from_bits(nearest) < limit * limit;
+    }
+    let chosen = match hits {
+        Hits::Ordered => solve(&b.lines, hard, max_speed, pref, &mut b.projected),
+        // When the preferred velocity violates no line, the lines' order does not matter;
+        // otherwise the program gets them nearest first, as for `Hits::Ordered`.
+        Hits::All(n) => unconstrained(&b.lines, max_speed, pref).unwrap_or_else(|| {
+            order_lines(b, hard, n, k, ids);
+            solve(&b.lines, hard, max_speed, pref, &mut b.projected)
+        }),
+    };
     let chosen = if chosen.is_finite() {
         chosen
     } else {
