@@ -142,7 +142,7 @@ impl HashGrid {
     ///
     /// # Panics
     /// If `xs` or `ys` does not hold one position per point.
-    pub fn refresh(&mut self, xs: &[f32], ys: &[f32]) {
+    pub(crate) fn refresh(&mut self, xs: &[f32], ys: &[f32]) {
         let n = self.len();
         assert!(
             xs.len() == n && ys.len() == n,
@@ -175,7 +175,7 @@ impl HashGrid {
     /// [`order`](Self::order) (point `k` becomes the old point `order()[k]`), without sorting:
     /// the same points give the same buckets and sorted positions, and a stable sort of points
     /// already in bucket order is the identity.
-    pub fn adopt_order(&mut self) {
+    pub(crate) fn adopt_order(&mut self) {
         for (k, o) in self.sort.order.iter_mut().enumerate() {
             *o = k as u32;
         }

@@ -62,7 +62,7 @@ struct Buffers {
     /// The squared distance of the previous agent's `k`-th nearest neighbour (infinite when it
     /// had fewer, and at the start of every chunk).
     kth_sq: f32,
-    /// The last query's block of cells (reset for every chunk of agents: the grid is rebuilt
+    /// The last query's block of cells (reset for every chunk of agents: the grid changes
     /// between steps), and its points gathered from the hashed grid's runs into one contiguous
     /// list (positions and indices, then [`LANES`] of padding), which every agent of the block
     /// scans eight lanes at a time.
@@ -171,8 +171,9 @@ fn farthest_move((x, y): (&[f32], &[f32]), (x0, y0): (&[f32], &[f32])) -> f32 {
         let mut most = 0.0f32;
         for (((&x, &y), &x0), &y0) in x.iter().zip(y).zip(x0).zip(y0) {
             let d = (x - x0).abs() + (y - y0).abs();
-            // A select rather than `f32::max`, so that the loop runs in lanes; `!(d <= most)`
-            // keeps a NaN once it is seen.
+            // A NaN counts as infinitely far, which then stays the largest; selects rather
+            // than `f32::max`, so that the loop runs in lanes.
+            let d = if d.is_nan() { f32::INFINITY } else { d };
             most = if d <= most { most } else { d };
         }
         most
@@ -226,8 +227,9 @@ pub(crate) fn reach(plans: &[super::plan::Plan]) -> f32 {
 /// Where the filter reads its neighbour candidates from.
 #[derive(Clone, Copy)]
 enum Source<'a> {
-    /// The pass's own hashed grid of cells as wide as the neighbour distance (open and walled
-    /// worlds, where the offset to a neighbour is the plain difference). The world's grid would
+    /// The pass's own hashed grid of cells as wide as the neighbour distance, or twice it where
+    /// agents are sparse (open and walled worlds, where the offset to a neighbour is the plain
+    /// difference). The world's grid would
     /// do at crowd densities, but its cells are capped at `4 N`, so in a large sparse world
     /// they grow far wider than the neighbour distance.
     Hash(&'a HashGrid),
@@ -308,6 +310,7 @@ pub(crate) fn run(
                 b.block_j.resize(n + LANES, 0);
             }
             b.near.reserve(n.saturating_sub(b.near.len()));
+            b.tied.reserve(n.saturating_sub(b.tied.len()));
             filter_chunk(view, &ctx, base, (lx, ly, near), b);
         });
     };
@@ -884,11 +887,31 @@ mod tests {
             // Another side: rebuilt.
             assert_eq!(s.prepare_hash(&ids, (&xs, &ys), 2.0 * side), 0.0);
             // A position that is not finite: rebuilt.
-            xs[n - 1] = f32::NAN;
+            xs[0] = f32::NAN;
             assert_eq!(s.prepare_hash(&ids, (&xs, &ys), 2.0 * side), 0.0);
             assert_eq!(s.prepare_hash(&ids, (&xs, &ys), 2.0 * side), 0.0);
         }
         assert!(missed_without_slack > 0, "the slack was never needed");
+    }
+
+    /// A coordinate that is not finite, anywhere (first, inside, last; in one chunk and among
+    /// many), makes the bound infinite; otherwise it bounds every move.
+    #[test]
+    fn farthest_move_is_infinite_for_any_coordinate_that_is_not_finite() {
+        for n in [3usize, 10, 40_000] {
+            let then: Vec<f32> = (0..n).map(|k| k as f32 * 0.5).collect();
+            let now: Vec<f32> = then.iter().map(|&x| x + 0.25).collect();
+            let bound = farthest_move((&now, &then), (&then, &then));
+            assert!((0.25..0.2501).contains(&bound), "{n} points: {bound}");
+            for at in [0, n / 2, n - 1] {
+                for bad in [f32::NAN, f32::INFINITY, f32::NEG_INFINITY] {
+                    let mut xs = now.clone();
+                    xs[at] = bad;
+                    let bound = farthest_move((&xs, &then), (&then, &then));
+                    assert_eq!(bound, f32::INFINITY, "{bad} at {at} of {n}");
+                }
+            }
+        }
     }
 
     /// The lanes give every agent of a chunk (a partial block included) the same bits as its
