@@ -31,7 +31,7 @@ use crate::spatial::{GridIndex, HashGrid, Neighbour, NeighbourIndex};
 /// Agents per parallel task of the pair search.
 const CHUNK: usize = 2048;
 /// Agents per parallel task of the guard's check whether the listed pairs still suffice.
-const CHECK_CHUNK: usize = 16 * 1024;
+const CHECK_CHUNK: usize = 2048;
 /// Pairs closer than this many times their summed radii are listed.
 const NEAR: f32 = 1.5;
 

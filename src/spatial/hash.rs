@@ -42,7 +42,7 @@ const ROW: u32 = 0x9E37_79B1;
 /// Queries spanning more rows than this scan every point instead.
 const MAX_ROWS: usize = 8;
 /// From this many points on, the rebuild (buckets and sort) runs on the current rayon pool.
-const PARALLEL_MIN_POINTS: usize = 32 * 1024;
+const PARALLEL_MIN_POINTS: usize = 8 * 1024;
 /// Points per work item of the bucket pass.
 const CHUNK: usize = 8 * 1024;
 /// Positions past the last point, so that a scan may read eight lanes from any point.

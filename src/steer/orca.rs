@@ -166,7 +166,7 @@ const MAX_SLACK: f32 = 0.25;
 /// widened for the rounding of the differences); infinite when a coordinate is not finite. On
 /// the current rayon pool for large N.
 fn farthest_move((x, y): (&[f32], &[f32]), (x0, y0): (&[f32], &[f32])) -> f32 {
-    const CHUNK: usize = 8 * 1024;
+    const CHUNK: usize = 2048;
     let part = |x: &[f32], y: &[f32], x0: &[f32], y0: &[f32]| {
         let mut most = 0.0f32;
         for (((&x, &y), &x0), &y0) in x.iter().zip(y).zip(x0).zip(y0) {
