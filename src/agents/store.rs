@@ -555,6 +555,65 @@ mod tests {
         a
     }
 
+    /// Every column moves with its agent, short columns and long ones (gathered in chunks).
+    #[test]
+    fn reorder_permutes_every_column() {
+        for n in [7usize, 5000, 40_000] {
+            let f = |c: u32| {
+                (0..n)
+                    .map(|k| (k as u32 * 16 + c) as f32)
+                    .collect::<Vec<f32>>()
+            };
+            let columns = AgentColumns {
+                pos_x: f(0),
+                pos_y: f(1),
+                vel_x: f(2),
+                vel_y: f(3),
+                orientation: f(4),
+                rotation: f(5),
+                wander: f(6),
+                group: (0..n as u32).map(|k| k * 3).collect(),
+                max_speed: f(7),
+                radius: f(8),
+                desired_speed: f(9),
+                overrides: (0..n).map(|k| k as u8).collect(),
+                target_x: f(10),
+                target_y: f(11),
+                ids: (0..n as u32).map(|k| AgentId(k * 2)).collect(),
+            };
+            let mut a = Agents::from_columns(columns.clone(), 2 * n).unwrap();
+            // A permutation that moves every agent far: k -> (k * 7919 + 13) mod n.
+            let perm: Vec<u32> = (0..n).map(|k| ((k * 7919 + 13) % n) as u32).collect();
+            assert!(is_permutation(&perm));
+            a.reorder(&perm);
+            let p = |v: &Vec<f32>| perm.iter().map(|&k| v[k as usize]).collect::<Vec<f32>>();
+            let want = AgentColumns {
+                pos_x: p(&columns.pos_x),
+                pos_y: p(&columns.pos_y),
+                vel_x: p(&columns.vel_x),
+                vel_y: p(&columns.vel_y),
+                orientation: p(&columns.orientation),
+                rotation: p(&columns.rotation),
+                wander: p(&columns.wander),
+                group: perm.iter().map(|&k| columns.group[k as usize]).collect(),
+                max_speed: p(&columns.max_speed),
+                radius: p(&columns.radius),
+                desired_speed: p(&columns.desired_speed),
+                overrides: perm
+                    .iter()
+                    .map(|&k| columns.overrides[k as usize])
+                    .collect(),
+                target_x: p(&columns.target_x),
+                target_y: p(&columns.target_y),
+                ids: perm.iter().map(|&k| columns.ids[k as usize]).collect(),
+            };
+            assert!(a.to_columns() == want, "{n} agents");
+            for (k, id) in want.ids.iter().enumerate() {
+                assert_eq!(a.index_of(*id), Some(k));
+            }
+        }
+    }
+
     #[test]
     fn ids_survive_removal_and_reorder() {
         let mut a = store(5);
