@@ -3,8 +3,9 @@
 //! ORCA guarantees collision-free velocities only while its linear program is feasible; in a
 //! dense crowd it is not, and the 3D program lets pairs overlap. This pass takes the positions
 //! after the move, lists the pairs near contact (within 1.5 times their summed radii, searched
-//! in parallel through a grid (hashed cells as wide as the search, except on a torus) from the
-//! agents flagged as near, sorted by their ids), and then sweeps the list in that order,
+//! in parallel through a grid (hashed cells as wide as the search, except on a torus; when few
+//! agents search, the ORCA pass's grid of the frame, its reach widened by how far the agents
+//! have moved since it bucketed them) from the agents flagged as near, sorted by their ids), and then sweeps the list in that order,
 //! Gauss-Seidel fashion: each overlapping pair is moved apart along the line between its
 //! centres to exactly touching, each agent by its share (half when both take part, all of it
 //! when the other does not move). Sweeps stop when no pair overlaps by more than `tolerance` of
@@ -26,7 +27,7 @@ use rayon::prelude::*;
 
 use crate::agents::{AgentId, any_both, largest};
 use crate::bounds::Bounds;
-use crate::spatial::{GridIndex, HashGrid, Neighbour, NeighbourIndex};
+use crate::spatial::{GridIndex, HashGrid, Neighbour, NeighbourIndex, farthest_move};
 
 /// Agents per parallel task of the pair search.
 const CHUNK: usize = 2048;
@@ -77,7 +78,25 @@ pub(crate) struct ContactInput<'a> {
     pub iterations: u32,
     /// Overlaps below this fraction of `ri + rj` end the sweeps early.
     pub tolerance: f32,
+    /// A hashed grid over the agents built earlier in the frame (ORCA's), searched instead of
+    /// a grid of the pass's own when few agents search (open and walled worlds).
+    pub prebuilt: Option<Prebuilt<'a>>,
 }
+
+/// A hashed grid over the agents in their current storage order, with the positions it
+/// bucketed them at (`at`): a point within `r` of a query now was within `r + d` of it there,
+/// `d` a bound on how far any agent has moved since ([`farthest_move`]).
+#[derive(Clone, Copy)]
+pub(crate) struct Prebuilt<'a> {
+    pub hash: &'a HashGrid,
+    pub at: (&'a [f32], &'a [f32]),
+}
+
+/// A [`Prebuilt`] grid is searched when fewer than one agent in this many searches: its cells
+/// are the neighbour distance (or twice it), a search of the contact distance reads several
+/// times the candidates of the pass's own cells, while the own grid costs a rebuild (about 130
+/// instructions per agent).
+const PREBUILT_BELOW: usize = 16;
 
 thread_local! {
     static FOUND: std::cell::RefCell<Vec<Neighbour>> = const { std::cell::RefCell::new(Vec::new()) };
@@ -310,9 +329,17 @@ fn list_pairs(
     let n = xs.len();
     let side = factor * 2.0 * max_r;
     let torus = input.bounds.is_torus();
+    // Few searching agents: the grid built earlier in the frame, its reach widened by how far
+    // the agents have moved since it bucketed them (none when a position is not finite).
+    let prebuilt = input
+        .prebuilt
+        .filter(|p| !torus && p.hash.len() == n)
+        .filter(|_| (0..n).filter(|&i| from(i)).count() * PREBUILT_BELOW < n)
+        .map(|p| (p.hash, farthest_move((xs, ys), p.at)))
+        .filter(|&(grid, slack)| slack <= grid.side());
     if torus {
         scratch.grid.rebuild(xs, ys, input.bounds, side);
-    } else {
+    } else if prebuilt.is_none() {
         scratch.hash.rebuild(xs, ys, side);
     }
     let chunks = n.div_ceil(CHUNK);
@@ -337,6 +364,18 @@ fn list_pairs(
                     for nb in found.iter() {
                         offer(nb.index as usize, nb.dist_sq);
                     }
+                } else if let Some((grid, slack)) = prebuilt {
+                    // Its positions are old: the current ones, by index.
+                    let p = Vec2::new(xs[i], ys[i]);
+                    let order = grid.order();
+                    grid.for_each_run(p, factor * (ri + max_r) + slack, |run| {
+                        for k in run {
+                            let j = order[k] as usize;
+                            if j != i {
+                                offer(j, (Vec2::new(xs[j], ys[j]) - p).length_squared());
+                            }
+                        }
+                    });
                 } else {
                     // The plain offset, as the dense grid's exact test computes it.
                     let p = Vec2::new(xs[i], ys[i]);
@@ -375,6 +414,66 @@ mod tests {
     use super::*;
     use proptest::prelude::*;
 
+    /// The pairs found through a grid built at older positions (its reach widened by the
+    /// farthest move since) are those of the pass's own grid at the current ones; the old grid
+    /// is used only when few agents search and none has moved farther than a cell.
+    #[test]
+    fn a_prebuilt_grid_finds_the_pairs_of_a_fresh_one() {
+        let mut rng = crate::rng::AgentRng::new(21, 0, 0, 0);
+        let n = 2000;
+        let at_x: Vec<f32> = (0..n).map(|_| rng.unit() * 150.0 - 40.0).collect();
+        let at_y: Vec<f32> = (0..n).map(|_| rng.unit() * 150.0).collect();
+        let mut grid = HashGrid::default();
+        grid.rebuild(&at_x, &at_y, 2.5);
+        let radius: Vec<f32> = (0..n).map(|_| 0.3 + rng.unit() * 0.4).collect();
+        let ids: Vec<AgentId> = (0..n as u32).map(AgentId).collect();
+        let moves = vec![true; n];
+        for (reach, searching, used) in [(2.0, 100, true), (2.0, 200, false), (12.0, 100, false)] {
+            let xs: Vec<f32> = at_x
+                .iter()
+                .map(|&x| x + (rng.unit() - 0.5) * reach)
+                .collect();
+            let ys: Vec<f32> = at_y
+                .iter()
+                .map(|&y| y + (rng.unit() - 0.5) * reach)
+                .collect();
+            let near: Vec<bool> = (0..n).map(|i| i % (n / searching) == 0).collect();
+            let pairs = |prebuilt: Option<Prebuilt>| {
+                let input = ContactInput {
+                    bounds: Bounds::Open,
+                    radius: &radius,
+                    ids: &ids,
+                    moves: &moves,
+                    near: &near,
+                    iterations: 1,
+                    tolerance: 0.0,
+                    prebuilt,
+                };
+                let mut scratch = ContactScratch::default();
+                let max_r = largest(&radius);
+                list_pairs(&input, &xs, &ys, &mut scratch, false, (NEAR, max_r), |i| {
+                    near[i]
+                });
+                let mut pairs = scratch.pairs.clone();
+                pairs.sort_unstable();
+                pairs.dedup();
+                (pairs, scratch.hash.is_empty())
+            };
+            let prebuilt = Prebuilt {
+                hash: &grid,
+                at: (&at_x, &at_y),
+            };
+            let (own, _) = pairs(None);
+            let (old, skipped_rebuild) = pairs(Some(prebuilt));
+            assert!(own.len() > 10, "{} pairs", own.len());
+            assert_eq!(old, own, "moves of up to {reach}, {searching} searching");
+            assert_eq!(
+                skipped_rebuild, used,
+                "moves of up to {reach}, {searching} searching"
+            );
+        }
+    }
+
     fn min_gap(xs: &[f32], ys: &[f32], r: f32) -> f32 {
         let mut best = f32::MAX;
         for i in 0..xs.len() {
@@ -403,6 +502,7 @@ mod tests {
             near: &moves,
             iterations: 64,
             tolerance: 0.01,
+            prebuilt: None,
         };
         assert!(min_gap(&xs, &ys, 0.5) < 0.5);
         let (mut x1, mut y1) = (xs.clone(), ys.clone());
@@ -501,6 +601,7 @@ mod tests {
             near: &all,
             iterations: 1,
             tolerance: 0.03,
+            prebuilt: None,
         };
         let (mut xs, mut ys) = (sx.clone(), sy.clone());
         for k in 0..n {
@@ -596,6 +697,7 @@ mod tests {
                 near: &takes_part,
                 iterations,
                 tolerance: 0.03,
+                prebuilt: None,
             };
             let (mut xs, mut ys, _, _) = guarded_step(&input, (&sx, &sy), &mv, false);
             if torus {
@@ -631,6 +733,7 @@ mod tests {
             near: &[true, true, true],
             iterations: 4,
             tolerance: 0.0,
+            prebuilt: None,
         };
         resolve(
             &input,

@@ -82,6 +82,47 @@ fn cell(x: f32, inv: f32) -> i32 {
     }
 }
 
+/// An upper bound on the distance between `now[i]` and `then[i]` over every `i` (`|dx| + |dy|`,
+/// widened for the rounding of the differences); infinite when a coordinate is not finite. On
+/// the current rayon pool for large N.
+pub(crate) fn farthest_move((x, y): (&[f32], &[f32]), (x0, y0): (&[f32], &[f32])) -> f32 {
+    const CHUNK: usize = 2048;
+    let part = |x: &[f32], y: &[f32], x0: &[f32], y0: &[f32]| {
+        let mut most = 0.0f32;
+        for (((&x, &y), &x0), &y0) in x.iter().zip(y).zip(x0).zip(y0) {
+            let d = (x - x0).abs() + (y - y0).abs();
+            // A NaN counts as infinitely far, which then stays the largest; selects rather
+            // than `f32::max`, so that the loop runs in lanes.
+            let d = if d.is_nan() { f32::INFINITY } else { d };
+            most = if d <= most { most } else { d };
+        }
+        most
+    };
+    let most = if x.len() >= 4 * CHUNK {
+        x.par_chunks(CHUNK)
+            .zip(y.par_chunks(CHUNK))
+            .zip(x0.par_chunks(CHUNK).zip(y0.par_chunks(CHUNK)))
+            .map(|((x, y), (x0, y0))| part(x, y, x0, y0))
+            .reduce(
+                || 0.0,
+                |a, b| {
+                    if a.is_nan() || b.is_nan() {
+                        f32::NAN
+                    } else {
+                        a.max(b)
+                    }
+                },
+            )
+    } else {
+        part(x, y, x0, y0)
+    };
+    if most.is_finite() {
+        most * (1.0 + 1e-5)
+    } else {
+        f32::INFINITY
+    }
+}
+
 impl HashGrid {
     /// Rebuilds the grid from the positions `(xs[i], ys[i])` with cells of side `side` (> 0;
     /// the radius most queries will use): a stable counting sort by bucket, on the current rayon

@@ -49,6 +49,7 @@ mod sort;
 pub use brute::BruteIndex;
 pub use grid::GridIndex;
 pub(crate) use grid::SORTED_PAD;
+pub(crate) use hash::farthest_move;
 pub use hash::{HashGrid, Runs};
 pub use kdtree::KdTreeIndex;
 

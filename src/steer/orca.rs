@@ -30,7 +30,7 @@ use crate::agents::AgentId;
 use crate::orca::lines::LANES;
 use crate::orca::{Line, Orca, WallChains, agent_line, solve, unconstrained};
 use crate::rng::{self, Stream};
-use crate::spatial::{HashGrid, Neighbour, NeighbourIndex, Runs};
+use crate::spatial::{HashGrid, Neighbour, NeighbourIndex, Runs, farthest_move};
 use crate::steering::trig;
 
 /// One worker's buffers.
@@ -147,6 +147,18 @@ impl OrcaScratch {
         self.remember(ids, (xs, ys));
     }
 
+    /// The hashed grid with the positions it bucketed the agents at, when it was built over
+    /// the agents now stored as `ids` (in that order): a later search of this frame may use it
+    /// instead of building its own, reaching farther by how far the agents have moved since.
+    pub(crate) fn prebuilt(&self, ids: &[AgentId]) -> Option<crate::orca::contact::Prebuilt<'_>> {
+        (self.hash.len() == ids.len() && self.built_ids == ids).then_some(
+            crate::orca::contact::Prebuilt {
+                hash: &self.hash,
+                at: (&self.built_x, &self.built_y),
+            },
+        )
+    }
+
     /// Records the agents and positions the hashed grid was built over.
     fn remember(&mut self, ids: &[AgentId], (xs, ys): (&[f32], &[f32])) {
         for (built, now) in [(&mut self.built_x, xs), (&mut self.built_y, ys)] {
@@ -161,47 +173,6 @@ impl OrcaScratch {
 /// How far the hashed grid's points may move, in cells' sides, before it is rebuilt: each
 /// query reads a block that much wider.
 const MAX_SLACK: f32 = 0.25;
-
-/// An upper bound on the distance between `now[i]` and `then[i]` over every `i` (`|dx| + |dy|`,
-/// widened for the rounding of the differences); infinite when a coordinate is not finite. On
-/// the current rayon pool for large N.
-fn farthest_move((x, y): (&[f32], &[f32]), (x0, y0): (&[f32], &[f32])) -> f32 {
-    const CHUNK: usize = 2048;
-    let part = |x: &[f32], y: &[f32], x0: &[f32], y0: &[f32]| {
-        let mut most = 0.0f32;
-        for (((&x, &y), &x0), &y0) in x.iter().zip(y).zip(x0).zip(y0) {
-            let d = (x - x0).abs() + (y - y0).abs();
-            // A NaN counts as infinitely far, which then stays the largest; selects rather
-            // than `f32::max`, so that the loop runs in lanes.
-            let d = if d.is_nan() { f32::INFINITY } else { d };
-            most = if d <= most { most } else { d };
-        }
-        most
-    };
-    let most = if x.len() >= 4 * CHUNK {
-        x.par_chunks(CHUNK)
-            .zip(y.par_chunks(CHUNK))
-            .zip(x0.par_chunks(CHUNK).zip(y0.par_chunks(CHUNK)))
-            .map(|((x, y), (x0, y0))| part(x, y, x0, y0))
-            .reduce(
-                || 0.0,
-                |a, b| {
-                    if a.is_nan() || b.is_nan() {
-                        f32::NAN
-                    } else {
-                        a.max(b)
-                    }
-                },
-            )
-    } else {
-        part(x, y, x0, y0)
-    };
-    if most.is_finite() {
-        most * (1.0 + 1e-5)
-    } else {
-        f32::INFINITY
-    }
-}
 
 /// Whether ORCA's cells should be twice the neighbour distance, given the [`HashGrid::crowding`]
 /// of a grid of such cells over the agents: where fewer than [`WIDE_BELOW`] agents share an

@@ -320,6 +320,7 @@ impl World {
             near: &self.scratch.orca.near,
             iterations: sweeps.unwrap_or(0),
             tolerance: 0.03,
+            prebuilt: self.scratch.orca.prebuilt(&a.ids),
         };
         let parallel = exec == Execution::Parallel;
         let contact = &mut self.scratch.contact;
