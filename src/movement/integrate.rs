@@ -56,7 +56,7 @@ pub const REST_ROTATION: f32 = 1e-6;
 
 /// Agents per parallel task; a multiple of the SIMD width so lanes never straddle tasks.
 const CHUNK: usize = 4096;
-const LANES: usize = 8;
+const LANES: usize = 16;
 
 /// Maps an orientation into `[0, 2pi)`.
 #[inline]
