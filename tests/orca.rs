@@ -237,7 +237,15 @@ fn run_on(s: &Scenario, threads: usize, steps: usize) -> Vec<(u32, [u32; 4])> {
 
 #[test]
 fn orca_scenarios_are_bit_identical_on_1_2_and_4_threads() {
-    for (name, n, steps) in [("circle", 2000, 300), ("blocks", 100, 600)] {
+    // Thousands of agents and steps through the crowd, and above 8,192 agents, where the
+    // grids' rebuilds and refreshes, the farthest move and the guard's check run on the pool.
+    let cases = [
+        ("circle", 2000, 300),
+        ("blocks", 100, 600),
+        ("circle", 10_000, 30),
+        ("crossing", 12_000, 30),
+    ];
+    for (name, n, steps) in cases {
         let s = scenario::builtin(name).unwrap().with_agents(n).unwrap();
         let runs: Vec<_> = [1, 2, 4].map(|t| run_on(&s, t, steps)).into();
         assert_eq!(runs[0], runs[1], "{name}: 1 and 2 threads differ");

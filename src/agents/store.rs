@@ -372,7 +372,6 @@ impl Agents {
     /// When `perm.len() != len()` (a debug assertion also checks it is a permutation).
     pub fn reorder(&mut self, perm: &[u32]) {
         assert_eq!(perm.len(), self.len(), "permutation length");
-        debug_assert!(is_permutation(perm));
         let mut scratch = std::mem::take(&mut self.scratch_f32);
         let mut apply = |v: &mut Vec<f32>| permute(v, perm, &mut scratch);
         for_each_buffer!(self, apply);
@@ -389,6 +388,15 @@ impl Agents {
         for (k, id) in self.ids.iter().enumerate() {
             self.index_of[id.0 as usize] = k as u32;
         }
+        // A repeated index would repeat an id, whose first place the second overwrote (checked
+        // here rather than before, where it would take a buffer of its own).
+        debug_assert!(
+            self.ids
+                .iter()
+                .enumerate()
+                .all(|(k, id)| self.index_of[id.0 as usize] == k as u32),
+            "not a permutation"
+        );
     }
 
     /// A store holding `columns` in their order, with `ids_issued` ids handed out so far.
@@ -506,6 +514,7 @@ pub(crate) fn any_both(a: &[bool], b: &[bool]) -> bool {
         .any(|(a, b)| a.iter().zip(b).fold(false, |acc, (&x, &y)| acc | (x & y)))
 }
 
+#[cfg(test)]
 fn is_permutation(perm: &[u32]) -> bool {
     let mut seen = vec![false; perm.len()];
     perm.iter().all(|&p| {

@@ -188,7 +188,15 @@ struct Walls<'a> {
 
 impl<'a> Walls<'a> {
     fn of(grid: &'a OccupancyGrid, bits: &'a [u64], bounds: Bounds) -> Self {
-        debug_assert_eq!(bits, &wall_bits(grid)[..]);
+        // `bits` is `wall_bits(grid)` (compared cell by cell: a warm step allocates nothing).
+        debug_assert!(
+            bits.len() == grid.len().div_ceil(64)
+                && grid
+                    .cells()
+                    .iter()
+                    .enumerate()
+                    .all(|(i, c)| (bits[i / 64] >> (i % 64)) & 1 == u64::from(!c.is_free()))
+        );
         let cell_size = grid.cell_size();
         let inverse = 1.0 / cell_size;
         let exact = cell_size.is_normal()

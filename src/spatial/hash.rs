@@ -103,16 +103,7 @@ pub(crate) fn farthest_move((x, y): (&[f32], &[f32]), (x0, y0): (&[f32], &[f32])
             .zip(y.par_chunks(CHUNK))
             .zip(x0.par_chunks(CHUNK).zip(y0.par_chunks(CHUNK)))
             .map(|((x, y), (x0, y0))| part(x, y, x0, y0))
-            .reduce(
-                || 0.0,
-                |a, b| {
-                    if a.is_nan() || b.is_nan() {
-                        f32::NAN
-                    } else {
-                        a.max(b)
-                    }
-                },
-            )
+            .reduce(|| 0.0, f32::max)
     } else {
         part(x, y, x0, y0)
     };

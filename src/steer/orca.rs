@@ -10,7 +10,9 @@
 //! the search widens to `neighbour_dist` when fewer lie that close); the hard
 //! lines of the walls (nearest edge first) and circles within
 //! `time_horizon_obst * max_speed + radius`; the lines of the nearest `max_neighbours` agents
-//! within `neighbour_dist`, sorted by `(distance, id)`; the linear program. The result is
+//! within `neighbour_dist`, sorted by `(distance, id)` (when fewer lie within reach of the
+//! hashed grid, in the order found, and sorted only when one cuts the preferred velocity: only
+//! then does the program's answer depend on the order); the linear program. The result is
 //! written back as the desired velocity (kinematic) or as the acceleration towards it, clamped
 //! to the group's maximum (dynamic).
 //!

@@ -723,6 +723,49 @@ fn clamp_axis(pos: &mut [f32], vel: &mut [f32], side: f32) {
 mod tests {
     use super::*;
 
+    /// The near-contact flags (each agent's nearest hit against the reach of a step) of an open
+    /// world, whose ORCA pass takes its hits from its hashed grid (in the order found when they
+    /// are few), equal those of the same crowd on a torus far from its seams (hits sorted through
+    /// the world's index), agent by agent, through the ring and the crowded centre.
+    #[test]
+    fn near_flags_from_hits_in_any_order_equal_those_from_sorted_hits() {
+        let text = |kind: &str| {
+            let s = std::fs::read_to_string(concat!(
+                env!("CARGO_MANIFEST_DIR"),
+                "/scenarios/circle.toml"
+            ))
+            .unwrap();
+            s.replace("kind = \"open\"", kind)
+                .replace("center = [0, 0]", "center = [2000, 2000]")
+                .replace(
+                    "kind = \"antipode\"",
+                    "kind = \"antipode\", center = [2000, 2000]",
+                )
+        };
+        let load = |kind: &str| {
+            let s = crate::scenario::Scenario::from_toml(&text(kind), "circle.toml").unwrap();
+            (s.build().unwrap(), s.dt)
+        };
+        let (mut open, dt) = load("kind = \"open\"");
+        let (mut torus, _) = load("kind = \"torus\"\nsize = [4000, 4000]");
+        let (mut flagged, mut unflagged) = (0, 0);
+        for step in 0..900 {
+            open.step(dt).unwrap();
+            torus.step(dt).unwrap();
+            let (a, b) = (open.agents(), torus.agents());
+            for k in 0..a.len() {
+                let j = b.index_of(a.id(k)).unwrap();
+                let (x, y) = (open.scratch.orca.near[k], torus.scratch.orca.near[j]);
+                assert_eq!(x, y, "agent {:?} at step {step}", a.id(k));
+                (flagged, unflagged) = (flagged + usize::from(x), unflagged + usize::from(!x));
+            }
+        }
+        assert!(
+            flagged > 1000 && unflagged > 1000,
+            "{flagged} flagged, {unflagged} not"
+        );
+    }
+
     #[test]
     fn wall_clamp_in_lanes_equals_the_branches_bit_for_bit() {
         let side = 12.5_f32;
