@@ -47,6 +47,8 @@ pub(crate) struct ContactScratch {
     /// Near pairs per search chunk, then all of them in order.
     chunks: Vec<Vec<(u32, u32)>>,
     pairs: Vec<(u32, u32)>,
+    /// The pairs with their sort keys (the smaller id, then the larger).
+    keyed: Vec<(u64, (u32, u32))>,
     /// The positions [`resolve`] started from (after integration).
     after_x: Vec<f32>,
     after_y: Vec<f32>,
@@ -129,11 +131,17 @@ pub(crate) fn resolve(
     // Swept in the order of the pairs' ids, so that the result depends neither on the thread
     // count nor on where agents sit in memory; a pair of two searching agents is found from
     // both.
+    // The key of the two ids travels with its pair, so that comparisons load nothing.
     let ids = input.ids;
-    scratch.pairs.sort_unstable_by_key(|&(i, j)| {
-        let (a, b) = (ids[i as usize], ids[j as usize]);
-        (a.min(b), a.max(b))
-    });
+    let keyed = &mut scratch.keyed;
+    keyed.clear();
+    keyed.extend(scratch.pairs.iter().map(|&(i, j)| {
+        let (a, b) = (ids[i as usize].0, ids[j as usize].0);
+        ((u64::from(a.min(b)) << 32) | u64::from(a.max(b)), (i, j))
+    }));
+    keyed.sort_unstable_by_key(|&(key, _)| key);
+    scratch.pairs.clear();
+    scratch.pairs.extend(keyed.iter().map(|&(_, pair)| pair));
     scratch.pairs.dedup();
     if scratch.pairs.is_empty() {
         return 0;
