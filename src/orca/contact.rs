@@ -535,6 +535,58 @@ mod tests {
         assert!(gap > 0.95, "closest pair at {gap} of the summed radii");
     }
 
+    /// The sweeps go by the pairs' ids: the same agents stored in another order end at the
+    /// same positions, bit for bit (with few sweeps, so that the order of the pushes shows).
+    #[test]
+    fn the_sweeps_do_not_depend_on_the_storage_order() {
+        let mut rng = crate::rng::AgentRng::new(8, 0, 0, 0);
+        let n = 400;
+        let xs: Vec<f32> = (0..n).map(|_| rng.unit() * 30.0).collect();
+        let ys: Vec<f32> = (0..n).map(|_| rng.unit() * 30.0).collect();
+        let radius: Vec<f32> = (0..n).map(|_| 0.4 + rng.unit() * 0.3).collect();
+        let ids: Vec<AgentId> = (0..n as u32).map(|k| AgentId(k * 5 + 1)).collect();
+        let moves: Vec<bool> = (0..n).map(|k| k % 7 != 0).collect();
+        // Storage place `k` of the second store holds agent `perm[k]` of the first.
+        let perm: Vec<usize> = (0..n).map(|k| (k * 263 + 17) % n).collect();
+        let run = |order: &dyn Fn(usize) -> usize| {
+            let take = |v: &[f32]| (0..n).map(|k| v[order(k)]).collect::<Vec<f32>>();
+            let (mut x, mut y, r) = (take(&xs), take(&ys), take(&radius));
+            let ids: Vec<AgentId> = (0..n).map(|k| ids[order(k)]).collect();
+            let moves: Vec<bool> = (0..n).map(|k| moves[order(k)]).collect();
+            let input = ContactInput {
+                bounds: Bounds::Open,
+                radius: &r,
+                ids: &ids,
+                moves: &moves,
+                near: &moves,
+                iterations: 2,
+                tolerance: 0.0,
+                prebuilt: None,
+            };
+            resolve(
+                &input,
+                &mut x,
+                &mut y,
+                &mut ContactScratch::default(),
+                false,
+            );
+            let mut by_id: Vec<(AgentId, u32, u32)> = (0..n)
+                .map(|k| (ids[k], x[k].to_bits(), y[k].to_bits()))
+                .collect();
+            by_id.sort_unstable();
+            by_id
+        };
+        let plain = run(&|k| k);
+        assert_eq!(plain, run(&|k| perm[k]));
+        assert_eq!(plain, run(&|k| n - 1 - k));
+        // Some agent was pushed, so the order could have shown.
+        let moved = plain
+            .iter()
+            .zip(&ids)
+            .any(|(&(_, x, _), id)| x != xs[(id.0 as usize - 1) / 5].to_bits());
+        assert!(moved);
+    }
+
     /// Every pair of agents, as `(distance / (ri + rj), i, j)`, on `bounds`.
     fn gaps(bounds: Bounds, xs: &[f32], ys: &[f32], r: &[f32]) -> Vec<(f32, usize, usize)> {
         let mut out = Vec::new();
