@@ -129,8 +129,7 @@ pub(crate) fn resolve(
         input.moves[i] && input.near[i]
     });
     // Swept in the order of the pairs' ids, so that the result depends neither on the thread
-    // count nor on where agents sit in memory; a pair of two searching agents is found from
-    // both.
+    // count nor on where agents sit in memory.
     // The key of the two ids travels with its pair, so that comparisons load nothing.
     let ids = input.ids;
     let keyed = &mut scratch.keyed;
@@ -322,9 +321,9 @@ pub(crate) fn guard(
     sent
 }
 
-/// Lists in `scratch.pairs` (unordered) the pairs of agents closer than `factor` times their
-/// summed radii at `xs`, `ys`, searched from the agents where `from` holds (a pair of two of
-/// them is listed twice); `max_r` is the largest radius.
+/// Lists in `scratch.pairs` (unordered, each once) the pairs of agents closer than `factor`
+/// times their summed radii at `xs`, `ys`, searched from the agents where `from` holds (a pair
+/// of two of them from the one first in storage); `max_r` is the largest radius.
 fn list_pairs(
     input: &ContactInput,
     xs: &[f32],
@@ -362,6 +361,12 @@ fn list_pairs(
                 }
                 let ri = input.radius[i];
                 let mut offer = |j: usize, dist_sq: f32| {
+                    // A pair of two searching agents is listed from the first of them only
+                    // (the other finds it: its reach covers the pair's distance, the same bits
+                    // from either side).
+                    if j < i && from(j) {
+                        return;
+                    }
                     let near = factor * (ri + input.radius[j]);
                     if dist_sq < near * near {
                         out.push((i.min(j) as u32, i.max(j) as u32));
@@ -436,7 +441,13 @@ mod tests {
         let radius: Vec<f32> = (0..n).map(|_| 0.3 + rng.unit() * 0.4).collect();
         let ids: Vec<AgentId> = (0..n as u32).map(AgentId).collect();
         let moves = vec![true; n];
-        for (reach, searching, used) in [(2.0, 100, true), (2.0, 200, false), (12.0, 100, false)] {
+        let cases = [
+            (2.0, 100, true),
+            (2.0, 200, false),
+            (12.0, 100, false),
+            (2.0, n, false),
+        ];
+        for (reach, searching, used) in cases {
             let xs: Vec<f32> = at_x
                 .iter()
                 .map(|&x| x + (rng.unit() - 0.5) * reach)
@@ -465,6 +476,7 @@ mod tests {
                 let mut pairs = scratch.pairs.clone();
                 pairs.sort_unstable();
                 pairs.dedup();
+                assert_eq!(pairs.len(), scratch.pairs.len(), "a pair listed twice");
                 (pairs, scratch.hash.is_empty())
             };
             let prebuilt = Prebuilt {
