@@ -515,17 +515,16 @@ pub(crate) fn any_both(a: &[bool], b: &[bool]) -> bool {
 }
 
 #[cfg(test)]
-fn is_permutation(perm: &[u32]) -> bool {
-    let mut seen = vec![false; perm.len()];
-    perm.iter().all(|&p| {
-        let p = p as usize;
-        p < seen.len() && !std::mem::replace(&mut seen[p], true)
-    })
-}
-
-#[cfg(test)]
 mod tests {
     use super::*;
+
+    fn is_permutation(perm: &[u32]) -> bool {
+        let mut seen = vec![false; perm.len()];
+        perm.iter().all(|&p| {
+            let p = p as usize;
+            p < seen.len() && !std::mem::replace(&mut seen[p], true)
+        })
+    }
 
     /// The lanes give the sequential folds' answers at every length, NaN and zeros included.
     #[test]

@@ -5,12 +5,13 @@
 //! after the move, lists the pairs near contact (within 1.5 times their summed radii, searched
 //! in parallel through a grid (hashed cells as wide as the search, except on a torus; when few
 //! agents search, the ORCA pass's grid of the frame, its reach widened by how far the agents
-//! have moved since it bucketed them) from the agents flagged as near, sorted by their ids), and then sweeps the list in that order,
-//! Gauss-Seidel fashion: each overlapping pair is moved apart along the line between its
-//! centres to exactly touching, each agent by its share (half when both take part, all of it
-//! when the other does not move). Sweeps stop when no pair overlaps by more than `tolerance` of
-//! its summed radii, or after `iterations`. The list and the sweep order depend neither on the
-//! thread count nor on the agents' order in memory, so neither does the result.
+//! have moved since it bucketed them) from the agents flagged as near, sorted by their ids),
+//! and then sweeps the list in that order, Gauss-Seidel fashion: each overlapping pair is moved
+//! apart along the line between its centres to exactly touching, each agent by its share (half
+//! when both take part, all of it when the other does not move). Sweeps stop when no pair
+//! overlaps by more than `tolerance` of its summed radii, or after `iterations`. The list and
+//! the sweep order depend neither on the thread count nor on the agents' order in memory, so
+//! neither does the result.
 //!
 //! The sweeps need not converge in a crowd pressed together from all sides, so [`guard`] runs
 //! last in the step: agents of pairs that still end closer than [`FLOOR`] of their summed radii
@@ -129,8 +130,8 @@ pub(crate) fn resolve(
         input.moves[i] && input.near[i]
     });
     // Swept in the order of the pairs' ids, so that the result depends neither on the thread
-    // count nor on where agents sit in memory.
-    // The key of the two ids travels with its pair, so that comparisons load nothing.
+    // count nor on where agents sit in memory; the key of the two ids travels with its pair,
+    // so that comparisons load nothing.
     let ids = input.ids;
     let keyed = &mut scratch.keyed;
     keyed.clear();
@@ -341,7 +342,10 @@ fn list_pairs(
     let prebuilt = input
         .prebuilt
         .filter(|p| !torus && p.hash.len() == n)
-        .filter(|_| (0..n).filter(|&i| from(i)).count() * PREBUILT_BELOW < n)
+        .filter(|_| {
+            let few = n.div_ceil(PREBUILT_BELOW);
+            (0..n).filter(|&i| from(i)).take(few).count() < few
+        })
         .map(|p| (p.hash, farthest_move((xs, ys), p.at)))
         .filter(|&(grid, slack)| slack <= grid.side());
     if torus {

@@ -429,6 +429,26 @@ mod tests {
         }
     }
 
+    /// A coordinate that is not finite, anywhere (first, inside, last; in one chunk and among
+    /// many), makes the bound infinite; otherwise it bounds every move.
+    #[test]
+    fn farthest_move_is_infinite_for_any_coordinate_that_is_not_finite() {
+        for n in [3usize, 10, 40_000] {
+            let then: Vec<f32> = (0..n).map(|k| k as f32 * 0.5).collect();
+            let now: Vec<f32> = then.iter().map(|&x| x + 0.25).collect();
+            let bound = farthest_move((&now, &then), (&then, &then));
+            assert!((0.25..0.2501).contains(&bound), "{n} points: {bound}");
+            for at in [0, n / 2, n - 1] {
+                for bad in [f32::NAN, f32::INFINITY, f32::NEG_INFINITY] {
+                    let mut xs = now.clone();
+                    xs[at] = bad;
+                    let bound = farthest_move((&xs, &then), (&then, &then));
+                    assert_eq!(bound, f32::INFINITY, "{bad} at {at} of {n}");
+                }
+            }
+        }
+    }
+
     /// `crowding` against each point's bucket-mates counted one pair at a time, on clusters and
     /// scattered points; empty grids give 0.
     #[test]

@@ -202,9 +202,8 @@ pub(crate) fn reach(plans: &[super::plan::Plan]) -> f32 {
 enum Source<'a> {
     /// The pass's own hashed grid of cells as wide as the neighbour distance, or twice it where
     /// agents are sparse (open and walled worlds, where the offset to a neighbour is the plain
-    /// difference). The world's grid would
-    /// do at crowd densities, but its cells are capped at `4 N`, so in a large sparse world
-    /// they grow far wider than the neighbour distance.
+    /// difference). The world's grid would do at crowd densities, but its cells are capped at
+    /// `4 N`, so in a large sparse world they grow far wider than the neighbour distance.
     Hash(&'a HashGrid),
     /// The world's index through its query (a torus, where offsets take the minimum image).
     Index,
@@ -393,7 +392,6 @@ fn candidates(
 ) -> Hits {
     let a = view.agents;
     let r_sq = r * r;
-    let key = |d: f32, p: usize| (u64::from(d.to_bits()) << 32) | p as u64;
     b.near.clear();
     match ctx.source {
         Source::Hash(hash) => {
@@ -440,9 +438,7 @@ fn candidates(
                 b.kth_sq = f32::INFINITY;
                 return Hits::All(count);
             }
-            let hits = b.rx[..count].iter().zip(&b.ry[..count]).enumerate();
-            b.near
-                .extend(hits.map(|(p, (&dx, &dy))| key(dx * dx + dy * dy, p)));
+            push_keys(&b.rx[..count], &b.ry[..count], &mut b.near);
         }
         Source::Index => {
             view.index.neighbours_at(pos, r, &mut b.found);
@@ -451,7 +447,7 @@ fn candidates(
                 let j = nb.index as usize;
                 let rel = view.bounds.offset(pos, a.position(j));
                 (b.rx[p], b.ry[p], b.js[p]) = (rel.x, rel.y, nb.index);
-                b.near.push(key(nb.dist_sq, p));
+                b.near.push(near_key(nb.dist_sq, p));
             }
         }
     }
@@ -468,15 +464,8 @@ fn candidates(
 /// hit at place `p`) in the order of [`Hits::Ordered`]: nearest first, ties by id.
 #[inline(always)]
 fn order_lines(b: &mut Buffers, hard: usize, n: usize, k: usize, ids: &[AgentId]) {
-    let key = |d: f32, p: usize| (u64::from(d.to_bits()) << 32) | p as u64;
     b.near.clear();
-    b.near.extend(
-        b.rx[..n]
-            .iter()
-            .zip(&b.ry[..n])
-            .enumerate()
-            .map(|(p, (&dx, &dy))| key(dx * dx + dy * dy, p)),
-    );
+    push_keys(&b.rx[..n], &b.ry[..n], &mut b.near);
     nearest_in_order(&mut b.near, k, &b.js, ids, &mut b.tied);
     b.projected.clear();
     b.projected.extend(
@@ -486,6 +475,20 @@ fn order_lines(b: &mut Buffers, hard: usize, n: usize, k: usize, ids: &[AgentId]
     );
     b.lines.truncate(hard);
     b.lines.extend_from_slice(&b.projected);
+}
+
+/// The sort key of the hit at place `p` at squared distance `d_sq`: `d_sq bits << 32 | p`
+/// (the bits of non-negative floats order as their values).
+#[inline(always)]
+fn near_key(d_sq: f32, p: usize) -> u64 {
+    (u64::from(d_sq.to_bits()) << 32) | p as u64
+}
+
+/// Pushes the keys of the hits at offsets `(rx[p], ry[p])` onto `near`, in place order.
+#[inline(always)]
+fn push_keys(rx: &[f32], ry: &[f32], near: &mut Vec<u64>) {
+    let hits = rx.iter().zip(ry).enumerate();
+    near.extend(hits.map(|(p, (&dx, &dy))| near_key(dx * dx + dy * dy, p)));
 }
 
 /// Keeps the `k` smallest of `near` (entries `dist_sq bits << 32 | p`, the hit `p` being agent
@@ -865,26 +868,6 @@ mod tests {
             assert_eq!(s.prepare_hash(&ids, (&xs, &ys), 2.0 * side), 0.0);
         }
         assert!(missed_without_slack > 0, "the slack was never needed");
-    }
-
-    /// A coordinate that is not finite, anywhere (first, inside, last; in one chunk and among
-    /// many), makes the bound infinite; otherwise it bounds every move.
-    #[test]
-    fn farthest_move_is_infinite_for_any_coordinate_that_is_not_finite() {
-        for n in [3usize, 10, 40_000] {
-            let then: Vec<f32> = (0..n).map(|k| k as f32 * 0.5).collect();
-            let now: Vec<f32> = then.iter().map(|&x| x + 0.25).collect();
-            let bound = farthest_move((&now, &then), (&then, &then));
-            assert!((0.25..0.2501).contains(&bound), "{n} points: {bound}");
-            for at in [0, n / 2, n - 1] {
-                for bad in [f32::NAN, f32::INFINITY, f32::NEG_INFINITY] {
-                    let mut xs = now.clone();
-                    xs[at] = bad;
-                    let bound = farthest_move((&xs, &then), (&then, &then));
-                    assert_eq!(bound, f32::INFINITY, "{bad} at {at} of {n}");
-                }
-            }
-        }
     }
 
     /// The lanes give every agent of a chunk (a partial block included) the same bits as its
