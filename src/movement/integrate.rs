@@ -268,18 +268,22 @@ fn step_lane(l: &Lane, dt: f32) -> Out {
 /// `atan2(y, x)` in `(-pi, pi]` to a few units in the last place, branch-free: the octant
 /// reduction to `a = min / max` in `[0, 1]`, Cephes' reduction of `a > tan(pi / 8)` to
 /// `(a - 1) / (a + 1)` around `pi / 4`, and its degree-9 odd polynomial. `(0, 0)` gives 0.
+///
+/// One division: the reduced argument is `(min - max) / (min + max)` beyond `tan(pi / 8)`
+/// (the same value as `(a - 1) / (a + 1)`, one rounding fewer) and `min / max` below it.
+/// Divisions are most of the integrator's time on processors with slow vector division.
 #[inline(always)]
 fn atan2(y: f32, x: f32) -> f32 {
     use std::f32::consts::{FRAC_PI_2, FRAC_PI_4, PI};
     let (ax, ay) = (x.abs(), y.abs());
     let (hi, lo) = if ay > ax { (ay, ax) } else { (ax, ay) };
-    let a = if hi > 0.0 { lo / hi } else { 0.0 };
-    let far = a > 0.414_213_57;
-    let (base, t) = if far {
-        (FRAC_PI_4, (a - 1.0) / (a + 1.0))
+    let far = lo > 0.414_213_57 * hi;
+    let (base, num, den) = if far {
+        (FRAC_PI_4, lo - hi, lo + hi)
     } else {
-        (0.0, a)
+        (0.0, lo, hi)
     };
+    let t = if hi > 0.0 { num / den } else { 0.0 };
     let z = t * t;
     let p = 8.053_744_5e-2_f32;
     let p = p * z - 1.387_768_6e-1;
@@ -300,7 +304,9 @@ fn wrap_turn(a: f32) -> f32 {
     let a = if a >= TAU { a - TAU } else { a };
     let a = if a < 0.0 { a + TAU } else { a };
     let inside = (a >= 0.0) & (a < TAU);
-    let r = a - TAU * (a / TAU).floor();
+    // A product, not a quotient: the lanes that take this path are rare, and a division in
+    // every lane costs more than the rest of the function.
+    let r = a - TAU * (a * (1.0 / TAU)).floor();
     let r = if (r >= 0.0) & (r < TAU) { r } else { 0.0 };
     if inside { a } else { r }
 }
