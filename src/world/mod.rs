@@ -11,8 +11,8 @@
 //! Determinism: per-agent randomness is keyed by (seed, [`crate::AgentId`], frame), steering has
 //! no cross-agent writes and the integrator is element-wise, so the state after any number of
 //! steps is bit-identical for any thread count. [`World::step_sequential`] runs the same phases
-//! and kernels on the calling thread alone (with the scalar integrator), the reference the
-//! parallel step is tested against bit for bit.
+//! and kernels on one thread (with the scalar integrator), the reference the parallel step is
+//! tested against bit for bit.
 
 mod builder;
 mod exits;

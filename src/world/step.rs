@@ -73,13 +73,19 @@ impl World {
         self.step_with(dt, Execution::Parallel)
     }
 
-    /// The sequential reference step: the same phases and kernels as [`World::step`] on the
-    /// calling thread alone (no rayon tasks), bit for bit the same results.
+    /// The sequential reference step: the same phases and kernels as [`World::step`] on one
+    /// thread, bit for bit the same results. The per-agent loops run without rayon tasks, and
+    /// the step runs in a pool of one thread, so that the few splits below them (the index's
+    /// and the hashed grids' rebuilds over many points) run in sequence too. Where that pool
+    /// cannot be made (no thread could be started), the step runs on the calling thread.
     ///
     /// # Errors
     /// As [`World::step`].
     pub fn step_sequential(&mut self, dt: f32) -> Result<StepStats> {
-        self.step_with(dt, Execution::Sequential)
+        match one_thread() {
+            Some(pool) => pool.install(|| self.step_with(dt, Execution::Sequential)),
+            None => self.step_with(dt, Execution::Sequential),
+        }
     }
 
     /// Compiles the groups' plans when a profile or something profiles refer to changed.
@@ -591,6 +597,14 @@ impl World {
             .fill(grid, &self.agents, headings, one_group);
         true
     }
+}
+
+/// A pool of one thread for [`World::step_sequential`], made on first use (`None` when its
+/// thread could not be started).
+fn one_thread() -> Option<&'static rayon::ThreadPool> {
+    static POOL: std::sync::OnceLock<Option<rayon::ThreadPool>> = std::sync::OnceLock::new();
+    POOL.get_or_init(|| rayon::ThreadPoolBuilder::new().num_threads(1).build().ok())
+        .as_ref()
 }
 
 /// The sum of `v` in double precision, in eight interleaved accumulators (vector lanes rather
