@@ -87,16 +87,32 @@ fn cell(x: f32, inv: f32) -> i32 {
 /// the current rayon pool for large N.
 pub(crate) fn farthest_move((x, y): (&[f32], &[f32]), (x0, y0): (&[f32], &[f32])) -> f32 {
     const CHUNK: usize = 2048;
+    // A NaN counts as infinitely far, which then stays the largest; selects rather than
+    // `f32::max`. The largest is kept per lane of eight and the lanes' taken at the end (a
+    // single running maximum is a chain LLVM does not vectorise): the largest of a set is the
+    // same in any order.
+    const LANES: usize = 8;
     let part = |x: &[f32], y: &[f32], x0: &[f32], y0: &[f32]| {
-        let mut most = 0.0f32;
-        for (((&x, &y), &x0), &y0) in x.iter().zip(y).zip(x0).zip(y0) {
+        let keep = |most: f32, (((&x, &y), &x0), &y0): (((&f32, &f32), &f32), &f32)| {
             let d = (x - x0).abs() + (y - y0).abs();
-            // A NaN counts as infinitely far, which then stays the largest; selects rather
-            // than `f32::max`, so that the loop runs in lanes.
             let d = if d.is_nan() { f32::INFINITY } else { d };
-            most = if d <= most { most } else { d };
+            if d <= most { most } else { d }
+        };
+        let n = x.len().min(y.len()).min(x0.len()).min(y0.len());
+        let whole = n / LANES * LANES;
+        let mut lanes = [0.0f32; LANES];
+        for k in (0..whole).step_by(LANES) {
+            let block =
+                |v: &[f32]| -> [f32; LANES] { v[k..k + LANES].try_into().expect("a whole block") };
+            let (bx, by, bx0, by0) = (block(x), block(y), block(x0), block(y0));
+            for l in 0..LANES {
+                lanes[l] = keep(lanes[l], (((&bx[l], &by[l]), &bx0[l]), &by0[l]));
+            }
         }
-        most
+        let rest = x[whole..n].iter().zip(&y[whole..n]);
+        let rest = rest.zip(&x0[whole..n]).zip(&y0[whole..n]);
+        let most = rest.fold(0.0f32, keep);
+        lanes.iter().fold(most, |m, &l| if l <= m { m } else { l })
     };
     let most = if x.len() >= 4 * CHUNK {
         x.par_chunks(CHUNK)
@@ -446,6 +462,32 @@ mod tests {
                     assert_eq!(bound, f32::INFINITY, "{bad} at {at} of {n}");
                 }
             }
+        }
+    }
+
+    /// The bound is the largest move (widened by its factor) wherever it lies: in a whole block
+    /// of lanes, in the tail, in any chunk.
+    #[test]
+    fn farthest_move_is_the_largest_move_wherever_it_lies() {
+        let mut rng = AgentRng::new(12, 0, 0, 0);
+        for n in [1usize, 7, 8, 9, 17, 100, 9000, 40_000] {
+            let then: Vec<f32> = (0..n).map(|_| rng.unit() * 100.0).collect();
+            let (mut xs, mut ys) = (then.clone(), then.clone());
+            for k in 0..n {
+                xs[k] += rng.unit() - 0.5;
+                ys[k] -= rng.unit() - 0.5;
+            }
+            let at = (rng.unit() * n as f32) as usize % n;
+            xs[at] += 3.0;
+            let largest = (0..n)
+                .map(|k| (xs[k] - then[k]).abs() + (ys[k] - then[k]).abs())
+                .fold(0.0f32, f32::max);
+            let bound = farthest_move((&xs, &ys), (&then, &then));
+            assert_eq!(
+                bound,
+                largest * (1.0 + 1e-5),
+                "{n} points, the largest at {at}"
+            );
         }
     }
 

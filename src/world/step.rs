@@ -372,6 +372,20 @@ impl World {
                 with_goal += usize::from(r_sq >= 0.0);
                 arrived += usize::from(dx * dx + dy * dy <= r_sq);
             };
+            if let ([r_sq], Bounds::Open | Bounds::Bounded { .. }) = (r_sq, bounds) {
+                // One group (the group numbers are not read): counts in vector lanes.
+                let within =
+                    px.iter()
+                        .zip(py)
+                        .zip(tx)
+                        .zip(ty)
+                        .fold(0u32, |n, (((px, py), tx), ty)| {
+                            let (dx, dy) = (tx - px, ty - py);
+                            n + u32::from(dx * dx + dy * dy <= *r_sq)
+                        });
+                let goals = if *r_sq >= 0.0 { px.len() } else { 0 };
+                return (within as usize, goals);
+            }
             let each = px.iter().zip(py).zip(tx).zip(ty).zip(group);
             match bounds {
                 Bounds::Torus { size } => {
