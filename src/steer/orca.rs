@@ -304,7 +304,10 @@ pub(crate) fn run(
 /// of the first times 2 pi, in their range) and a length (the second, in units of the group's
 /// `perturbation`). Eight agents at a time in lanes; the same operations per agent as one at a
 /// time, so the same bits.
-#[multiversion::multiversion(targets("x86_64+avx2+fma"))]
+#[multiversion::multiversion(targets(
+    "x86_64+avx2+fma+avx512f+avx512vl+avx512bw+avx512dq",
+    "x86_64+avx2+fma"
+))]
 fn perturbations(ids: &[AgentId], frame_key: u64, b: &mut Buffers) {
     let n = ids.len();
     for v in [&mut b.turb_cos, &mut b.turb_sin, &mut b.turb_len] {
