@@ -99,6 +99,8 @@ pub struct Agents {
     /// `index_of[id]` is the agent's storage index, or `NO_INDEX` once removed.
     index_of: Vec<u32>,
     scratch_f32: Vec<f32>,
+    /// The second half of the columns' scratch ([`Agents::reorder`]).
+    scratch_f32b: Vec<f32>,
     scratch_u32: Vec<u32>,
     scratch_u8: Vec<u8>,
     scratch_ids: Vec<AgentId>,
@@ -151,22 +153,38 @@ fn permute<T: Copy + Send + Sync>(v: &mut Vec<T>, perm: &[u32], scratch: &mut Ve
     std::mem::swap(v, scratch);
 }
 
-macro_rules! for_each_buffer {
-    ($self:ident, $f:ident) => {
-        $f(&mut $self.pos_x);
-        $f(&mut $self.pos_y);
-        $f(&mut $self.vel_x);
-        $f(&mut $self.vel_y);
-        $f(&mut $self.orientation);
-        $f(&mut $self.rotation);
-        $f(&mut $self.wander);
-        $f(&mut $self.max_speed);
-        $f(&mut $self.radius);
-        $f(&mut $self.desired_speed);
-        $f(&mut $self.target_x);
-        $f(&mut $self.target_y);
+/// Every `f32` column of the store, as an array of mutable borrows.
+macro_rules! f32_columns {
+    ($self:ident) => {
+        [
+            &mut $self.pos_x,
+            &mut $self.pos_y,
+            &mut $self.vel_x,
+            &mut $self.vel_y,
+            &mut $self.orientation,
+            &mut $self.rotation,
+            &mut $self.wander,
+            &mut $self.max_speed,
+            &mut $self.radius,
+            &mut $self.desired_speed,
+            &mut $self.target_x,
+            &mut $self.target_y,
+        ]
     };
 }
+
+macro_rules! for_each_buffer {
+    ($self:ident, $f:ident) => {
+        for v in f32_columns!($self) {
+            $f(v);
+        }
+    };
+}
+
+/// From this many agents, [`Agents::reorder`] gathers two halves of the columns on two
+/// threads, each half into a scratch column of its own (below, a fork costs more than it
+/// saves).
+const COLUMNS_APART: usize = 4096;
 
 impl Agents {
     /// An empty store.
@@ -372,21 +390,39 @@ impl Agents {
     /// When `perm.len() != len()` (a debug assertion also checks it is a permutation).
     pub fn reorder(&mut self, perm: &[u32]) {
         assert_eq!(perm.len(), self.len(), "permutation length");
-        let mut scratch = std::mem::take(&mut self.scratch_f32);
-        let mut apply = |v: &mut Vec<f32>| permute(v, perm, &mut scratch);
-        for_each_buffer!(self, apply);
-        self.scratch_f32 = scratch;
-        let mut scratch = std::mem::take(&mut self.scratch_u32);
-        permute(&mut self.group, perm, &mut scratch);
-        self.scratch_u32 = scratch;
-        let mut scratch = std::mem::take(&mut self.scratch_ids);
-        permute(&mut self.ids, perm, &mut scratch);
-        self.scratch_ids = scratch;
-        let mut scratch = std::mem::take(&mut self.scratch_u8);
-        permute(&mut self.overrides, perm, &mut scratch);
-        self.scratch_u8 = scratch;
-        for (k, id) in self.ids.iter().enumerate() {
-            self.index_of[id.0 as usize] = k as u32;
+        let mut columns = f32_columns!(self);
+        let half = columns.len() / 2;
+        let (first, second) = columns.split_at_mut(half);
+        let (scratch, group, scratch_u32) = (
+            &mut self.scratch_f32,
+            &mut self.group,
+            &mut self.scratch_u32,
+        );
+        let (overrides, scratch_u8) = (&mut self.overrides, &mut self.scratch_u8);
+        let one = move || {
+            for v in first {
+                permute(v, perm, scratch);
+            }
+            permute(group, perm, scratch_u32);
+            permute(overrides, perm, scratch_u8);
+        };
+        let (scratch, ids, scratch_ids) =
+            (&mut self.scratch_f32b, &mut self.ids, &mut self.scratch_ids);
+        let index_of = &mut self.index_of;
+        let other = move || {
+            for v in second {
+                permute(v, perm, scratch);
+            }
+            permute(ids, perm, scratch_ids);
+            for (k, id) in ids.iter().enumerate() {
+                index_of[id.0 as usize] = k as u32;
+            }
+        };
+        if perm.len() >= COLUMNS_APART {
+            rayon::join(one, other);
+        } else {
+            one();
+            other();
         }
         // A repeated index would repeat an id, whose first place the second overwrote (checked
         // here rather than before, where it would take a buffer of its own).
@@ -481,7 +517,8 @@ impl Agents {
     /// Heap bytes held by the store (buffers' capacity, scratch included).
     #[must_use]
     pub fn heap_bytes(&self) -> usize {
-        let f32s = self.pos_x.capacity() * 12 + self.scratch_f32.capacity();
+        let f32s =
+            self.pos_x.capacity() * 12 + self.scratch_f32.capacity() + self.scratch_f32b.capacity();
         f32s * 4
             + (self.group.capacity() + self.scratch_u32.capacity()) * 4
             + self.overrides.capacity()
