@@ -14,6 +14,7 @@
 //! and kernels on one thread (with the scalar integrator), the reference the parallel step is
 //! tested against bit for bit.
 
+mod awake;
 mod builder;
 mod exits;
 pub(crate) mod fields;

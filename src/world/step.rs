@@ -63,14 +63,20 @@ enum Execution {
 
 impl World {
     /// Advances the world by `dt` seconds on the current rayon thread pool (run it inside
-    /// `pool.install` to choose the number of threads).
+    /// `pool.install` to choose the number of threads). From a few thousand to some tens of
+    /// thousands of agents, the pool's other workers wait for work awake until the step
+    /// returns, as OpenMP's do between parallel regions, rather than sleeping between its
+    /// short loops.
     ///
     /// # Errors
     /// [`Error::InvalidTimeStep`] when `dt` is not a finite number greater than zero; the
     /// reference errors of [`World::add_group`] ([`Error::UnknownField`], ...) when a profile
     /// names something the world still lacks. The world is then unchanged.
     pub fn step(&mut self, dt: f32) -> Result<StepStats> {
-        self.step_with(dt, Execution::Parallel)
+        if !super::awake::AWAKE.contains(&self.agents.len()) {
+            return self.step_with(dt, Execution::Parallel);
+        }
+        super::awake::with_awake_workers(|| self.step_with(dt, Execution::Parallel))
     }
 
     /// The sequential reference step: the same phases and kernels as [`World::step`] on one
