@@ -54,8 +54,19 @@ pub const REST_SPEED: f32 = 1e-6;
 /// Rotations below this (radians per second) snap to zero, for the same reason.
 pub const REST_ROTATION: f32 = 1e-6;
 
-/// Agents per parallel task; a multiple of the SIMD width so lanes never straddle tasks.
+/// The most agents per parallel task; a multiple of the SIMD width so lanes never straddle
+/// tasks.
 const CHUNK: usize = 4096;
+/// The fewest agents per parallel task (a multiple of the SIMD width too).
+const MIN_CHUNK: usize = 1024;
+
+/// Agents per task for `n` agents: [`CHUNK`], or fewer where whole chunks would load the
+/// threads unevenly (10,000 agents in chunks of 4,096 are one thread's 4,096 and another's
+/// 5,904): about four tasks per thread, never fewer agents than [`MIN_CHUNK`].
+fn chunk_len(n: usize) -> usize {
+    let even = n.div_ceil(4 * rayon::current_num_threads());
+    even.next_multiple_of(LANES).clamp(MIN_CHUNK, CHUNK)
+}
 const LANES: usize = 16;
 
 /// Maps an orientation into `[0, 2pi)`.
@@ -87,17 +98,18 @@ pub fn integrate(
 ) {
     let n = state.pos_x.len();
     check_lengths(&state, &steer, n);
+    let chunk = chunk_len(n);
     (
-        state.pos_x.par_chunks_mut(CHUNK),
-        state.pos_y.par_chunks_mut(CHUNK),
-        state.vel_x.par_chunks_mut(CHUNK),
-        state.vel_y.par_chunks_mut(CHUNK),
-        state.orientation.par_chunks_mut(CHUNK),
-        state.rotation.par_chunks_mut(CHUNK),
-        steer.lin_x.par_chunks(CHUNK),
-        steer.lin_y.par_chunks(CHUNK),
-        steer.max_speed.par_chunks(CHUNK),
-        steer.group.par_chunks(CHUNK),
+        state.pos_x.par_chunks_mut(chunk),
+        state.pos_y.par_chunks_mut(chunk),
+        state.vel_x.par_chunks_mut(chunk),
+        state.vel_y.par_chunks_mut(chunk),
+        state.orientation.par_chunks_mut(chunk),
+        state.rotation.par_chunks_mut(chunk),
+        steer.lin_x.par_chunks(chunk),
+        steer.lin_y.par_chunks(chunk),
+        steer.max_speed.par_chunks(chunk),
+        steer.group.par_chunks(chunk),
     )
         .into_par_iter()
         .enumerate()
@@ -105,7 +117,7 @@ pub fn integrate(
             let ang = if steer.ang.is_empty() {
                 steer.ang
             } else {
-                &steer.ang[c * CHUNK..c * CHUNK + px.len()]
+                &steer.ang[c * chunk..c * chunk + px.len()]
             };
             let chunk_state = MotionState {
                 pos_x: px,

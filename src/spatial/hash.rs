@@ -210,9 +210,14 @@ impl HashGrid {
             }
         };
         if n >= PARALLEL_MIN_POINTS {
+            // About four pieces per thread: chunks of the rebuild's size would load the threads
+            // unevenly at a few chunks' worth of points (8,192 and 1,808 at 10,000).
+            let piece = n
+                .div_ceil(4 * rayon::current_num_threads())
+                .clamp(1024, CHUNK);
             order
-                .par_chunks(CHUNK)
-                .zip(sx.par_chunks_mut(CHUNK).zip(sy.par_chunks_mut(CHUNK)))
+                .par_chunks(piece)
+                .zip(sx.par_chunks_mut(piece).zip(sy.par_chunks_mut(piece)))
                 .for_each(|(order, (sx, sy))| copy(order, sx, sy));
         } else {
             copy(order, sx, sy);
