@@ -38,13 +38,23 @@ unsafe impl GlobalAlloc for Counting {
 #[global_allocator]
 static GLOBAL: Counting = Counting;
 
-#[test]
-fn warm_steps_do_not_allocate() {
-    // One thread: rayon's pool setup is not part of a step.
+/// The tests count allocations process-wide: one at a time.
+static ONE_AT_A_TIME: std::sync::Mutex<()> = std::sync::Mutex::new(());
+
+/// This test's turn to count, and a pool of `threads` made before counting (rayon's pool
+/// setup is not part of a step).
+fn counting_with(threads: usize) -> (std::sync::MutexGuard<'static, ()>, rayon::ThreadPool) {
+    let turn = ONE_AT_A_TIME.lock().unwrap_or_else(|e| e.into_inner());
     let pool = rayon::ThreadPoolBuilder::new()
-        .num_threads(1)
+        .num_threads(threads)
         .build()
         .unwrap();
+    (turn, pool)
+}
+
+#[test]
+fn warm_steps_do_not_allocate() {
+    let (_one, pool) = counting_with(1);
     for name in [
         "flock",
         "pursuit",
@@ -71,19 +81,37 @@ fn warm_steps_do_not_allocate() {
             s.with_agents(3000).unwrap()
         };
         let mut w = s.build().unwrap();
-        pool.install(|| {
-            // Warm up through a full reordering period.
-            for _ in 0..8 {
-                w.step(s.dt).unwrap();
-            }
-            ALLOCATIONS.store(0, Ordering::SeqCst);
-            COUNTING.store(true, Ordering::SeqCst);
-            for _ in 0..8 {
-                w.step(s.dt).unwrap();
-            }
-            COUNTING.store(false, Ordering::SeqCst);
-        });
-        let n = ALLOCATIONS.load(Ordering::SeqCst);
+        let n = warm_allocations(&pool, &mut w, s.dt);
+        assert_eq!(n, 0, "{name}: {n} allocations in 8 warm steps");
+    }
+}
+
+/// The allocations of 8 steps after 8 warm-up steps (a full reordering period), on `pool`.
+fn warm_allocations(pool: &rayon::ThreadPool, w: &mut throng::World, dt: f32) -> usize {
+    pool.install(|| {
+        for _ in 0..8 {
+            w.step(dt).unwrap();
+        }
+        ALLOCATIONS.store(0, Ordering::SeqCst);
+        COUNTING.store(true, Ordering::SeqCst);
+        for _ in 0..8 {
+            w.step(dt).unwrap();
+        }
+        COUNTING.store(false, Ordering::SeqCst);
+    });
+    ALLOCATIONS.load(Ordering::SeqCst)
+}
+
+/// Two threads, with the workers kept awake through the step (5,000 agents, within the range
+/// where they are): the waiting tasks allocate nothing either.
+#[test]
+fn warm_steps_with_workers_awake_do_not_allocate() {
+    let (_one, pool) = counting_with(2);
+    for name in ["circle", "flock"] {
+        let s = scenario::builtin(name).unwrap().with_agents(5000).unwrap();
+        let mut w = s.build().unwrap();
+        w.set_workers_awake(true);
+        let n = warm_allocations(&pool, &mut w, s.dt);
         assert_eq!(n, 0, "{name}: {n} allocations in 8 warm steps");
     }
 }

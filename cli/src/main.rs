@@ -359,14 +359,17 @@ fn memory_limit(c: &WorldArgs) -> Result<Option<u64>> {
 
 /// Builds the world of `s` within `memory` bytes; errors of the build name the scenario.
 fn build_world(s: &Scenario, memory: Option<u64>) -> Result<World> {
-    s.build_within(memory).map_err(|e| match e {
+    let mut world = s.build_within(memory).map_err(|e| match e {
         Error::Scenario { .. } | Error::Io { .. } | Error::OutOfMemory { .. } => e,
         other => Error::Scenario {
             source_name: s.name.clone(),
             location: None,
             message: other.to_string(),
         },
-    })
+    })?;
+    // The command owns its process and its pool: its workers wait for a step's work awake.
+    world.set_workers_awake(true);
+    Ok(world)
 }
 
 /// The rayon pool of `threads` workers (default: all cores, at most [`max_threads`]) and its
@@ -549,6 +552,7 @@ fn resume(file: &Path, args: &ResumeArgs) -> Result<()> {
         },
         other => other,
     })?;
+    world.set_workers_awake(true);
     let (pool, threads) = thread_pool(args.threads)?;
     let dt = match (args.dt, &run) {
         (Some(dt), _) => dt,

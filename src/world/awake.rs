@@ -10,6 +10,11 @@
 //! ([`rayon::yield_now`], which steals from the step's thread), and otherwise spins a little and
 //! now and then yields its core, without sleeping. docs/PERFORMANCE.md has the measurements.
 //!
+//! It is off by default ([`crate::World::set_workers_awake`]): the waiting workers occupy
+//! their cores through the step, which other processes sharing those cores then miss (two
+//! processes of two threads each on two cores ran 12% slower with it). The command line, which
+//! owns its process, turns it on.
+//!
 //! Invariants: which thread runs a piece of work never changes a result (every parallel loop of
 //! the step is deterministic by construction), so this changes timings only; the waiting task
 //! never runs on the step's own thread (it would wait for itself); it ends when the step
@@ -41,44 +46,60 @@ impl Drop for Done<'_> {
     }
 }
 
+/// The machine's cores, asked once (the question reads files and allocates).
+fn cores() -> usize {
+    static CORES: std::sync::OnceLock<usize> = std::sync::OnceLock::new();
+    *CORES.get_or_init(|| std::thread::available_parallelism().map_or(1, usize::from))
+}
+
 /// Runs `body` on the current rayon pool with every other worker of the pool awake until it
-/// returns (on pools of at most as many threads as the machine has cores).
+/// returns (on pools of at most as many threads as the machine has cores). Allocates nothing:
+/// the waiting tasks are `rayon::join`'s stack jobs.
 pub(super) fn with_awake_workers<R: Send>(body: impl FnOnce() -> R + Send) -> R {
     let threads = rayon::current_num_threads();
-    let cores = std::thread::available_parallelism().map_or(1, usize::from);
-    if threads < 2 || threads > cores {
+    if threads < 2 || threads > cores() {
         return body();
     }
     let done = AtomicBool::new(false);
-    rayon::scope(|s| {
-        let runner = rayon::current_thread_index();
-        for _ in 1..threads {
-            let done = &done;
-            s.spawn(move |_| {
-                // Taken by the step's own thread (at a join, or when the scope ends): the step
-                // has no use for it there.
-                if rayon::current_thread_index() == runner {
-                    return;
-                }
-                let mut idle = 0u32;
-                while !done.load(Ordering::Acquire) {
-                    if rayon::yield_now() == Some(rayon::Yield::Executed) {
-                        continue;
-                    }
-                    idle += 1;
-                    if idle.is_multiple_of(LOOKS_PER_YIELD) {
-                        std::thread::yield_now();
-                    } else {
-                        for _ in 0..SPINS {
-                            std::hint::spin_loop();
-                        }
-                    }
-                }
-            });
+    let runner = rayon::current_thread_index();
+    // The waiting jobs are pushed before any of the body's work: other workers steal the
+    // oldest job of a queue first, so each takes a waiting job before the body's work, and
+    // the body's work then reaches them through `yield_now`.
+    let (out, ()) = rayon::join(
+        || {
+            let _done = Done(&done);
+            body()
+        },
+        || wait(&done, runner, threads - 1),
+    );
+    out
+}
+
+/// `count` waiting tasks: this one, and the rest pushed for other workers to take.
+fn wait(done: &AtomicBool, runner: Option<usize>, count: usize) {
+    if count > 1 {
+        rayon::join(|| wait(done, runner, 1), || wait(done, runner, count - 1));
+        return;
+    }
+    // Taken by the step's own thread (when it waits for its stolen work, or at the end): the
+    // step has no use for it there.
+    if rayon::current_thread_index() == runner {
+        return;
+    }
+    let mut idle = 0u32;
+    while !done.load(Ordering::Acquire) {
+        if rayon::yield_now() == Some(rayon::Yield::Executed) {
+            continue;
         }
-        let _done = Done(&done);
-        body()
-    })
+        idle += 1;
+        if idle.is_multiple_of(LOOKS_PER_YIELD) {
+            std::thread::yield_now();
+        } else {
+            for _ in 0..SPINS {
+                std::hint::spin_loop();
+            }
+        }
+    }
 }
 
 #[cfg(test)]

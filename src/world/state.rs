@@ -56,6 +56,8 @@ pub struct World {
     pub(crate) index: SpatialIndex,
     /// Reorder agents by grid cell every this many frames (0: never).
     pub(crate) reorder_every: u32,
+    /// Whether steps keep the pool's other workers awake ([`World::set_workers_awake`]).
+    pub(crate) workers_awake: bool,
     pub(crate) obstacles: Obstacles,
     pub(crate) gravity: GravityField,
     /// Paths and formations (group movement).
@@ -94,6 +96,7 @@ impl World {
             scratch: Scratch::default(),
             index: SpatialIndex::new(IndexKind::Grid),
             reorder_every: DEFAULT_REORDER_EVERY,
+            workers_awake: false,
             obstacles: Obstacles::new(),
             gravity: GravityField::default(),
             group_movement: Default::default(),
@@ -206,6 +209,24 @@ impl World {
     /// storage order changes.
     pub fn set_reorder_every(&mut self, frames: u32) {
         self.reorder_every = frames;
+    }
+
+    /// Whether [`World::step`] keeps the pool's other workers awake through steps of 4,096 to
+    /// 65,535 agents.
+    #[must_use]
+    pub fn workers_awake(&self) -> bool {
+        self.workers_awake
+    }
+
+    /// Makes [`World::step`] keep the rayon pool's other workers awake until each step of
+    /// 4,096 to 65,535 agents returns, as OpenMP's workers wait between parallel regions,
+    /// instead of letting them sleep between the step's short loops (whose wake-ups a
+    /// 10,000-agent step otherwise waits for, a varying time). Off by default: the waiting
+    /// workers occupy their cores through the step, which other processes or pools sharing
+    /// those cores then miss. Results are the same either way; only timings change. Not
+    /// saved in checkpoints (a setting of the run, like its thread count).
+    pub fn set_workers_awake(&mut self, on: bool) {
+        self.workers_awake = on;
     }
 
     /// The agents, in storage order.

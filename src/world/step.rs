@@ -63,17 +63,16 @@ enum Execution {
 
 impl World {
     /// Advances the world by `dt` seconds on the current rayon thread pool (run it inside
-    /// `pool.install` to choose the number of threads). From a few thousand to some tens of
-    /// thousands of agents, the pool's other workers wait for work awake until the step
-    /// returns, as OpenMP's do between parallel regions, rather than sleeping between its
-    /// short loops.
+    /// `pool.install` to choose the number of threads). With [`World::set_workers_awake`], the
+    /// pool's other workers wait for work awake through steps of a few thousand to some tens of
+    /// thousands of agents.
     ///
     /// # Errors
     /// [`Error::InvalidTimeStep`] when `dt` is not a finite number greater than zero; the
     /// reference errors of [`World::add_group`] ([`Error::UnknownField`], ...) when a profile
     /// names something the world still lacks. The world is then unchanged.
     pub fn step(&mut self, dt: f32) -> Result<StepStats> {
-        if !super::awake::AWAKE.contains(&self.agents.len()) {
+        if !(self.workers_awake && super::awake::AWAKE.contains(&self.agents.len())) {
             return self.step_with(dt, Execution::Parallel);
         }
         super::awake::with_awake_workers(|| self.step_with(dt, Execution::Parallel))
@@ -88,10 +87,10 @@ impl World {
     /// # Errors
     /// As [`World::step`].
     pub fn step_sequential(&mut self, dt: f32) -> Result<StepStats> {
-        match one_thread() {
+        ONE_THREAD.with(|pool| match pool {
             Some(pool) => pool.install(|| self.step_with(dt, Execution::Sequential)),
             None => self.step_with(dt, Execution::Sequential),
-        }
+        })
     }
 
     /// Compiles the groups' plans when a profile or something profiles refer to changed.
@@ -619,12 +618,12 @@ impl World {
     }
 }
 
-/// A pool of one thread for [`World::step_sequential`], made on first use (`None` when its
-/// thread could not be started).
-fn one_thread() -> Option<&'static rayon::ThreadPool> {
-    static POOL: std::sync::OnceLock<Option<rayon::ThreadPool>> = std::sync::OnceLock::new();
-    POOL.get_or_init(|| rayon::ThreadPoolBuilder::new().num_threads(1).build().ok())
-        .as_ref()
+thread_local! {
+    /// The calling thread's pool of one thread for [`World::step_sequential`] (one per calling
+    /// thread, so that sequential steps on several threads do not queue for one), made on first
+    /// use; `None` when its thread could not be started.
+    static ONE_THREAD: Option<rayon::ThreadPool> =
+        rayon::ThreadPoolBuilder::new().num_threads(1).build().ok();
 }
 
 /// The sum of `v` in double precision, in eight interleaved accumulators (vector lanes rather
