@@ -84,6 +84,10 @@ pub(crate) struct ContactInput<'a> {
     /// A hashed grid over the agents built earlier in the frame (ORCA's), searched instead of
     /// a grid of the pass's own when few agents search (open and walled worlds).
     pub prebuilt: Option<Prebuilt<'a>>,
+    /// Nothing moves the agents between [`resolve`] and [`guard`] (an open world without
+    /// obstacles or fields): `resolve` keeps no copy of the positions it leaves, and `guard`
+    /// takes the positions it is given as those.
+    pub unmoved: bool,
 }
 
 /// A hashed grid over the agents in their current storage order, with the positions it
@@ -127,10 +131,20 @@ pub(crate) fn resolve(
     parallel: bool,
 ) -> u32 {
     let n = xs.len();
-    scratch.after_x.clear();
-    scratch.after_x.extend_from_slice(xs);
-    scratch.after_y.clear();
-    scratch.after_y.extend_from_slice(ys);
+    // The positions the guard compares with. When nothing but the sweeps can move the agents
+    // before the guard, they are needed only if the sweeps run.
+    let keep = |scratch: &mut ContactScratch| {
+        scratch.after_x.clear();
+        scratch.after_x.extend_from_slice(xs);
+        scratch.after_y.clear();
+        scratch.after_y.extend_from_slice(ys);
+    };
+    if input.unmoved {
+        scratch.after_x.clear();
+        scratch.after_y.clear();
+    } else {
+        keep(scratch);
+    }
     scratch.pairs.clear();
     if n < 2 || !any_both(input.moves, input.near) {
         return 0;
@@ -138,6 +152,9 @@ pub(crate) fn resolve(
     let max_r = largest(input.radius);
     if max_r <= 0.0 {
         return 0;
+    }
+    if input.unmoved {
+        keep(scratch);
     }
     list_pairs(input, xs, ys, scratch, parallel, (NEAR, max_r), |i| {
         input.moves[i] && input.near[i]
@@ -226,7 +243,9 @@ pub(crate) fn guard(
     parallel: bool,
 ) -> usize {
     let n = xs.len();
-    if n < 2 || !input.moves.iter().any(|&m| m) {
+    // No pair listed, so no sweep moved anyone, and nothing else moves the agents: every pair is
+    // as far apart as after integration, where none was near contact.
+    if n < 2 || !input.moves.iter().any(|&m| m) || (input.unmoved && scratch.pairs.is_empty()) {
         return 0;
     }
     let max_r = largest(input.radius);
@@ -488,6 +507,7 @@ mod tests {
                     iterations: 1,
                     tolerance: 0.0,
                     prebuilt,
+                    unmoved: false,
                 };
                 let mut scratch = ContactScratch::default();
                 let max_r = largest(&radius);
@@ -544,6 +564,7 @@ mod tests {
             iterations: 64,
             tolerance: 0.01,
             prebuilt: None,
+            unmoved: false,
         };
         assert!(min_gap(&xs, &ys, 0.5) < 0.5);
         let (mut x1, mut y1) = (xs.clone(), ys.clone());
@@ -595,6 +616,7 @@ mod tests {
                 iterations: 2,
                 tolerance: 0.0,
                 prebuilt: None,
+                unmoved: false,
             };
             resolve(
                 &input,
@@ -636,6 +658,38 @@ mod tests {
     /// positions and velocities after both.
     #[allow(clippy::type_complexity)]
     fn guarded_step(
+        input: &ContactInput,
+        start: (&[f32], &[f32]),
+        moves: &[(f32, f32)],
+        parallel: bool,
+    ) -> (Vec<f32>, Vec<f32>, Vec<f32>, Vec<f32>) {
+        let out = guarded_step_as_given(input, start, moves, parallel);
+        // In an open world nothing moves the agents between the two: told so, the pass keeps
+        // no copy of the positions and the guard may stop early, with the same result.
+        if matches!(input.bounds, Bounds::Open) {
+            let told = ContactInput {
+                unmoved: true,
+                ..*input
+            };
+            let same = guarded_step_as_given(&told, start, moves, parallel);
+            assert!(
+                bits_of(&same) == bits_of(&out),
+                "the unmoved shortcut changed the result"
+            );
+        }
+        out
+    }
+
+    /// The bits of a [`guarded_step`] result.
+    fn bits_of(v: &(Vec<f32>, Vec<f32>, Vec<f32>, Vec<f32>)) -> Vec<u32> {
+        [&v.0, &v.1, &v.2, &v.3]
+            .iter()
+            .flat_map(|c| c.iter().map(|x| x.to_bits()))
+            .collect()
+    }
+
+    /// [`guarded_step`] with `input` as it is.
+    fn guarded_step_as_given(
         input: &ContactInput,
         start: (&[f32], &[f32]),
         moves: &[(f32, f32)],
@@ -695,6 +749,7 @@ mod tests {
             iterations: 1,
             tolerance: 0.03,
             prebuilt: None,
+            unmoved: false,
         };
         let (mut xs, mut ys) = (sx.clone(), sy.clone());
         for k in 0..n {
@@ -791,6 +846,7 @@ mod tests {
                 iterations,
                 tolerance: 0.03,
                 prebuilt: None,
+            unmoved: false,
             };
             let (mut xs, mut ys, _, _) = guarded_step(&input, (&sx, &sy), &mv, false);
             if torus {
@@ -827,6 +883,7 @@ mod tests {
             iterations: 4,
             tolerance: 0.0,
             prebuilt: None,
+            unmoved: false,
         };
         resolve(
             &input,

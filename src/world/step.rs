@@ -332,6 +332,11 @@ impl World {
             iterations: sweeps.unwrap_or(0),
             tolerance: 0.03,
             prebuilt: self.scratch.orca.prebuilt(&a.ids),
+            // What moves agents between the sweeps and the guard: the walls' clamp, the torus
+            // wrap, obstacles and field walls.
+            unmoved: matches!(self.bounds, Bounds::Open)
+                && self.obstacles.is_empty()
+                && !self.fields.is_active(),
         };
         let parallel = exec == Execution::Parallel;
         let contact = &mut self.scratch.contact;
