@@ -265,8 +265,8 @@ pub(crate) fn guard(
         let moved = input.bounds.offset(after, Vec2::new(xs[k], ys[k]));
         moved == Vec2::ZERO || moved.length_squared() < slack * slack
     };
-    // Where nothing moved the agents since `resolve` (open worlds without obstacles or
-    // fields), every agent is still: one comparison of the bits settles it.
+    // Where nothing moved the agents since `resolve` copied them (no sweep ran, and an open
+    // world without obstacles or fields), every agent is still: one comparison of the bits.
     let unmoved = same_bits(&scratch.after_x, xs) && same_bits(&scratch.after_y, ys);
     let listed = scratch.after_x.len() == n
         && (unmoved
