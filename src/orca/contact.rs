@@ -467,6 +467,27 @@ mod tests {
     use super::*;
     use proptest::prelude::*;
 
+    /// The input of a test in an open world where every agent of `moves` searches and no grid
+    /// is prebuilt; tests that differ set their fields over it.
+    fn open_input<'a>(
+        radius: &'a [f32],
+        ids: &'a [AgentId],
+        moves: &'a [bool],
+        (iterations, tolerance): (u32, f32),
+    ) -> ContactInput<'a> {
+        ContactInput {
+            bounds: Bounds::Open,
+            radius,
+            ids,
+            moves,
+            near: moves,
+            iterations,
+            tolerance,
+            prebuilt: None,
+            unmoved: false,
+        }
+    }
+
     /// The pairs found through a grid built at older positions (its reach widened by the
     /// farthest move since) are those of the pass's own grid at the current ones; the old grid
     /// is used only when few agents search and none has moved farther than a cell.
@@ -499,15 +520,9 @@ mod tests {
             let near: Vec<bool> = (0..n).map(|i| i % (n / searching) == 0).collect();
             let pairs = |prebuilt: Option<Prebuilt>| {
                 let input = ContactInput {
-                    bounds: Bounds::Open,
-                    radius: &radius,
-                    ids: &ids,
-                    moves: &moves,
                     near: &near,
-                    iterations: 1,
-                    tolerance: 0.0,
                     prebuilt,
-                    unmoved: false,
+                    ..open_input(&radius, &ids, &moves, (1, 0.0))
                 };
                 let mut scratch = ContactScratch::default();
                 let max_r = largest(&radius);
@@ -555,17 +570,7 @@ mod tests {
         let radius = vec![0.5; n];
         let ids: Vec<AgentId> = (0..n as u32).map(AgentId).collect();
         let moves = vec![true; n];
-        let input = ContactInput {
-            bounds: Bounds::Open,
-            radius: &radius,
-            ids: &ids,
-            moves: &moves,
-            near: &moves,
-            iterations: 64,
-            tolerance: 0.01,
-            prebuilt: None,
-            unmoved: false,
-        };
+        let input = open_input(&radius, &ids, &moves, (64, 0.01));
         assert!(min_gap(&xs, &ys, 0.5) < 0.5);
         let (mut x1, mut y1) = (xs.clone(), ys.clone());
         let (mut x2, mut y2) = (xs.clone(), ys.clone());
@@ -607,17 +612,7 @@ mod tests {
             let (mut x, mut y, r) = (take(&xs), take(&ys), take(&radius));
             let ids: Vec<AgentId> = (0..n).map(|k| ids[order(k)]).collect();
             let moves: Vec<bool> = (0..n).map(|k| moves[order(k)]).collect();
-            let input = ContactInput {
-                bounds: Bounds::Open,
-                radius: &r,
-                ids: &ids,
-                moves: &moves,
-                near: &moves,
-                iterations: 2,
-                tolerance: 0.0,
-                prebuilt: None,
-                unmoved: false,
-            };
+            let input = open_input(&r, &ids, &moves, (2, 0.0));
             resolve(
                 &input,
                 &mut x,
@@ -740,17 +735,7 @@ mod tests {
         let radius = vec![0.5; n];
         let ids: Vec<AgentId> = (0..n as u32).rev().map(AgentId).collect();
         let all = vec![true; n];
-        let input = ContactInput {
-            bounds: Bounds::Open,
-            radius: &radius,
-            ids: &ids,
-            moves: &all,
-            near: &all,
-            iterations: 1,
-            tolerance: 0.03,
-            prebuilt: None,
-            unmoved: false,
-        };
+        let input = open_input(&radius, &ids, &all, (1, 0.03));
         let (mut xs, mut ys) = (sx.clone(), sy.clone());
         for k in 0..n {
             xs[k] += mv[k].0;
