@@ -191,22 +191,40 @@ struct Acc {
 impl Acc {
     /// The lanes summed (as trees); `shared`: cohesion counts the alignment neighbours.
     #[inline(always)]
-    fn sums(&self, shared: bool) -> NeighbourSums {
-        let alignment_count = tree_sum(&self.an);
-        NeighbourSums {
-            separation: Vec2::new(tree_sum(&self.sx), tree_sum(&self.sy)),
-            alignment: Vec2::new(tree_sum(&self.ax), tree_sum(&self.ay)),
-            alignment_count,
-            cohesion: Vec2::new(tree_sum(&self.cx), tree_sum(&self.cy)),
-            cohesion_count: if shared {
-                alignment_count
-            } else {
-                tree_sum(&self.cn)
-            },
-            repulsion: Vec2::ZERO,
-            count: tree_sum(&self.n),
-            heading: Vec2::ZERO,
-        }
+    fn reduced(&self, shared: bool) -> Reduced {
+        let an = tree_sum(&self.an);
+        [
+            tree_sum(&self.sx),
+            tree_sum(&self.sy),
+            tree_sum(&self.ax),
+            tree_sum(&self.ay),
+            an,
+            tree_sum(&self.cx),
+            tree_sum(&self.cy),
+            if shared { an } else { tree_sum(&self.cn) },
+            tree_sum(&self.n),
+        ]
+    }
+}
+
+/// One agent's kernel sums, reduced: separation x and y, alignment x and y, alignment's count,
+/// cohesion x and y, cohesion's count, neighbours within the query radius. A Vicsek sum holds
+/// the summed unit headings in alignment's place and their number in the last.
+type Reduced = [f32; 9];
+
+/// The [`NeighbourSums`] of a flocking query's reduced sums.
+#[inline(always)]
+fn flock_sums(r: &Reduced) -> NeighbourSums {
+    let [sx, sy, ax, ay, an, cx, cy, cn, n] = *r;
+    NeighbourSums {
+        separation: Vec2::new(sx, sy),
+        alignment: Vec2::new(ax, ay),
+        alignment_count: an,
+        cohesion: Vec2::new(cx, cy),
+        cohesion_count: cn,
+        repulsion: Vec2::ZERO,
+        count: n,
+        heading: Vec2::ZERO,
     }
 }
 
@@ -362,7 +380,8 @@ pub(crate) fn run(view: &SteerView, out: &mut CellOut, parallel: bool) -> bool {
 /// One task's chunks of the batch's columns: linear x and y, neighbours found.
 type Columns<'c> = (&'c mut [f32], &'c mut [f32], &'c mut [f32]);
 
-/// Agents whose sums one kernel call computes (one cell, one group).
+/// Agents whose sums one kernel call computes in a batch (one cell, one group, when a task's
+/// groups are mixed).
 const CELL_BATCH: usize = 32;
 
 /// One agent's numbers for the lane kernel.
@@ -375,6 +394,54 @@ struct Agent {
     g: f32,
 }
 
+/// The agents of one kernel call, as columns of one length: a run of the grid's cell-ordered
+/// positions and copies, or a batch's arrays.
+#[derive(Clone, Copy)]
+struct AgentCols<'a> {
+    x: &'a [f32],
+    y: &'a [f32],
+    /// Unit headings; `None` when no query reads them (no view cone), which the kernel then
+    /// takes as zeros.
+    h: Option<(&'a [f32], &'a [f32])>,
+    g: &'a [f32],
+}
+
+impl AgentCols<'_> {
+    /// The number of agents.
+    fn len(&self) -> usize {
+        self.x.len()
+    }
+
+    /// Agent `k`.
+    #[inline(always)]
+    fn at(&self, k: usize) -> Agent {
+        let (hx, hy) = self.h.map_or((0.0, 0.0), |(hx, hy)| (hx[k], hy[k]));
+        Agent {
+            x: self.x[k],
+            y: self.y[k],
+            hx,
+            hy,
+            g: self.g[k],
+        }
+    }
+}
+
+/// Where a kernel call writes its agents' sums in the task's [`Runs`]: at consecutive slots from
+/// `start`, or at the slots listed.
+#[derive(Clone, Copy)]
+struct Slots<'a> {
+    start: usize,
+    list: Option<&'a [usize]>,
+}
+
+impl Slots<'_> {
+    /// The slot of agent `k`.
+    #[inline(always)]
+    fn at(&self, k: usize) -> usize {
+        self.list.map_or(self.start + k, |l| l[k])
+    }
+}
+
 /// The outputs of one parallel task, indexed from its first grid position.
 struct Outputs<'o> {
     base: usize,
@@ -384,13 +451,42 @@ struct Outputs<'o> {
     /// The sums of summed groups' agents, for their per-agent evaluation (empty when no group
     /// is summed).
     sums: &'o mut [NeighbourSums],
-    /// The flocking agents' sums, waiting for [`Outputs::finish`].
+    /// The agents' sums, waiting for [`Outputs::finish`].
     runs: &'o mut Runs,
     /// The copies in the grid's order (the flocking agents' velocities).
     sorted: &'o SortedCopies,
 }
 
 impl Outputs<'_> {
+    /// Files the sums the kernel wrote at slot `j` for the agent at grid position `p` (storage
+    /// index `i`) of `group`: a flocking or Vicsek agent waits in the runs for
+    /// [`Outputs::finish`]; a summed group's agent gets its sums without itself.
+    #[inline(always)]
+    fn settle(&mut self, view: &SteerView, group: usize, (j, p, i): (usize, usize, usize)) {
+        let plan = &view.plans[group];
+        let runs = &mut *self.runs;
+        assert!(j < CELL_CHUNK, "a slot of the task");
+        match plan.kind {
+            PlanKind::Flock { .. } => {
+                // The sums still hold the agent itself: `finish` takes it out in lanes.
+                runs.mark[j] = group as u32 + 1;
+                runs.max_speed[j] = view.agents.max_speed[i];
+            }
+            PlanKind::Vicsek { .. } => {
+                // The summed headings wait too: the turns, the headings and the adapter then run
+                // over each run of the group in lanes (`vicsek_run`).
+                runs.mark[j] = group as u32 + 1;
+                runs.id[j] = view.agents.ids[i].0;
+                runs.max_speed[j] = view.agents.max_speed[i];
+            }
+            _ => {
+                // A summed plan: the sums alone, for the agent's evaluation in the pass.
+                let velocity = Vec2::new(self.sorted.vx[p], self.sorted.vy[p]);
+                self.sums[j] = without_self(runs.sums_at(j), velocity, &plan.spec);
+            }
+        }
+    }
+
     /// Runs the flocking terms and the model adapter over every run of agents of one flocking
     /// group (in the task's grid order) and writes their results.
     fn finish(&mut self, view: &SteerView) {
@@ -437,72 +533,52 @@ impl Outputs<'_> {
     }
 }
 
-/// The agents of one cell and group waiting for their kernel call.
+/// The agents of one cell and group waiting for their kernel call, when a task's groups are
+/// mixed.
 struct Batch {
-    agents: [Agent; CELL_BATCH],
-    /// `(grid position, storage index)` per agent.
-    slots: [(usize, usize); CELL_BATCH],
-    sums: [NeighbourSums; CELL_BATCH],
+    x: [f32; CELL_BATCH],
+    y: [f32; CELL_BATCH],
+    hx: [f32; CELL_BATCH],
+    hy: [f32; CELL_BATCH],
+    g: [f32; CELL_BATCH],
+    /// Per agent: its slot in the task's runs, its grid position, its storage index.
+    slot: [usize; CELL_BATCH],
+    p: [usize; CELL_BATCH],
+    i: [usize; CELL_BATCH],
     len: usize,
     group: usize,
 }
 
 impl Batch {
-    /// Computes the batch's sums over `buf`: Vicsek requests right away, flocking sums into the
-    /// task's waiting columns.
-    fn run(
-        &mut self,
-        view: &SteerView,
-        sorted: &SortedCopies,
-        q: &Query,
-        buf: &CellBuf,
-        out: &mut Outputs,
-    ) {
+    /// Computes the batch's sums over `buf` into the task's runs and files them.
+    fn run(&mut self, view: &SteerView, q: &Query, buf: &CellBuf, out: &mut Outputs) {
         let m = self.len;
         if m == 0 {
             return;
         }
-        let agents = &self.agents[..m];
-        kernel_cell(buf, q, agents, &mut self.sums[..m]);
-        let plan = &view.plans[self.group];
-        if let PlanKind::Vicsek { .. } = plan.kind {
-            // The summed headings wait in the task's columns: the turns, the headings and the
-            // adapter then run over each run of the group in lanes (`vicsek_run`).
-            for k in 0..m {
-                let (p, i) = self.slots[k];
-                let s = &self.sums[k];
-                let a = view.agents;
-                out.runs
-                    .put_vicsek(p - out.base, self.group, s, a.ids[i].0, a.max_speed[i]);
-            }
-            self.len = 0;
-            return;
-        }
-        if !matches!(plan.kind, PlanKind::Flock { .. }) {
-            // A summed plan: the sums alone, for the agent's evaluation in the pass.
-            for k in 0..m {
-                let p = self.slots[k].0;
-                let velocity = Vec2::new(sorted.vx[p], sorted.vy[p]);
-                out.sums[p - out.base] = without_self(self.sums[k], velocity, &plan.spec);
-            }
-            self.len = 0;
-            return;
-        }
-        // The sums still hold the agent itself: `Outputs::finish` takes it out in lanes.
+        let agents = AgentCols {
+            x: &self.x[..m],
+            y: &self.y[..m],
+            h: Some((&self.hx[..m], &self.hy[..m])),
+            g: &self.g[..m],
+        };
+        let slots = Slots {
+            start: 0,
+            list: Some(&self.slot[..m]),
+        };
+        kernel_cell(buf, q, &agents, slots, out.runs);
         for k in 0..m {
-            let (p, i) = self.slots[k];
-            let max_speed = view.agents.max_speed[i];
-            out.runs
-                .put(p - out.base, self.group, &self.sums[k], max_speed);
+            out.settle(view, self.group, (self.slot[k], self.p[k], self.i[k]));
         }
         self.len = 0;
     }
 }
 
 /// The batch over grid positions `base..base + lx.len()`: per cell, the neighbourhood is
-/// gathered once and the sums of its agents computed over it in one kernel call; once every
-/// cell is done, the sums of each run of agents of one group go through the flocking terms and
-/// the model adapter together ([`Outputs::finish`]).
+/// gathered once and the sums of its agents computed over it in one kernel call (with one
+/// batched group, every agent of the cell straight from the grid's columns; otherwise in
+/// batches of one group); once every cell is done, the sums of each run of agents of one group
+/// go through the flocking terms and the model adapter together ([`Outputs::finish`]).
 #[allow(clippy::too_many_arguments)]
 #[multiversion(targets(
     "x86_64+avx2+fma+avx512f+avx512vl+avx512bw+avx512dq",
@@ -533,67 +609,85 @@ fn chunk(
         runs,
         sorted,
     };
-    let mut batch = Batch {
-        agents: [Agent::default(); CELL_BATCH],
-        slots: [(0, 0); CELL_BATCH],
-        sums: [NeighbourSums::default(); CELL_BATCH],
-        len: 0,
-        group: 0,
-    };
-    let single = specs.len() == 1 && specs[0].is_some();
     let (xs, ys) = grid.sorted_padded();
+    let h = sorted.headings.then_some((&sorted.hx[..], &sorted.hy[..]));
     // The first cell holding position `base`.
     let mut cell = starts.partition_point(|&s| s as usize <= base) - 1;
     let mut k = base;
+    if let [Some(q)] = specs {
+        // One batched group: every agent of a cell is its, in one kernel call that reads the
+        // agents from the grid's columns and writes their sums in place.
+        while k < end {
+            while starts[cell + 1] as usize <= k {
+                cell += 1;
+            }
+            let cell_end = (starts[cell + 1] as usize).min(end);
+            if k < cell_end {
+                gather(grid, sorted, view.bounds, cell, groups, headings, buf);
+                let agents = AgentCols {
+                    x: &xs[k..cell_end],
+                    y: &ys[k..cell_end],
+                    h: h.map(|(hx, hy)| (&hx[k..cell_end], &hy[k..cell_end])),
+                    g: &sorted.g[k..cell_end],
+                };
+                let slots = Slots {
+                    start: k - base,
+                    list: None,
+                };
+                kernel_cell(buf, q, &agents, slots, out.runs);
+            }
+            k = cell_end;
+        }
+        for (p, &i) in (base..end).zip(&order[base..end]) {
+            out.settle(view, 0, (p - base, p, i as usize));
+        }
+        out.finish(view);
+        return;
+    }
+    let mut batch = Batch {
+        x: [0.0; CELL_BATCH],
+        y: [0.0; CELL_BATCH],
+        hx: [0.0; CELL_BATCH],
+        hy: [0.0; CELL_BATCH],
+        g: [0.0; CELL_BATCH],
+        slot: [0; CELL_BATCH],
+        p: [0; CELL_BATCH],
+        i: [0; CELL_BATCH],
+        len: 0,
+        group: 0,
+    };
     while k < end {
         while starts[cell + 1] as usize <= k {
             cell += 1;
         }
         let cell_end = (starts[cell + 1] as usize).min(end);
         let mut gathered = false;
-        #[allow(clippy::needless_range_loop)]
         for p in k..cell_end {
-            // One batched group: every agent is its, and no group number is read.
-            let g = if single {
-                0
-            } else {
-                let g = sorted.g[p] as usize;
-                if specs[g].is_none() {
-                    continue;
-                }
-                g
-            };
+            let g = sorted.g[p] as usize;
+            if specs[g].is_none() {
+                continue;
+            }
             if !gathered {
                 gather(grid, sorted, view.bounds, cell, groups, headings, buf);
                 gathered = true;
             }
             if batch.len == CELL_BATCH || (batch.len > 0 && batch.group != g) {
                 let q = specs[batch.group].as_ref().expect("batched");
-                batch.run(view, sorted, q, buf, &mut out);
+                batch.run(view, q, buf, &mut out);
             }
-            let i = order[p] as usize;
+            let m = batch.len;
             // The unit heading from the copies; they have none when no batched query has a
             // view cone, and then no kernel reads it.
-            let (hx, hy) = if sorted.headings {
-                (sorted.hx[p], sorted.hy[p])
-            } else {
-                (0.0, 0.0)
-            };
-            batch.agents[batch.len] = Agent {
-                x: xs[p],
-                y: ys[p],
-                hx,
-                hy,
-                g: sorted.g[p],
-            };
-            batch.slots[batch.len] = (p, i);
+            (batch.hx[m], batch.hy[m]) = h.map_or((0.0, 0.0), |(hx, hy)| (hx[p], hy[p]));
+            (batch.x[m], batch.y[m], batch.g[m]) = (xs[p], ys[p], sorted.g[p]);
+            (batch.slot[m], batch.p[m], batch.i[m]) = (p - base, p, order[p] as usize);
             batch.group = g;
             batch.len += 1;
         }
         // The buffer belongs to this cell: its batch runs before the next cell gathers.
         if batch.len > 0 {
             let q = specs[batch.group].as_ref().expect("batched");
-            batch.run(view, sorted, q, buf, &mut out);
+            batch.run(view, q, buf, &mut out);
         }
         k = cell_end;
     }
@@ -661,19 +755,34 @@ impl Runs {
         self.mark[..n].fill(0);
     }
 
-    /// Puts the sums of the agent at slot `j` (of `group`), the agent itself still in them
-    /// (as the kernel summed its buffer).
+    /// Writes the kernel's sums of the agent at slot `j`, the agent itself still in them (as
+    /// the kernel summed its buffer).
     #[inline(always)]
-    fn put(&mut self, j: usize, group: usize, s: &NeighbourSums, max_speed: f32) {
+    fn set(&mut self, j: usize, r: &Reduced) {
         assert!(j < CELL_CHUNK, "a slot of the task");
-        self.mark[j] = group as u32 + 1;
-        (self.sep[0][j], self.sep[1][j]) = (s.separation.x, s.separation.y);
-        (self.ali[0][j], self.ali[1][j]) = (s.alignment.x, s.alignment.y);
-        self.ali_n[j] = s.alignment_count;
-        (self.coh[0][j], self.coh[1][j]) = (s.cohesion.x, s.cohesion.y);
-        self.coh_n[j] = s.cohesion_count;
-        self.max_speed[j] = max_speed;
-        self.count[j] = s.count;
+        let [sx, sy, ax, ay, an, cx, cy, cn, n] = *r;
+        (self.sep[0][j], self.sep[1][j]) = (sx, sy);
+        (self.ali[0][j], self.ali[1][j]) = (ax, ay);
+        self.ali_n[j] = an;
+        (self.coh[0][j], self.coh[1][j]) = (cx, cy);
+        self.coh_n[j] = cn;
+        self.count[j] = n;
+    }
+
+    /// The flocking sums held at slot `j`.
+    #[inline(always)]
+    fn sums_at(&self, j: usize) -> NeighbourSums {
+        flock_sums(&[
+            self.sep[0][j],
+            self.sep[1][j],
+            self.ali[0][j],
+            self.ali[1][j],
+            self.ali_n[j],
+            self.coh[0][j],
+            self.coh[1][j],
+            self.coh_n[j],
+            self.count[j],
+        ])
     }
 
     /// [`without_self`] over the agents at `range`, whose velocities are `(vx, vy)`: the same
@@ -708,18 +817,6 @@ impl Runs {
                 *c -= 1.0;
             }
         }
-    }
-
-    /// Puts the Vicsek sums of the agent at slot `j` (of `group`, id `id`): the summed unit
-    /// headings (its own included) in `ali`, the count in `count`.
-    #[inline(always)]
-    fn put_vicsek(&mut self, j: usize, group: usize, s: &NeighbourSums, id: u32, max_speed: f32) {
-        assert!(j < CELL_CHUNK, "a slot of the task");
-        self.mark[j] = group as u32 + 1;
-        (self.ali[0][j], self.ali[1][j]) = (s.heading.x, s.heading.y);
-        self.id[j] = id;
-        self.max_speed[j] = max_speed;
-        self.count[j] = s.count;
     }
 }
 
@@ -1113,7 +1210,7 @@ impl Query {
     }
 }
 
-/// The sums of every agent of `agents` over one cell buffer.
+/// The sums of every agent of `agents` over one cell buffer, written into `runs` at `slots`.
 ///
 /// Where the processor has AVX-512, the flock's shape runs two agents at a time, one per half of
 /// a 16-lane vector ([`avx512::pairs`]); each half gives the bits of the 8-lane kernel, so the
@@ -1128,7 +1225,7 @@ impl Query {
     "x86_64+avx2+fma",
     "x86_64+avx"
 ))]
-fn kernel_cell(buf: &CellBuf, q: &Query, agents: &[Agent], out: &mut [NeighbourSums]) {
+fn kernel_cell(buf: &CellBuf, q: &Query, agents: &AgentCols, slots: Slots, runs: &mut Runs) {
     // Also true in every version when the build itself targets a CPU with AVX-512 (`-C
     // target-cpu=native` on such a machine): the binary then runs only where it is present.
     #[target_cfg(all(
@@ -1145,12 +1242,12 @@ fn kernel_cell(buf: &CellBuf, q: &Query, agents: &[Agent], out: &mut [NeighbourS
                   the features; it has them, from its target or from the build's (without the \
                   block, a build with `-C target-cpu=native` on an AVX-512 machine fails)"
     )]
-    fn pairs(buf: &CellBuf, q: &Query, agents: &[Agent], out: &mut [NeighbourSums]) -> usize {
+    fn pairs(buf: &CellBuf, q: &Query, agents: &AgentCols, slots: Slots, runs: &mut Runs) -> usize {
         // SAFETY: this function is compiled only where AVX-512F, DQ and VL, AVX2 and FMA are
         // enabled (in the version for multiversion's AVX-512 target, chosen at run time only
         // where the processor has them, or in every version of a build whose own target has
         // them): the features `avx512::pairs` needs.
-        unsafe { avx512::pairs(buf, q, agents, out) }
+        unsafe { avx512::pairs(buf, q, agents, slots, runs) }
     }
     #[target_cfg(not(all(
         target_arch = "x86_64",
@@ -1160,18 +1257,17 @@ fn kernel_cell(buf: &CellBuf, q: &Query, agents: &[Agent], out: &mut [NeighbourS
         target_feature = "avx2",
         target_feature = "fma"
     )))]
-    fn pairs(_: &CellBuf, _: &Query, _: &[Agent], _: &mut [NeighbourSums]) -> usize {
+    fn pairs(_: &CellBuf, _: &Query, _: &AgentCols, _: Slots, _: &mut Runs) -> usize {
         0
     }
-    let paired = pairs(buf, q, agents, out);
-    let (agents, out) = (&agents[paired..], &mut out[paired..]);
+    let paired = pairs(buf, q, agents, slots, runs);
     // The body is chosen once per call, then runs for every agent: each arm its own loop, with
     // the body called directly, so that it is inlined and compiled for this target (called
     // through a pointer, a body is the baseline build).
     macro_rules! each {
         ($body:expr) => {
-            for (a, o) in agents.iter().zip(out.iter_mut()) {
-                *o = $body(buf, &q.at(a));
+            for k in paired..agents.len() {
+                runs.set(slots.at(k), &$body(buf, &q.at(&agents.at(k))));
             }
         };
     }
@@ -1237,7 +1333,7 @@ fn tree_sum(a: &[f32; KLANES]) -> f32 {
 fn shared<const CONE: u8, const GROUPS: bool, const Q_AC: bool>(
     buf: &CellBuf,
     q: &Query,
-) -> NeighbourSums {
+) -> Reduced {
     shared_over::<CONE, GROUPS, Q_AC>(buf, q, (&buf.vx, &buf.vy))
 }
 
@@ -1247,7 +1343,7 @@ fn shared_over<const CONE: u8, const GROUPS: bool, const Q_AC: bool>(
     buf: &CellBuf,
     q: &Query,
     motion: (&[f32], &[f32]),
-) -> NeighbourSums {
+) -> Reduced {
     let z = [0.0_f32; KLANES];
     let (mut sx, mut sy, mut ax, mut ay, mut an, mut cx, mut cy, mut n) = (z, z, z, z, z, z, z, z);
     let (r_sep, r_ac, c2) = (q.r_sq[SEP], q.r_sq[ALI], q.c2[ALI]);
@@ -1295,17 +1391,17 @@ fn shared_over<const CONE: u8, const GROUPS: bool, const Q_AC: bool>(
         cn: z,
         n,
     }
-    .sums(true)
+    .reduced(true)
 }
 
 /// The Vicsek sum: the unit headings of every agent within the radius, the agent itself
-/// included (in `heading`), and their number (in `count`). The flock's kernel with the headings
+/// included (in alignment's place), and their number (in the last). The flock's kernel with the headings
 /// in the velocities' place, alignment's radius the Vicsek radius, all round, any group, and
 /// separation off: its alignment sum and count are the masked sums of the headings and of ones
 /// over the neighbourhood in eight lanes (a kernel of its own, with three accumulators, came out
 /// of the compiler as pairs of lanes and took twice the instructions).
 #[inline(always)]
-fn vicsek(buf: &CellBuf, q: &Query) -> NeighbourSums {
+fn vicsek(buf: &CellBuf, q: &Query) -> Reduced {
     let r = q.vicsek_r_sq;
     let flock = Query {
         r_sq: [-1.0, r, r],
@@ -1315,17 +1411,12 @@ fn vicsek(buf: &CellBuf, q: &Query) -> NeighbourSums {
         any_group: [true; 3],
         ..*q
     };
-    let s = shared_over::<0, false, true>(buf, &flock, (&buf.hx, &buf.hy));
-    NeighbourSums {
-        heading: s.alignment,
-        count: s.count,
-        ..NeighbourSums::default()
-    }
+    shared_over::<0, false, true>(buf, &flock, (&buf.hx, &buf.hy))
 }
 
 /// Any shape: a mask per slot, view cones by their kind per slot.
 #[inline(always)]
-fn general<const GROUPS: bool>(buf: &CellBuf, q: &Query) -> NeighbourSums {
+fn general<const GROUPS: bool>(buf: &CellBuf, q: &Query) -> Reduced {
     let z = [0.0_f32; KLANES];
     let (mut sx, mut sy, mut ax, mut ay, mut an, mut cx, mut cy, mut cn, mut n) =
         (z, z, z, z, z, z, z, z, z);
@@ -1371,7 +1462,7 @@ fn general<const GROUPS: bool>(buf: &CellBuf, q: &Query) -> NeighbourSums {
         cn,
         n,
     }
-    .sums(false)
+    .reduced(false)
 }
 
 #[cfg(test)]
@@ -1383,6 +1474,55 @@ mod tests {
 
     /// The bits of every sum.
     fn bits(s: &NeighbourSums) -> [u32; 9] {
+        reduced_of(s).map(f32::to_bits)
+    }
+
+    /// The sums of `agents` through the dispatched kernel, read back from the runs; with
+    /// `listed`, written at slots given as a list (in reverse order) rather than from slot 0.
+    fn kernel_sums(buf: &CellBuf, q: &Query, agents: &[Agent], listed: bool) -> Vec<Reduced> {
+        let col = |f: fn(&Agent) -> f32| agents.iter().map(f).collect::<Vec<f32>>();
+        let (x, y, hx, hy, g) = (
+            col(|a| a.x),
+            col(|a| a.y),
+            col(|a| a.hx),
+            col(|a| a.hy),
+            col(|a| a.g),
+        );
+        let cols = AgentCols {
+            x: &x,
+            y: &y,
+            h: Some((&hx, &hy)),
+            g: &g,
+        };
+        let n = agents.len();
+        let list: Vec<usize> = (0..n).rev().collect();
+        let slots = Slots {
+            start: 0,
+            list: listed.then_some(&list[..]),
+        };
+        let mut runs = Runs::default();
+        kernel_cell(buf, q, &cols, slots, &mut runs);
+        (0..n)
+            .map(|k| {
+                let j = slots.at(k);
+                let c = |v: &Column| v[j];
+                [
+                    c(&runs.sep[0]),
+                    c(&runs.sep[1]),
+                    c(&runs.ali[0]),
+                    c(&runs.ali[1]),
+                    c(&runs.ali_n),
+                    c(&runs.coh[0]),
+                    c(&runs.coh[1]),
+                    c(&runs.coh_n),
+                    c(&runs.count),
+                ]
+            })
+            .collect()
+    }
+
+    /// The reduced form of `s`, as the kernel writes it.
+    fn reduced_of(s: &NeighbourSums) -> Reduced {
         [
             s.separation.x,
             s.separation.y,
@@ -1394,7 +1534,6 @@ mod tests {
             s.cohesion_count,
             s.count,
         ]
-        .map(f32::to_bits)
     }
 
     /// A gathered buffer of `m` random candidates (some exactly on the agents, some on the radii)
@@ -1482,11 +1621,15 @@ mod tests {
             let r_sq: f32 = [1.0, 4.0, 9.0][case % 3];
             let mut q = Query::of(&NeighbourSpec::default(), true);
             (q.vicsek_r_sq, q.mode) = (r_sq, VICSEK);
-            let mut out = vec![NeighbourSums::default(); agents.len()];
-            kernel_cell(&buf, &q, &agents, &mut out);
+            let out = kernel_sums(&buf, &q, &agents, case % 2 == 0);
             for (a, got) in agents.iter().zip(&out) {
                 let want = vicsek_lanes(&buf, a, r_sq);
-                assert_eq!(bits(got), bits(&want), "case {case}: {got:?} vs {want:?}");
+                let got = NeighbourSums {
+                    heading: Vec2::new(got[2], got[3]),
+                    count: got[8],
+                    ..NeighbourSums::default()
+                };
+                assert_eq!(bits(&got), bits(&want), "case {case}: {got:?} vs {want:?}");
                 seen += usize::from(want.count > 1.0);
             }
         }
@@ -1509,19 +1652,6 @@ mod tests {
         }
     }
 
-    /// The sums [`Runs`] holds at slot `j`.
-    fn held(r: &Runs, j: usize) -> NeighbourSums {
-        NeighbourSums {
-            separation: Vec2::new(r.sep[0][j], r.sep[1][j]),
-            alignment: Vec2::new(r.ali[0][j], r.ali[1][j]),
-            alignment_count: r.ali_n[j],
-            cohesion: Vec2::new(r.coh[0][j], r.coh[1][j]),
-            cohesion_count: r.coh_n[j],
-            count: r.count[j],
-            ..NeighbourSums::default()
-        }
-    }
-
     #[test]
     fn without_self_over_a_run_equals_without_self_per_agent_bit_for_bit() {
         // Every pattern of the separation, alignment and cohesion flags; a run that starts inside
@@ -1539,7 +1669,7 @@ mod tests {
             let sums: Vec<NeighbourSums> = (0..slots).map(|_| random_sums(&mut rng)).collect();
             let mut runs = Runs::default();
             for (j, s) in sums.iter().enumerate() {
-                runs.put(j, 0, s, 1.0);
+                runs.set(j, &reduced_of(s));
             }
             let vel: Vec<Vec2> = range
                 .clone()
@@ -1556,7 +1686,7 @@ mod tests {
                     }
                     _ => *s,
                 };
-                let got = held(&runs, j);
+                let got = runs.sums_at(j);
                 assert_eq!(
                     bits(&got),
                     bits(&want),
@@ -1612,8 +1742,7 @@ mod tests {
             }
             let m = rng.random_range(1..120);
             let buf = buffer(&mut rng, m, &agents);
-            let mut out = vec![NeighbourSums::default(); n];
-            kernel_cell(&buf, &query, &agents, &mut out);
+            let out = kernel_sums(&buf, &query, &agents, case % 2 == 1);
             for (a, got) in agents.iter().zip(&out) {
                 let q = query.at(a);
                 let want = match (cone, groups, q_ac) {
@@ -1630,7 +1759,8 @@ mod tests {
                     (1, true, true) => shared::<1, true, true>(&buf, &q),
                     _ => shared::<2, true, true>(&buf, &q),
                 };
-                assert_eq!(bits(got), bits(&want), "case {case}: {got:?} vs {want:?}");
+                let (got, want) = (flock_sums(got), flock_sums(&want));
+                assert_eq!(bits(&got), bits(&want), "case {case}: {got:?} vs {want:?}");
                 seen[0] += usize::from(want.separation != Vec2::ZERO);
                 seen[1] += usize::from(want.alignment_count > 0.0);
             }

@@ -21,20 +21,19 @@
 
 use std::arch::x86_64::*;
 
-use glam::Vec2;
-
-use super::{Agent, CellBuf, KLANES, Query, VICSEK};
+use super::{Agent, AgentCols, CellBuf, KLANES, Query, Reduced, Runs, Slots, VICSEK};
 use crate::steer::plan::{ALI, SEP};
-use crate::steering::NeighbourSums;
 
-/// The sums of the leading pairs of `agents` (all of them but an odd last one) into `out`, when
-/// the query has the flock's shape; returns how many agents it served (0 for other shapes).
+/// The sums of the leading pairs of `agents` (all of them but an odd last one) into `runs` at
+/// `slots`, when the query has the flock's shape; returns how many agents it served (0 for
+/// other shapes).
 #[target_feature(enable = "avx512f,avx512dq,avx512vl,avx2,fma")]
 pub(super) fn pairs(
     buf: &CellBuf,
     q: &Query,
-    agents: &[Agent],
-    out: &mut [NeighbourSums],
+    agents: &AgentCols,
+    slots: Slots,
+    runs: &mut Runs,
 ) -> usize {
     if q.mode & 8 != 0 || q.mode == VICSEK {
         return 0;
@@ -56,12 +55,11 @@ pub(super) fn pairs(
             _ => shared_pair::<2, true, true>(buf, &a, &b),
         }
     };
-    let m = agents.len().min(out.len()) / 2 * 2;
-    for (ab, o) in agents[..m]
-        .chunks_exact(2)
-        .zip(out[..m].chunks_exact_mut(2))
-    {
-        (o[0], o[1]) = pair(&ab[0], &ab[1]);
+    let m = agents.len() / 2 * 2;
+    for k in (0..m).step_by(2) {
+        let [ra, rb] = pair(&agents.at(k), &agents.at(k + 1));
+        runs.set(slots.at(k), &reduced(&ra));
+        runs.set(slots.at(k + 1), &reduced(&rb));
     }
     m
 }
@@ -139,21 +137,12 @@ fn reduce(acc: &[__m512; 8]) -> [[f32; 8]; 2] {
     ]
 }
 
-/// One agent's sums from its reduced accumulators, as [`super::Acc::sums`] with a shared
-/// alignment and cohesion count.
+/// One agent's sums from its reduced accumulators, as [`super::Acc::reduced`] gives them with a
+/// shared alignment and cohesion count.
 #[inline]
-fn sums(r: &[f32; 8]) -> NeighbourSums {
+fn reduced(r: &[f32; 8]) -> Reduced {
     let [sx, sy, ax, ay, an, cx, cy, n] = *r;
-    NeighbourSums {
-        separation: Vec2::new(sx, sy),
-        alignment: Vec2::new(ax, ay),
-        alignment_count: an,
-        cohesion: Vec2::new(cx, cy),
-        cohesion_count: an,
-        repulsion: Vec2::ZERO,
-        count: n,
-        heading: Vec2::ZERO,
-    }
+    [sx, sy, ax, ay, an, cx, cy, an, n]
 }
 
 /// [`super::shared`] for agents `a` and `b` (one template: the same radii, cones and group
@@ -164,7 +153,7 @@ fn shared_pair<const CONE: u8, const GROUPS: bool, const Q_AC: bool>(
     buf: &CellBuf,
     a: &Query,
     b: &Query,
-) -> (NeighbourSums, NeighbourSums) {
+) -> [[f32; 8]; 2] {
     let zero = _mm512_setzero_ps();
     let one = _mm512_set1_ps(1.0);
     let tiny = _mm512_set1_ps(f32::MIN_POSITIVE);
@@ -223,8 +212,7 @@ fn shared_pair<const CONE: u8, const GROUPS: bool, const Q_AC: bool>(
         };
         n = _mm512_mask_add_ps(n, counted, n, one);
     }
-    let [ra, rb] = reduce(&[sx, sy, ax, ay, an, cx, cy, n]);
-    (sums(&ra), sums(&rb))
+    reduce(&[sx, sy, ax, ay, an, cx, cy, n])
 }
 
 #[cfg(test)]
