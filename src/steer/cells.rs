@@ -487,6 +487,33 @@ impl Outputs<'_> {
         }
     }
 
+    /// [`Outputs::settle`] for every agent of the task, all of group 0, whose storage indices
+    /// are `order`: the plan's kind chosen once, then one loop per column.
+    fn settle_all(&mut self, view: &SteerView, order: &[u32]) {
+        let plan = &view.plans[0];
+        let n = order.len();
+        let runs = &mut *self.runs;
+        assert!(n <= CELL_CHUNK, "a task's agents");
+        let waits = matches!(plan.kind, PlanKind::Flock { .. } | PlanKind::Vicsek { .. });
+        if !waits {
+            for (p, &i) in (self.base..).zip(order) {
+                self.settle(view, 0, (p - self.base, p, i as usize));
+            }
+            return;
+        }
+        runs.mark[..n].fill(1);
+        let max_speed = &view.agents.max_speed;
+        for (m, &i) in runs.max_speed[..n].iter_mut().zip(order) {
+            *m = max_speed[i as usize];
+        }
+        if let PlanKind::Vicsek { .. } = plan.kind {
+            let ids = &view.agents.ids;
+            for (id, &i) in runs.id[..n].iter_mut().zip(order) {
+                *id = ids[i as usize].0;
+            }
+        }
+    }
+
     /// Runs the flocking terms and the model adapter over every run of agents of one flocking
     /// group (in the task's grid order) and writes their results.
     fn finish(&mut self, view: &SteerView) {
@@ -638,9 +665,7 @@ fn chunk(
             }
             k = cell_end;
         }
-        for (p, &i) in (base..end).zip(&order[base..end]) {
-            out.settle(view, 0, (p - base, p, i as usize));
-        }
+        out.settle_all(view, &order[base..end]);
         out.finish(view);
         return;
     }
