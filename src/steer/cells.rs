@@ -7,8 +7,10 @@
 //! seam is shifted by the world's side), so the lane kernel needs neither run boundaries nor
 //! minimum-image arithmetic. Every agent of the cell then sums over the buffer in SIMD lanes
 //! (runtime dispatch: two agents per 16-lane vector on AVX-512, clones for AVX2 + FMA and AVX,
-//! the baseline build otherwise; the same bits on each). The sums wait in columns until the
-//! task's cells are done; then the flocking terms and the model adapter run over each run of
+//! the baseline build otherwise; the same bits on each). The kernel reads the agents from
+//! columns (with one batched group, a cell's run of the grid's own positions and copies; with
+//! several, a batch of one group's agents of the cell) and writes their sums straight into the
+//! task's waiting columns, where they stay until the task's cells are done; then the flocking terms and the model adapter run over each run of
 //! agents of one group, one term at a time in long vector loops, writing the outputs in the
 //! grid's order. Vicsek sums wait the same way; their turns (each agent's draw, computed from the
 //! frame's key without a per-agent generator), headings and the adapter then run over each run
