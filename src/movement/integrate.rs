@@ -211,12 +211,7 @@ fn step_lane(l: &Lane, dt: f32) -> Out {
         (l.vx, l.vy)
     };
     let moving = hx * hx + hy * hy > 0.0;
-    let heading = atan2(hy, hx);
-    let heading = wrap_turn(if heading < 0.0 {
-        heading + TAU
-    } else {
-        heading
-    });
+    let heading = heading_turn(atan2(hy, hx));
     let clamp = |x: f32| {
         let x = if x < -l.max_rotation {
             -l.max_rotation
@@ -305,6 +300,15 @@ fn atan2(y: f32, x: f32) -> f32 {
     let r = if ay > ax { FRAC_PI_2 - r } else { r };
     let r = if x < 0.0 { PI - r } else { r };
     if y < 0.0 { -r } else { r }
+}
+
+/// An [`atan2`] angle (in `[-pi, pi]`) into `[0, 2pi)`, with the bits of `wrap_turn` of it
+/// plus a turn where negative: that sum lies in `[0, 2pi]` (or is -0, kept), so at most one turn
+/// comes off, and `wrap_turn`'s general path is never taken.
+#[inline(always)]
+fn heading_turn(h: f32) -> f32 {
+    let a = if h < 0.0 { h + TAU } else { h };
+    if a >= TAU { a - TAU } else { a }
 }
 
 /// An angle into `[0, 2pi)`: one turn added or taken away covers every step the limits allow;
@@ -493,6 +497,41 @@ mod tests {
         assert_eq!(atan2(0.0, 0.0), 0.0);
         assert_eq!(atan2(0.0, -1.0), std::f32::consts::PI);
     }
+
+    #[test]
+    fn heading_turn_gives_wrap_turn_bits_for_every_atan2_angle() {
+        // A sweep of directions at several lengths, and the edges: tiny components (an angle
+        // just below zero rounds up to a whole turn), both signs of zero, the axes.
+        let mut cases = vec![
+            (0.0_f32, 0.0_f32),
+            (-0.0, 1.0),
+            (0.0, -1.0),
+            (-0.0, -1.0),
+            (-1e-30, 1.0),
+            (-1e-7, 1.0),
+            (1e-30, -1.0),
+            (-1e-30, -1.0),
+            (-1.0, 0.0),
+            (1.0, -0.0),
+        ];
+        for k in 0..200_000 {
+            let angle = -std::f32::consts::PI + k as f32 * (std::f32::consts::TAU / 200_000.0);
+            for r in [1e-20_f32, 1.0, 3e4] {
+                cases.push((r * angle.sin(), r * angle.cos()));
+            }
+        }
+        for (y, x) in cases {
+            let h = atan2(y, x);
+            let want = wrap_turn(if h < 0.0 { h + TAU } else { h });
+            let got = heading_turn(h);
+            assert_eq!(
+                got.to_bits(),
+                want.to_bits(),
+                "atan2({y}, {x}) = {h}: {got} vs {want}"
+            );
+        }
+    }
+
     use crate::rng::AgentRng;
 
     fn params() -> Vec<IntegrationParams> {

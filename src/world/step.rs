@@ -633,7 +633,13 @@ thread_local! {
 
 /// The sum of `v` in double precision, in eight interleaved accumulators (vector lanes rather
 /// than one chain of dependent additions), then those in order: the same order on any number of
-/// threads.
+/// threads and in every dispatch target (the baseline build converts and adds two lanes at a
+/// time).
+#[multiversion::multiversion(targets(
+    "x86_64+avx2+fma+avx512f+avx512vl+avx512bw+avx512dq",
+    "x86_64+avx2+fma",
+    "x86_64+avx"
+))]
 fn sum_lanes(v: &[f32]) -> f64 {
     let (blocks, rest) = v.as_chunks::<8>();
     let mut acc = [0.0_f64; 8];
