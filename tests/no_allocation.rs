@@ -1,8 +1,10 @@
 //! Once a world is warm, a step allocates nothing: every per-frame buffer is reused. (A frame
 //! that moves a field's goals or rebuilds its channels may allocate; none of the measured
-//! frames does.)
+//! frames does.) Only the threads of the pool the steps run on are counted: the test harness's
+//! own threads allocate when they report another test's result, at any moment.
 
 use std::alloc::{GlobalAlloc, Layout, System};
+use std::cell::Cell;
 use std::sync::atomic::{AtomicBool, AtomicUsize, Ordering};
 
 use throng::scenario;
@@ -12,11 +14,22 @@ struct Counting;
 static COUNTING: AtomicBool = AtomicBool::new(false);
 static ALLOCATIONS: AtomicUsize = AtomicUsize::new(0);
 
+thread_local! {
+    /// Whether this thread is one of a counting pool's (read inside the allocator: a constant
+    /// initialiser and no destructor, so reading it never allocates).
+    static COUNTED: Cell<bool> = const { Cell::new(false) };
+}
+
+/// Whether an allocation now is to be counted.
+fn counts() -> bool {
+    COUNTING.load(Ordering::Relaxed) && COUNTED.with(Cell::get)
+}
+
 // SAFETY: forwards to the system allocator unchanged; only counts calls.
 #[allow(unsafe_code)]
 unsafe impl GlobalAlloc for Counting {
     unsafe fn alloc(&self, layout: Layout) -> *mut u8 {
-        if COUNTING.load(Ordering::Relaxed) {
+        if counts() {
             ALLOCATIONS.fetch_add(1, Ordering::Relaxed);
         }
         // SAFETY: same contract as the caller's.
@@ -27,7 +40,7 @@ unsafe impl GlobalAlloc for Counting {
         unsafe { System.dealloc(ptr, layout) }
     }
     unsafe fn realloc(&self, ptr: *mut u8, layout: Layout, new_size: usize) -> *mut u8 {
-        if COUNTING.load(Ordering::Relaxed) {
+        if counts() {
             ALLOCATIONS.fetch_add(1, Ordering::Relaxed);
         }
         // SAFETY: same contract as the caller's.
@@ -42,11 +55,12 @@ static GLOBAL: Counting = Counting;
 static ONE_AT_A_TIME: std::sync::Mutex<()> = std::sync::Mutex::new(());
 
 /// This test's turn to count, and a pool of `threads` made before counting (rayon's pool
-/// setup is not part of a step).
+/// setup is not part of a step), whose threads are counted.
 fn counting_with(threads: usize) -> (std::sync::MutexGuard<'static, ()>, rayon::ThreadPool) {
     let turn = ONE_AT_A_TIME.lock().unwrap_or_else(|e| e.into_inner());
     let pool = rayon::ThreadPoolBuilder::new()
         .num_threads(threads)
+        .start_handler(|_| COUNTED.with(|c| c.set(true)))
         .build()
         .unwrap();
     (turn, pool)
@@ -80,10 +94,25 @@ fn warm_steps_do_not_allocate() {
         } else {
             s.with_agents(3000).unwrap()
         };
+        warm_threads(&pool, &s);
         let mut w = s.build().unwrap();
         let n = warm_allocations(&pool, &mut w, s.dt);
         assert_eq!(n, 0, "{name}: {n} allocations in 8 warm steps");
     }
+}
+
+/// Every thread of `pool` steps a world of its own from `s` first (at once, so each runs its
+/// own world's tasks): the scratch some passes keep per thread is then warm on every thread,
+/// whichever of them later takes which task of the measured world. (Without it, a thread that
+/// took no task of some pass during the warm-up allocated its scratch in a measured step, at
+/// random.)
+fn warm_threads(pool: &rayon::ThreadPool, s: &scenario::Scenario) {
+    pool.broadcast(|_| {
+        let mut w = s.build().unwrap();
+        for _ in 0..8 {
+            w.step(s.dt).unwrap();
+        }
+    });
 }
 
 /// The allocations of 8 steps after 8 warm-up steps (a full reordering period), on `pool`.
@@ -109,6 +138,7 @@ fn warm_steps_with_workers_awake_do_not_allocate() {
     let (_one, pool) = counting_with(2);
     for name in ["circle", "flock"] {
         let s = scenario::builtin(name).unwrap().with_agents(5000).unwrap();
+        warm_threads(&pool, &s);
         let mut w = s.build().unwrap();
         w.set_workers_awake(true);
         let n = warm_allocations(&pool, &mut w, s.dt);

@@ -342,9 +342,17 @@ fn integrate_chunk(
     dt: f32,
 ) {
     let n = s.pos_x.len();
+    // A short first block up to the first cache line of the positions, so that the whole blocks
+    // after it load and store whole lines (the columns are allocated alike, so mostly theirs
+    // too; a vector of this size starts 16 bytes into a line, and every block then took two).
+    let lead = (LANES - (s.pos_x.as_ptr() as usize / size_of::<f32>()) % LANES) % LANES;
     let mut i = 0;
     while i < n {
-        let lanes = (n - i).min(LANES);
+        let lanes = if i == 0 && lead > 0 {
+            lead.min(n)
+        } else {
+            (n - i).min(LANES)
+        };
         // Structure of arrays, so that the loop over lanes compiles to vector instructions; a
         // short last block is padded with agents at rest, whose results are not stored.
         let mut kinematic = [false; LANES];
@@ -431,7 +439,7 @@ fn integrate_chunk(
                 d.copy_from_slice(&v[..lanes]);
             }
         }
-        i += LANES;
+        i += lanes;
     }
 }
 
