@@ -56,6 +56,7 @@
 //! - [`rng`]: the counter-based random stream keyed by (seed, agent, frame).
 //! - [`timing`]: step timings, run summaries and the benchmark report.
 //! - [`error`]: the [`Error`] type.
+//! - `lines` (internal): cache lines and the vector loops over long columns.
 //!
 //! ## Features
 //! By default the crate is the simulation core alone.
@@ -72,6 +73,7 @@ pub mod geometry;
 pub mod gravity;
 pub mod group;
 pub mod limits;
+mod lines;
 pub mod measure;
 pub mod movement;
 pub mod obstacles;

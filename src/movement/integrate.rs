@@ -343,9 +343,9 @@ fn integrate_chunk(
 ) {
     let n = s.pos_x.len();
     // A short first block up to the first cache line of the positions, so that the whole blocks
-    // after it load and store whole lines (the columns are allocated alike, so mostly theirs
-    // too; a vector of this size starts 16 bytes into a line, and every block then took two).
-    let lead = (LANES - (s.pos_x.as_ptr() as usize / size_of::<f32>()) % LANES) % LANES;
+    // after it load and store whole lines (`crate::lines`).
+    const _: () = assert!(LANES == crate::lines::LINE);
+    let lead = crate::lines::lead(s.pos_x);
     let mut i = 0;
     while i < n {
         let lanes = if i == 0 && lead > 0 {

@@ -722,15 +722,31 @@ fn chunk(
 }
 
 /// One column of [`Runs`]: a task's agents at most, so that an index checked once against
-/// [`CELL_CHUNK`] needs no further bounds checks.
-type Column = Box<[f32; CELL_CHUNK]>;
+/// [`CELL_CHUNK`] needs no further bounds checks, on whole cache lines (`crate::lines`: the
+/// flocking terms read and write the columns in 64-byte vectors).
+type Column = Box<Lines>;
 
-/// A zeroed [`Column`] (built on the heap: 8 KiB).
+/// [`CELL_CHUNK`] values starting on a cache line.
+#[derive(Debug)]
+#[repr(C, align(64))]
+struct Lines([f32; CELL_CHUNK]);
+
+impl std::ops::Deref for Lines {
+    type Target = [f32; CELL_CHUNK];
+    fn deref(&self) -> &[f32; CELL_CHUNK] {
+        &self.0
+    }
+}
+
+impl std::ops::DerefMut for Lines {
+    fn deref_mut(&mut self) -> &mut [f32; CELL_CHUNK] {
+        &mut self.0
+    }
+}
+
+/// A zeroed [`Column`] (8 KiB on the heap).
 fn column() -> Column {
-    vec![0.0; CELL_CHUNK]
-        .into_boxed_slice()
-        .try_into()
-        .expect("a column of CELL_CHUNK values")
+    Box::new(Lines([0.0; CELL_CHUNK]))
 }
 
 /// The sums and state of a task's flocking agents, in columns indexed from the task's first

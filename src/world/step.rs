@@ -680,8 +680,8 @@ fn apply_bounds(a: &mut Agents, bounds: Bounds, parallel: bool) {
     match bounds {
         Bounds::Open => {}
         Bounds::Torus { size } => {
-            each(&mut a.pos_x, &|c| wrap_all(c, size.x));
-            each(&mut a.pos_y, &|c| wrap_all(c, size.y));
+            each(&mut a.pos_x, &|c| wrap_lined(c, size.x));
+            each(&mut a.pos_y, &|c| wrap_lined(c, size.y));
         }
         Bounds::Bounded { size } => {
             let axis = |pos: &mut [f32], vel: &mut [f32], side: f32| {
@@ -697,6 +697,13 @@ fn apply_bounds(a: &mut Agents, bounds: Bounds, parallel: bool) {
             axis(&mut a.pos_y, &mut a.vel_y, size.y);
         }
     }
+}
+
+/// [`wrap_all`] in two pieces, split at the first cache line (`crate::lines`).
+fn wrap_lined(v: &mut [f32], side: f32) {
+    let (head, rest) = v.split_at_mut(crate::lines::lead(v));
+    wrap_all(head, side);
+    wrap_all(rest, side);
 }
 
 /// [`crate::bounds::wrap_coord`] over a slice, bit for bit: one side added or taken away in
