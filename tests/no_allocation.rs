@@ -101,11 +101,11 @@ fn warm_steps_do_not_allocate() {
     }
 }
 
-/// Every thread of `pool` steps a world of its own from `s` first (at once, so each runs its
-/// own world's tasks): the scratch some passes keep per thread is then warm on every thread,
-/// whichever of them later takes which task of the measured world. (Without it, a thread that
-/// took no task of some pass during the warm-up allocated its scratch in a measured step, at
-/// random.)
+/// Every thread of `pool` steps a world of its own from `s` first (at once, so each runs tasks
+/// of its own world): the scratch some passes keep per thread is then made on every thread, and
+/// sized for this scenario's tasks. (Without it, a thread that took no task of some pass during
+/// the warm-up made its scratch in a measured step, at random. A thread that later meets a
+/// denser neighbourhood than any it met here could still grow its scratch once.)
 fn warm_threads(pool: &rayon::ThreadPool, s: &scenario::Scenario) {
     pool.broadcast(|_| {
         let mut w = s.build().unwrap();

@@ -304,11 +304,13 @@ fn atan2(y: f32, x: f32) -> f32 {
 
 /// An [`atan2`] angle (in `[-pi, pi]`) into `[0, 2pi)`, with the bits of `wrap_turn` of it
 /// plus a turn where negative: that sum lies in `[0, 2pi]` (or is -0, kept), so at most one turn
-/// comes off, and `wrap_turn`'s general path is never taken.
+/// comes off, and `wrap_turn`'s general path is never needed; NaN (from infinite components)
+/// gives 0, as there.
 #[inline(always)]
 fn heading_turn(h: f32) -> f32 {
     let a = if h < 0.0 { h + TAU } else { h };
-    if a >= TAU { a - TAU } else { a }
+    let a = if a >= TAU { a - TAU } else { a };
+    if a.is_nan() { 0.0 } else { a }
 }
 
 /// An angle into `[0, 2pi)`: one turn added or taken away covers every step the limits allow;
@@ -327,7 +329,8 @@ fn wrap_turn(a: f32) -> f32 {
     if inside { a } else { r }
 }
 
-/// One task's agents, [`LANES`] at a time (runtime dispatch: clones for AVX-512, AVX2 + FMA and
+/// One task's agents, [`LANES`] at a time after a first block up to the positions' first cache
+/// line (runtime dispatch: clones for AVX-512, AVX2 + FMA and
 /// AVX, the first the processor has, else the baseline x86-64 build; the same operations in
 /// every clone).
 #[multiversion::multiversion(targets(
@@ -354,7 +357,8 @@ fn integrate_chunk(
             (n - i).min(LANES)
         };
         // Structure of arrays, so that the loop over lanes compiles to vector instructions; a
-        // short last block is padded with agents at rest, whose results are not stored.
+        // short block (the first, up to a cache line, or the last) is padded with agents at
+        // rest, whose results are not stored.
         let mut kinematic = [false; LANES];
         let mut face = [false; LANES];
         let mut damp = [1.0_f32; LANES];
@@ -521,6 +525,12 @@ mod tests {
             (-1e-30, -1.0),
             (-1.0, 0.0),
             (1.0, -0.0),
+            // -0 from a ratio that underflows below a negative component.
+            (-1e-45, 1e30),
+            // NaN from infinite components.
+            (f32::INFINITY, f32::INFINITY),
+            (f32::NEG_INFINITY, f32::INFINITY),
+            (1.0, f32::NEG_INFINITY),
         ];
         for k in 0..200_000 {
             let angle = -std::f32::consts::PI + k as f32 * (std::f32::consts::TAU / 200_000.0);

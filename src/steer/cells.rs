@@ -1,23 +1,23 @@
 //! Cell-batched flocking: the agents of one grid cell evaluated against one gathered
 //! neighbourhood.
 //!
-//! With cells at least as wide as every flocking radius, the candidates of all agents in a cell
-//! are the points of its 3 x 3 block of cells. The batch gathers that block once per cell into
-//! a contiguous, padded buffer, with the torus image already applied (a neighbour cell across a
-//! seam is shifted by the world's side), so the lane kernel needs neither run boundaries nor
+//! With cells at least as wide as every flocking radius, the candidates of all agents in a cell are
+//! the points of its 3 x 3 block of cells. The batch gathers that block once per cell into a
+//! contiguous, padded buffer, with the torus image already applied (a neighbour cell across a seam
+//! is shifted by the world's side), so the lane kernel needs neither run boundaries nor
 //! minimum-image arithmetic. Every agent of the cell then sums over the buffer in SIMD lanes
-//! (runtime dispatch: two agents per 16-lane vector on AVX-512, clones for AVX2 + FMA and AVX,
-//! the baseline build otherwise; the same bits on each). The kernel reads the agents from
-//! columns (with one batched group, a cell's run of the grid's own positions and copies; with
-//! several, a batch of one group's agents of the cell) and writes their sums straight into the
-//! task's waiting columns, where they stay until the task's cells are done; then the flocking terms and the model adapter run over each run of
-//! agents of one group, one term at a time in long vector loops, writing the outputs in the
-//! grid's order. Vicsek sums wait the same way; their turns (each agent's draw, computed from the
-//! frame's key without a per-agent generator), headings and the adapter then run over each run
-//! in lanes too; the Vicsek sums themselves are the flock's kernel summing the unit headings as
-//! alignment sums. For a general
-//! plan with flocking terms (a "summed" group) the batch stores the sums alone, which the
-//! per-agent evaluation then reads instead of querying the neighbourhood.
+//! (runtime dispatch: two agents per 16-lane vector on AVX-512, clones for AVX2 + FMA and AVX, the
+//! baseline build otherwise; the same bits on each). The kernel reads the agents from columns (with
+//! one batched group, a cell's run of the grid's own positions and copies; with several, a batch of
+//! one group's agents of the cell) and writes their sums straight into the task's waiting columns,
+//! where they stay until the task's cells are done; then the flocking terms and the model adapter
+//! run over each run of agents of one group, one term at a time in long vector loops, writing the
+//! outputs in the grid's order. Vicsek sums wait the same way; their turns (each agent's draw,
+//! computed from the frame's key without a per-agent generator), headings and the adapter then run
+//! over each run in lanes too; the Vicsek sums themselves are the flock's kernel summing the unit
+//! headings as alignment sums. For a general plan with flocking terms (a "summed" group) the batch
+//! stores the sums alone, which the per-agent evaluation then reads instead of querying the
+//! neighbourhood.
 //!
 //! View cones are tested without a square root: for a cosine `c < 0` a neighbour at offset `d`
 //! is seen when `h . d >= 0` or `(h . d)^2 <= c^2 |d|^2`, for `c >= 0` when both `h . d >= 0`
@@ -749,8 +749,10 @@ fn column() -> Column {
     Box::new(Lines([0.0; CELL_CHUNK]))
 }
 
-/// The sums and state of a task's flocking agents, in columns indexed from the task's first
-/// grid position; `mark` is the agent's group plus one, or 0 where no flocking sums wait.
+/// The sums and state of a task's agents, in columns indexed from the task's first grid
+/// position: the kernel writes every batched or summed agent's sums here; `mark` is the agent's
+/// group plus one where they wait for the flocking terms or Vicsek turns, 0 elsewhere (a summed
+/// agent's sums are read back at once, by [`Outputs::settle`]).
 #[derive(Debug)]
 struct Runs {
     mark: Box<[u32; CELL_CHUNK]>,
@@ -1437,12 +1439,12 @@ fn shared_over<const CONE: u8, const GROUPS: bool, const Q_AC: bool>(
     .reduced(true)
 }
 
-/// The Vicsek sum: the unit headings of every agent within the radius, the agent itself
-/// included (in alignment's place), and their number (in the last). The flock's kernel with the headings
-/// in the velocities' place, alignment's radius the Vicsek radius, all round, any group, and
-/// separation off: its alignment sum and count are the masked sums of the headings and of ones
-/// over the neighbourhood in eight lanes (a kernel of its own, with three accumulators, came out
-/// of the compiler as pairs of lanes and took twice the instructions).
+/// The Vicsek sum: the unit headings of every agent within the radius, the agent itself included
+/// (in alignment's place), and their number (in the last). The flock's kernel with the headings in
+/// the velocities' place, alignment's radius the Vicsek radius, all round, any group, and
+/// separation off: its alignment sum and count are the masked sums of the headings and of ones over
+/// the neighbourhood in eight lanes (a kernel of its own, with three accumulators, came out of the
+/// compiler as pairs of lanes and took twice the instructions).
 #[inline(always)]
 fn vicsek(buf: &CellBuf, q: &Query) -> Reduced {
     let r = q.vicsek_r_sq;
@@ -1521,8 +1523,14 @@ mod tests {
     }
 
     /// The sums of `agents` through the dispatched kernel, read back from the runs; with
-    /// `listed`, written at slots given as a list (in reverse order) rather than from slot 0.
-    fn kernel_sums(buf: &CellBuf, q: &Query, agents: &[Agent], listed: bool) -> Vec<Reduced> {
+    /// `listed`, written at slots given as a list (in reverse order) rather than from slot 0;
+    /// without `headings`, the agents' columns hold none (as with no view cone in a frame).
+    fn kernel_sums(
+        buf: &CellBuf,
+        q: &Query,
+        agents: &[Agent],
+        (listed, headings): (bool, bool),
+    ) -> Vec<Reduced> {
         let col = |f: fn(&Agent) -> f32| agents.iter().map(f).collect::<Vec<f32>>();
         let (x, y, hx, hy, g) = (
             col(|a| a.x),
@@ -1534,7 +1542,7 @@ mod tests {
         let cols = AgentCols {
             x: &x,
             y: &y,
-            h: Some((&hx, &hy)),
+            h: headings.then_some((&hx[..], &hy[..])),
             g: &g,
         };
         let n = agents.len();
@@ -1664,15 +1672,13 @@ mod tests {
             let r_sq: f32 = [1.0, 4.0, 9.0][case % 3];
             let mut q = Query::of(&NeighbourSpec::default(), true);
             (q.vicsek_r_sq, q.mode) = (r_sq, VICSEK);
-            let out = kernel_sums(&buf, &q, &agents, case % 2 == 0);
+            let out = kernel_sums(&buf, &q, &agents, (case % 2 == 0, false));
             for (a, got) in agents.iter().zip(&out) {
                 let want = vicsek_lanes(&buf, a, r_sq);
-                let got = NeighbourSums {
-                    heading: Vec2::new(got[2], got[3]),
-                    count: got[8],
-                    ..NeighbourSums::default()
-                };
-                assert_eq!(bits(&got), bits(&want), "case {case}: {got:?} vs {want:?}");
+                // The summed headings in alignment's place, the count in the last.
+                let got = [got[2], got[3], got[8]].map(f32::to_bits);
+                let want_bits = [want.heading.x, want.heading.y, want.count].map(f32::to_bits);
+                assert_eq!(got, want_bits, "case {case}: {got:?} vs {want:?}");
                 seen += usize::from(want.count > 1.0);
             }
         }
@@ -1766,7 +1772,8 @@ mod tests {
                 vicsek_r_sq: -1.0,
                 mode: cone | (u8::from(groups) << 2) | (u8::from(q_ac) << 4),
             };
-            let n = rng.random_range(1..CELL_BATCH);
+            // Cells of more agents than a batch holds, as the one-group path passes whole cells.
+            let n = rng.random_range(1..2 * CELL_BATCH);
             let mut agents: Vec<Agent> = (0..n)
                 .map(|_| {
                     let angle: f32 = rng.random_range(0.0..std::f32::consts::TAU);
@@ -1785,7 +1792,9 @@ mod tests {
             }
             let m = rng.random_range(1..120);
             let buf = buffer(&mut rng, m, &agents);
-            let out = kernel_sums(&buf, &query, &agents, case % 2 == 1);
+            // Without a cone no kernel reads the headings: they may be absent.
+            let headings = cone != 0 || case % 4 == 0;
+            let out = kernel_sums(&buf, &query, &agents, (case % 2 == 1, headings));
             for (a, got) in agents.iter().zip(&out) {
                 let q = query.at(a);
                 let want = match (cone, groups, q_ac) {
