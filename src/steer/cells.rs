@@ -460,11 +460,11 @@ struct Outputs<'o> {
 }
 
 impl Outputs<'_> {
-    /// Files the sums the kernel wrote at slot `j` for the agent at grid position `p` (storage
-    /// index `i`) of `group`: a flocking or Vicsek agent waits in the runs for
+    /// Files the sums the kernel wrote at slot `j` (grid position `base + j`) for the agent of
+    /// storage index `i` of `group`: a flocking or Vicsek agent waits in the runs for
     /// [`Outputs::finish`]; a summed group's agent gets its sums without itself.
     #[inline(always)]
-    fn settle(&mut self, view: &SteerView, group: usize, (j, p, i): (usize, usize, usize)) {
+    fn settle(&mut self, view: &SteerView, group: usize, (j, i): (usize, usize)) {
         let plan = &view.plans[group];
         let runs = &mut *self.runs;
         assert!(j < CELL_CHUNK, "a slot of the task");
@@ -481,12 +481,17 @@ impl Outputs<'_> {
                 runs.id[j] = view.agents.ids[i].0;
                 runs.max_speed[j] = view.agents.max_speed[i];
             }
-            _ => {
-                // A summed plan: the sums alone, for the agent's evaluation in the pass.
-                let velocity = Vec2::new(self.sorted.vx[p], self.sorted.vy[p]);
-                self.sums[j] = without_self(runs.sums_at(j), velocity, &plan.spec);
-            }
+            _ => self.summed(&plan.spec, j),
         }
+    }
+
+    /// A summed plan's agent at slot `j`: its sums without itself, for its evaluation in the
+    /// pass.
+    #[inline(always)]
+    fn summed(&mut self, spec: &NeighbourSpec, j: usize) {
+        let p = self.base + j;
+        let velocity = Vec2::new(self.sorted.vx[p], self.sorted.vy[p]);
+        self.sums[j] = without_self(self.runs.sums_at(j), velocity, spec);
     }
 
     /// [`Outputs::settle`] for every agent of the task, all of group 0, whose storage indices
@@ -494,15 +499,15 @@ impl Outputs<'_> {
     fn settle_all(&mut self, view: &SteerView, order: &[u32]) {
         let plan = &view.plans[0];
         let n = order.len();
-        let runs = &mut *self.runs;
         assert!(n <= CELL_CHUNK, "a task's agents");
         let waits = matches!(plan.kind, PlanKind::Flock { .. } | PlanKind::Vicsek { .. });
         if !waits {
-            for (p, &i) in (self.base..).zip(order) {
-                self.settle(view, 0, (p - self.base, p, i as usize));
+            for j in 0..n {
+                self.summed(&plan.spec, j);
             }
             return;
         }
+        let runs = &mut *self.runs;
         runs.mark[..n].fill(1);
         let max_speed = &view.agents.max_speed;
         for (m, &i) in runs.max_speed[..n].iter_mut().zip(order) {
@@ -570,9 +575,9 @@ struct Batch {
     hx: [f32; CELL_BATCH],
     hy: [f32; CELL_BATCH],
     g: [f32; CELL_BATCH],
-    /// Per agent: its slot in the task's runs, its grid position, its storage index.
+    /// Per agent: its slot in the task's runs (its grid position less the task's first), its
+    /// storage index.
     slot: [usize; CELL_BATCH],
-    p: [usize; CELL_BATCH],
     i: [usize; CELL_BATCH],
     len: usize,
     group: usize,
@@ -597,7 +602,7 @@ impl Batch {
         };
         kernel_cell(buf, q, &agents, slots, out.runs);
         for k in 0..m {
-            out.settle(view, self.group, (self.slot[k], self.p[k], self.i[k]));
+            out.settle(view, self.group, (self.slot[k], self.i[k]));
         }
         self.len = 0;
     }
@@ -678,7 +683,6 @@ fn chunk(
         hy: [0.0; CELL_BATCH],
         g: [0.0; CELL_BATCH],
         slot: [0; CELL_BATCH],
-        p: [0; CELL_BATCH],
         i: [0; CELL_BATCH],
         len: 0,
         group: 0,
@@ -707,7 +711,7 @@ fn chunk(
             // view cone, and then no kernel reads it.
             (batch.hx[m], batch.hy[m]) = h.map_or((0.0, 0.0), |(hx, hy)| (hx[p], hy[p]));
             (batch.x[m], batch.y[m], batch.g[m]) = (xs[p], ys[p], sorted.g[p]);
-            (batch.slot[m], batch.p[m], batch.i[m]) = (p - base, p, order[p] as usize);
+            (batch.slot[m], batch.i[m]) = (p - base, order[p] as usize);
             batch.group = g;
             batch.len += 1;
         }
