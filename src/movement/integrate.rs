@@ -32,6 +32,20 @@ pub struct MotionState<'a> {
     pub rotation: &'a mut [f32],
 }
 
+impl MotionState<'_> {
+    /// The same buffers, borrowed again for a shorter time.
+    pub fn reborrow(&mut self) -> MotionState<'_> {
+        MotionState {
+            pos_x: self.pos_x,
+            pos_y: self.pos_y,
+            vel_x: self.vel_x,
+            vel_y: self.vel_y,
+            orientation: self.orientation,
+            rotation: self.rotation,
+        }
+    }
+}
+
 /// The steering pass's outputs and the per-agent inputs of the integrator.
 #[derive(Clone, Copy, Debug)]
 pub struct SteeringBuffers<'a> {
@@ -96,6 +110,22 @@ pub fn integrate(
     params: &[IntegrationParams],
     dt: f32,
 ) {
+    integrate_then(state, steer, params, dt, &|_| {});
+}
+
+/// [`integrate`], then `then` on each task's agents (positions and velocities) while they are
+/// still in cache: the same values as `then` over all agents after [`integrate`], without a
+/// second pass through memory (the step's world bounds, for one).
+///
+/// # Panics
+/// As [`integrate`].
+pub(crate) fn integrate_then(
+    state: MotionState<'_>,
+    steer: SteeringBuffers<'_>,
+    params: &[IntegrationParams],
+    dt: f32,
+    then: &(dyn Fn(&mut MotionState<'_>) + Sync),
+) {
     let n = state.pos_x.len();
     check_lengths(&state, &steer, n);
     let chunk = chunk_len(n);
@@ -119,7 +149,7 @@ pub fn integrate(
             } else {
                 &steer.ang[c * chunk..c * chunk + px.len()]
             };
-            let chunk_state = MotionState {
+            let mut chunk_state = MotionState {
                 pos_x: px,
                 pos_y: py,
                 vel_x: vx,
@@ -134,7 +164,8 @@ pub fn integrate(
                 max_speed: ms,
                 group: grp,
             };
-            integrate_chunk(chunk_state, chunk_steer, params, dt);
+            integrate_chunk(chunk_state.reborrow(), chunk_steer, params, dt);
+            then(&mut chunk_state);
         });
 }
 

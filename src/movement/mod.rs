@@ -21,6 +21,7 @@
 
 mod integrate;
 
+pub(crate) use integrate::integrate_then;
 pub use integrate::{
     IntegrationParams, MotionState, REST_ROTATION, REST_SPEED, SteeringBuffers, integrate,
     integrate_scalar, wrap_orientation,

@@ -151,13 +151,18 @@ impl World {
             copy_column(&mut self.scratch.prev_x, &self.agents.pos_x, parallel);
             copy_column(&mut self.scratch.prev_y, &self.agents.pos_y, parallel);
         }
-        self.integrate(dt, exec);
+        // Without contact resolution nothing comes between the integrator and the world's
+        // edges: the parallel integrator applies them to each task's agents in cache.
+        let edges_inside = !contact && exec == Execution::Parallel;
+        self.integrate(dt, exec, edges_inside);
         phases.integrate = t.elapsed();
 
         // bounds: contact between agents, the world's edges, then obstacle non-penetration
         let t = Instant::now();
         self.resolve_contacts(exec);
-        apply_bounds(&mut self.agents, self.bounds, exec == Execution::Parallel);
+        if !edges_inside {
+            apply_bounds(&mut self.agents, self.bounds, exec == Execution::Parallel);
+        }
         if !self.obstacles.is_empty() {
             self.resolve_obstacles(exec);
         }
@@ -424,7 +429,9 @@ impl World {
     }
 
     /// The integrator over all agents: the SIMD pass, or its scalar reference sequentially.
-    fn integrate(&mut self, dt: f32, exec: Execution) {
+    /// Integrates the agents (with `edges`, a parallel integrator also applies the world's
+    /// bounds to them, as [`apply_bounds`] would after it).
+    fn integrate(&mut self, dt: f32, exec: Execution, edges: bool) {
         self.scratch.params.clear();
         self.scratch
             .params
@@ -450,6 +457,12 @@ impl World {
             group: &a.group,
         };
         match exec {
+            Execution::Parallel if edges => {
+                let bounds = self.bounds;
+                movement::integrate_then(state, steer, &self.scratch.params, dt, &|s| {
+                    bound_piece(s, bounds);
+                });
+            }
             Execution::Parallel => movement::integrate(state, steer, &self.scratch.params, dt),
             Execution::Sequential => {
                 movement::integrate_scalar(state, steer, &self.scratch.params, dt)
@@ -670,31 +683,55 @@ const BOUNDS_CHUNK: usize = 16 * 1024;
 /// Wraps positions on a torus; on a walled rectangle clamps them and removes the velocity
 /// component that points into the wall.
 fn apply_bounds(a: &mut Agents, bounds: Bounds, parallel: bool) {
-    let each = |v: &mut [f32], f: &(dyn Fn(&mut [f32]) + Sync)| {
-        if parallel {
-            v.par_chunks_mut(BOUNDS_CHUNK).for_each(f);
-        } else {
-            f(v);
-        }
+    if matches!(bounds, Bounds::Open) {
+        return;
+    }
+    let state = MotionState {
+        pos_x: &mut a.pos_x,
+        pos_y: &mut a.pos_y,
+        vel_x: &mut a.vel_x,
+        vel_y: &mut a.vel_y,
+        orientation: &mut [],
+        rotation: &mut [],
     };
+    if parallel {
+        (
+            state.pos_x.par_chunks_mut(BOUNDS_CHUNK),
+            state.pos_y.par_chunks_mut(BOUNDS_CHUNK),
+            state.vel_x.par_chunks_mut(BOUNDS_CHUNK),
+            state.vel_y.par_chunks_mut(BOUNDS_CHUNK),
+        )
+            .into_par_iter()
+            .for_each(|(pos_x, pos_y, vel_x, vel_y)| {
+                let mut piece = MotionState {
+                    pos_x,
+                    pos_y,
+                    vel_x,
+                    vel_y,
+                    orientation: &mut [],
+                    rotation: &mut [],
+                };
+                bound_piece(&mut piece, bounds);
+            });
+    } else {
+        let mut state = state;
+        bound_piece(&mut state, bounds);
+    }
+}
+
+/// The world's bounds on one piece of the agents (positions and velocities; the orientations
+/// are not read): each agent's result depends on its own values alone, so pieces of any size
+/// give the same bits.
+fn bound_piece(s: &mut MotionState<'_>, bounds: Bounds) {
     match bounds {
         Bounds::Open => {}
         Bounds::Torus { size } => {
-            each(&mut a.pos_x, &|c| wrap_lined(c, size.x));
-            each(&mut a.pos_y, &|c| wrap_lined(c, size.y));
+            wrap_lined(s.pos_x, size.x);
+            wrap_lined(s.pos_y, size.y);
         }
         Bounds::Bounded { size } => {
-            let axis = |pos: &mut [f32], vel: &mut [f32], side: f32| {
-                if parallel {
-                    pos.par_chunks_mut(BOUNDS_CHUNK)
-                        .zip(vel.par_chunks_mut(BOUNDS_CHUNK))
-                        .for_each(|(p, v)| clamp_axis(p, v, side));
-                } else {
-                    clamp_axis(pos, vel, side);
-                }
-            };
-            axis(&mut a.pos_x, &mut a.vel_x, size.x);
-            axis(&mut a.pos_y, &mut a.vel_y, size.y);
+            clamp_axis(s.pos_x, s.vel_x, size.x);
+            clamp_axis(s.pos_y, s.vel_y, size.y);
         }
     }
 }
