@@ -256,17 +256,36 @@ impl GridIndex {
     /// the same set of points gives the same cells and sorted positions, and a stable sort of
     /// points already in cell order is the identity. Every agent-storage reorder by `order()`
     /// is followed by this or by a rebuild.
+    ///
+    /// In parallel chunks from 8,192 points on (every value is a function of its position
+    /// alone, so the result is the same).
     pub fn adopt_order(&mut self) {
         let sort = &mut self.sort;
         let n = sort.order.len();
-        for (k, p) in self.pts[..n].iter_mut().enumerate() {
-            *p = Vec2::new(sort.sorted_x[k], sort.sorted_y[k]);
-        }
-        for (c, w) in sort.start.windows(2).enumerate() {
-            self.cell[w[0] as usize..w[1] as usize].fill(c as u32);
-        }
-        for (k, o) in sort.order.iter_mut().enumerate() {
-            *o = k as u32;
+        let (start, sx, sy) = (&sort.start, &sort.sorted_x, &sort.sorted_y);
+        // Positions `base..base + len` of the new order: the sorted points, their cells (the
+        // cell holding `base` found by a search of the prefix sums, then walked), the identity.
+        let adopt = |base: usize, pts: &mut [Vec2], cell: &mut [u32], order: &mut [u32]| {
+            let mut c = start.partition_point(|&s| s as usize <= base) - 1;
+            for (j, ((p, ce), o)) in pts.iter_mut().zip(cell).zip(order).enumerate() {
+                let k = base + j;
+                while start[c + 1] as usize <= k {
+                    c += 1;
+                }
+                *p = Vec2::new(sx[k], sy[k]);
+                *ce = c as u32;
+                *o = k as u32;
+            }
+        };
+        let (pts, cell, order) = (&mut self.pts[..n], &mut self.cell[..n], &mut sort.order[..]);
+        if n >= PARALLEL_MIN_POINTS {
+            pts.par_chunks_mut(CHUNK)
+                .zip(cell.par_chunks_mut(CHUNK))
+                .zip(order.par_chunks_mut(CHUNK))
+                .enumerate()
+                .for_each(|(c, ((p, ce), o))| adopt(c * CHUNK, p, ce, o));
+        } else if n > 0 {
+            adopt(0, pts, cell, order);
         }
     }
 
