@@ -160,6 +160,47 @@ fn parallel_flock_step_equals_the_sequential_reference() {
 }
 
 #[test]
+fn parallel_step_equals_the_sequential_reference_against_walls() {
+    // More agents than one integrator task, each heading for the nearest wall: the parallel
+    // integrator clamps its tasks' agents at the walls itself, the sequential step afterwards.
+    let walled = || {
+        let mut b = World::builder()
+            .bounds(Bounds::bounded(60.0, 60.0).unwrap())
+            .seed(9)
+            .group(GroupParams::dynamic(SteeringProfile::single(
+                Behaviour::wander(),
+            )))
+            .group(GroupParams::kinematic(SteeringProfile::single(
+                Behaviour::wander(),
+            )));
+        for i in 0..5003 {
+            let a = i as f32 * 0.0123;
+            let out = Vec2::new(a.cos(), a.sin());
+            b = b.agent(AgentInit {
+                position: Vec2::new(30.0, 30.0) + out * (27.0 + (i % 5) as f32 * 0.5),
+                velocity: out * 4.0,
+                ..AgentInit::at(Vec2::ZERO, i % 2)
+            });
+        }
+        b.build().unwrap()
+    };
+    let (mut a, mut b) = (walled(), walled());
+    for _ in 0..30 {
+        a.step(0.05).unwrap();
+        b.step_sequential(0.05).unwrap();
+    }
+    let on_wall = a
+        .agents()
+        .pos_x()
+        .iter()
+        .chain(a.agents().pos_y())
+        .filter(|&&p| p == 0.0 || p == 60.0)
+        .count();
+    assert!(on_wall > 100, "{on_wall} coordinates on a wall");
+    assert_eq!(snapshot(&a), snapshot(&b));
+}
+
+#[test]
 fn different_seeds_differ() {
     let mut a = mixed_world(100);
     let mut b = World::builder().seed(43).build().unwrap();
