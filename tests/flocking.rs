@@ -382,9 +382,13 @@ fn the_cell_batch_matches_the_scalar_reference_for_groups_cones_and_walls() {
             )
         }
     };
-    for bounds in [
-        Bounds::bounded(60.0, 40.0).unwrap(),
-        Bounds::torus(60.0, 40.0).unwrap(),
+    // Groups mixed in every cell, then in halves of the world (cells of one group's agents
+    // alone, which the batch sums straight from the grid's columns, and mixed cells between).
+    for (bounds, halves) in [
+        (Bounds::bounded(60.0, 40.0).unwrap(), false),
+        (Bounds::torus(60.0, 40.0).unwrap(), false),
+        (Bounds::bounded(60.0, 40.0).unwrap(), true),
+        (Bounds::torus(60.0, 40.0).unwrap(), true),
     ] {
         let outputs = |kind: IndexKind| {
             let mut b = World::builder()
@@ -401,7 +405,16 @@ fn the_cell_batch_matches_the_scalar_reference_for_groups_cones_and_walls() {
                 b = b.agent(AgentInit {
                     velocity: Vec2::from_angle(heading) * speed,
                     orientation: heading,
-                    ..AgentInit::at(p, k % 2)
+                    // Speed limits of their own: an output filed for the wrong agent shows.
+                    max_speed: Some(2.5 + (k % 4) as f32 * 0.5),
+                    ..AgentInit::at(
+                        p,
+                        if halves {
+                            usize::from(p.x > 30.0)
+                        } else {
+                            k % 2
+                        },
+                    )
                 });
             }
             let mut w = b.build().unwrap();
@@ -416,7 +429,7 @@ fn the_cell_batch_matches_the_scalar_reference_for_groups_cones_and_walls() {
             let scale = g.linear.length().max(k.linear.length()).max(6.0);
             assert!(
                 diff <= 1e-5 * scale,
-                "{bounds:?} {id}: {:?} vs {:?}",
+                "{bounds:?} (halves {halves}) {id}: {:?} vs {:?}",
                 g.linear,
                 k.linear
             );

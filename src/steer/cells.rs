@@ -692,6 +692,31 @@ fn chunk(
             cell += 1;
         }
         let cell_end = (starts[cell + 1] as usize).min(end);
+        // A cell of one group's agents alone (the common case where groups keep apart, or where
+        // the other groups are few): as with one batched group, one kernel call straight from
+        // the grid's columns. The kernel sums each agent on its own, so the bits are a batch's.
+        let first = sorted.g[k];
+        if sorted.g[k..cell_end].iter().all(|&g| g == first) {
+            if let Some(q) = &specs[first as usize] {
+                gather(grid, sorted, view.bounds, cell, groups, headings, buf);
+                let agents = AgentCols {
+                    x: &xs[k..cell_end],
+                    y: &ys[k..cell_end],
+                    h: h.map(|(hx, hy)| (&hx[k..cell_end], &hy[k..cell_end])),
+                    g: &sorted.g[k..cell_end],
+                };
+                let slots = Slots {
+                    start: k - base,
+                    list: None,
+                };
+                kernel_cell(buf, q, &agents, slots, out.runs);
+                for (p, &i) in (k..cell_end).zip(&order[k..cell_end]) {
+                    out.settle(view, first as usize, (p - base, i as usize));
+                }
+            }
+            k = cell_end;
+            continue;
+        }
         let mut gathered = false;
         for p in k..cell_end {
             let g = sorted.g[p] as usize;
