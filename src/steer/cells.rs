@@ -658,17 +658,13 @@ fn chunk(
             let cell_end = (starts[cell + 1] as usize).min(end);
             if k < cell_end {
                 gather(grid, sorted, view.bounds, cell, groups, headings, buf);
-                let agents = AgentCols {
-                    x: &xs[k..cell_end],
-                    y: &ys[k..cell_end],
-                    h: h.map(|(hx, hy)| (&hx[k..cell_end], &hy[k..cell_end])),
-                    g: &sorted.g[k..cell_end],
-                };
-                let slots = Slots {
-                    start: k - base,
-                    list: None,
-                };
-                kernel_cell(buf, q, &agents, slots, out.runs);
+                whole_cell(
+                    buf,
+                    q,
+                    (xs, ys, h, &sorted.g),
+                    (k..cell_end, base),
+                    out.runs,
+                );
             }
             k = cell_end;
         }
@@ -699,17 +695,13 @@ fn chunk(
         if sorted.g[k..cell_end].iter().all(|&g| g == first) {
             if let Some(q) = &specs[first as usize] {
                 gather(grid, sorted, view.bounds, cell, groups, headings, buf);
-                let agents = AgentCols {
-                    x: &xs[k..cell_end],
-                    y: &ys[k..cell_end],
-                    h: h.map(|(hx, hy)| (&hx[k..cell_end], &hy[k..cell_end])),
-                    g: &sorted.g[k..cell_end],
-                };
-                let slots = Slots {
-                    start: k - base,
-                    list: None,
-                };
-                kernel_cell(buf, q, &agents, slots, out.runs);
+                whole_cell(
+                    buf,
+                    q,
+                    (xs, ys, h, &sorted.g),
+                    (k..cell_end, base),
+                    out.runs,
+                );
                 for (p, &i) in (k..cell_end).zip(&order[k..cell_end]) {
                     out.settle(view, first as usize, (p - base, i as usize));
                 }
@@ -748,6 +740,38 @@ fn chunk(
         k = cell_end;
     }
     out.finish(view);
+}
+
+/// The grid's columns: positions, unit headings (when filled), groups.
+type GridCols<'a> = (
+    &'a [f32],
+    &'a [f32],
+    Option<(&'a [f32], &'a [f32])>,
+    &'a [f32],
+);
+
+/// The sums of the agents at grid positions `range` (of one cell, whose neighbourhood `buf`
+/// holds) in one kernel call that reads them from the grid's columns and writes them at their
+/// slots (position minus `base`).
+#[inline(always)]
+fn whole_cell(
+    buf: &CellBuf,
+    q: &Query,
+    (xs, ys, h, g): GridCols,
+    (range, base): (std::ops::Range<usize>, usize),
+    runs: &mut Runs,
+) {
+    let agents = AgentCols {
+        x: &xs[range.clone()],
+        y: &ys[range.clone()],
+        h: h.map(|(hx, hy)| (&hx[range.clone()], &hy[range.clone()])),
+        g: &g[range.clone()],
+    };
+    let slots = Slots {
+        start: range.start - base,
+        list: None,
+    };
+    kernel_cell(buf, q, &agents, slots, runs);
 }
 
 /// One column of [`Runs`]: a task's agents at most, so that an index checked once against
