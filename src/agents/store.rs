@@ -391,7 +391,11 @@ impl Agents {
     pub fn reorder(&mut self, perm: &[u32]) {
         assert_eq!(perm.len(), self.len(), "permutation length");
         let mut columns = f32_columns!(self);
-        let half = columns.len() / 2;
+        // Seven of the twelve float columns beside the groups and flags, five beside the ids
+        // and their index (a scatter by id, which costs about two columns): two halves of about
+        // equal work (at 1,000,000 agents the join took 11.2 to 13.0 ms with six and six, 10.3
+        // to 11.6 with seven and five).
+        let half = columns.len() / 2 + 1;
         let (first, second) = columns.split_at_mut(half);
         let (scratch, group, scratch_u32) = (
             &mut self.scratch_f32,
