@@ -3,6 +3,10 @@
 
 use throng::prelude::*;
 
+#[path = "support/flocks.rs"]
+mod flocks;
+use flocks::flocking_group;
+
 fn mixed_world(n: usize) -> World {
     let wander = GroupParams::dynamic(SteeringProfile::single(Behaviour::Wander {
         params: WanderParams::default(),
@@ -198,6 +202,67 @@ fn parallel_step_equals_the_sequential_reference_against_walls() {
         .count();
     assert!(on_wall > 100, "{on_wall} coordinates on a wall");
     assert_eq!(snapshot(&a), snapshot(&b));
+}
+
+#[test]
+fn groups_in_halves_give_the_same_bits_on_any_thread_count_and_sequentially() {
+    // Two flocking groups in halves of the world (cells of one group's agents, which the cell
+    // batch sums straight from the grid's columns, and mixed cells between), a few wanderers
+    // among them, per-agent speed limits, over several of the batch's tasks and reorder frames.
+    let world = |bounds: Bounds| {
+        let profile = |same_group: bool, view_cos: f32, r: f32| {
+            flocking_group(SteeringProfile::default(), same_group, view_cos, r)
+        };
+        let mut b = World::builder()
+            .bounds(bounds)
+            .seed(8)
+            .group(profile(true, 0.3, 4.0))
+            .group(profile(false, -0.6, 3.0))
+            .group(GroupParams::dynamic(SteeringProfile::single(
+                Behaviour::wander(),
+            )));
+        let mut rng = throng::rng::AgentRng::new(8, 0, 0, 5);
+        for k in 0..6000 {
+            let p = Vec2::new(rng.unit() * 120.0, rng.unit() * 80.0);
+            let heading = rng.unit() * std::f32::consts::TAU;
+            let speed = if k % 5 == 0 { 0.0 } else { 3.0 };
+            let g = if k % 23 == 0 {
+                2
+            } else {
+                usize::from(p.x > 60.0)
+            };
+            b = b.agent(AgentInit {
+                velocity: Vec2::from_angle(heading) * speed,
+                orientation: heading,
+                max_speed: Some(2.5 + (k % 4) as f32 * 0.5),
+                ..AgentInit::at(p, g)
+            });
+        }
+        b.build().unwrap()
+    };
+    for bounds in [
+        Bounds::bounded(120.0, 80.0).unwrap(),
+        Bounds::torus(120.0, 80.0).unwrap(),
+    ] {
+        let mut sequential = world(bounds);
+        for _ in 0..9 {
+            sequential.step_sequential(0.1).unwrap();
+        }
+        let want = snapshot(&sequential);
+        for threads in [1, 2, 4] {
+            let pool = rayon::ThreadPoolBuilder::new()
+                .num_threads(threads)
+                .build()
+                .unwrap();
+            let mut w = world(bounds);
+            pool.install(|| {
+                for _ in 0..9 {
+                    w.step(0.1).unwrap();
+                }
+            });
+            assert!(snapshot(&w) == want, "{bounds:?} on {threads} threads");
+        }
+    }
 }
 
 #[test]

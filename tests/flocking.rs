@@ -2,6 +2,10 @@
 //! same, and thread count never changes a bit.
 
 use throng::prelude::*;
+
+#[path = "support/flocks.rs"]
+mod flocks;
+use flocks::flocking_group;
 use throng::steering::{Neighbourhood, polarisation};
 use throng::{IndexKind, scenario};
 
@@ -346,11 +350,6 @@ fn the_cell_batch_matches_the_scalar_reference_for_groups_cones_and_walls() {
     // The second group also seeks a point: a general plan, evaluated per agent over the sums
     // the cell batch computed for it.
     let profile = |same_group: bool, view_cos: f32, r: f32, seek: bool| {
-        let hood = |radius: f32| Neighbourhood {
-            radius,
-            view_cos,
-            same_group,
-        };
         let mut steering = SteeringProfile::default();
         if seek {
             steering = steering.with(
@@ -361,26 +360,7 @@ fn the_cell_batch_matches_the_scalar_reference_for_groups_cones_and_walls() {
                 0.5,
             );
         }
-        GroupParams {
-            max_speed: 3.0,
-            max_acceleration: 6.0,
-            ..GroupParams::dynamic(
-                steering
-                    .with(
-                        Behaviour::Separation {
-                            hood: hood(0.4 * r),
-                        },
-                        1.5,
-                    )
-                    .with(Behaviour::Alignment { hood: hood(r) }, 1.0)
-                    .with(
-                        Behaviour::Cohesion {
-                            hood: hood(0.8 * r),
-                        },
-                        0.7,
-                    ),
-            )
-        }
+        flocking_group(steering, same_group, view_cos, r)
     };
     // Groups mixed in every cell, then in halves of the world (cells of one group's agents
     // alone, which the batch sums straight from the grid's columns, and mixed cells between).
@@ -397,7 +377,8 @@ fn the_cell_batch_matches_the_scalar_reference_for_groups_cones_and_walls() {
                 .group(profile(true, 0.3, 4.0, false))
                 .group(profile(false, -0.6, 3.0, true));
             let mut rng = throng::rng::AgentRng::new(8, 0, 0, 5);
-            for k in 0..1500 {
+            // More agents than one parallel task of the batch takes: cells cut by tasks too.
+            for k in 0..5000 {
                 let p = Vec2::new(rng.unit() * 60.0, rng.unit() * 40.0);
                 let heading = rng.unit() * std::f32::consts::TAU;
                 // Every fifth agent at rest: it looks along its orientation.

@@ -7,9 +7,10 @@
 //! is shifted by the world's side), so the lane kernel needs neither run boundaries nor
 //! minimum-image arithmetic. Every agent of the cell then sums over the buffer in SIMD lanes
 //! (runtime dispatch: two agents per 16-lane vector on AVX-512, clones for AVX2 + FMA and AVX, the
-//! baseline build otherwise; the same bits on each). The kernel reads the agents from columns (with
-//! one batched group, a cell's run of the grid's own positions and copies; with several, a batch of
-//! one group's agents of the cell) and writes their sums straight into the task's waiting columns,
+//! baseline build otherwise; the same bits on each). The kernel reads the agents from columns (a
+//! cell's run of the grid's own positions and copies when all its agents are of one batched
+//! group; otherwise batches of one group's agents of the cell) and writes their sums straight
+//! into the task's waiting columns,
 //! where they stay until the task's cells are done; then the flocking terms and the model adapter
 //! run over each run of agents of one group, one term at a time in long vector loops, writing the
 //! outputs in the grid's order. Vicsek sums wait the same way; their turns (each agent's draw,
@@ -609,8 +610,8 @@ impl Batch {
 }
 
 /// The batch over grid positions `base..base + lx.len()`: per cell, the neighbourhood is
-/// gathered once and the sums of its agents computed over it in one kernel call (with one
-/// batched group, every agent of the cell straight from the grid's columns; otherwise in
+/// gathered once and the sums of its agents computed over it in one kernel call (the cell's
+/// agents straight from the grid's columns when they are all of one batched group; otherwise in
 /// batches of one group); once every cell is done, the sums of each run of agents of one group
 /// go through the flocking terms and the model adapter together ([`Outputs::finish`]).
 #[allow(clippy::too_many_arguments)]

@@ -8,9 +8,11 @@ pub struct PhaseTimes {
     pub index: Duration,
     /// The parallel steering pass.
     pub steer: Duration,
-    /// The vectorised integrator.
+    /// The vectorised integrator (in a parallel step without contact resolution, the world's
+    /// wrap-around or containment too, applied to each task's agents right after it).
     pub integrate: Duration,
-    /// Wrap-around, containment and obstacle non-penetration.
+    /// Contact resolution, wrap-around or containment (when the integrator did not apply them)
+    /// and obstacle non-penetration.
     pub bounds: Duration,
     /// The fields' work: goal shuffles and channel rebuilds before steering; wall
     /// non-penetration, grid walkers and arrivals after the move.

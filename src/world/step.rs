@@ -428,9 +428,9 @@ impl World {
         }
     }
 
-    /// The integrator over all agents: the SIMD pass, or its scalar reference sequentially.
-    /// Integrates the agents (with `edges`, a parallel integrator also applies the world's
-    /// bounds to them, as [`apply_bounds`] would after it).
+    /// The integrator over all agents: the SIMD pass, or its scalar reference sequentially
+    /// (with `edges`, the parallel pass also applies the world's bounds to each task's agents,
+    /// as [`apply_bounds`] would after it).
     fn integrate(&mut self, dt: f32, exec: Execution, edges: bool) {
         self.scratch.params.clear();
         self.scratch
