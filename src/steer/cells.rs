@@ -646,28 +646,13 @@ fn chunk(
     };
     let (xs, ys) = grid.sorted_padded();
     let h = sorted.headings.then_some((&sorted.hx[..], &sorted.hy[..]));
-    // The first cell holding position `base`.
-    let mut cell = starts.partition_point(|&s| s as usize <= base) - 1;
-    let mut k = base;
+    let cols = (xs, ys, h, &sorted.g[..]);
     if let [Some(q)] = specs {
         // One batched group: every agent of a cell is its, in one kernel call that reads the
         // agents from the grid's columns and writes their sums in place.
-        while k < end {
-            while starts[cell + 1] as usize <= k {
-                cell += 1;
-            }
-            let cell_end = (starts[cell + 1] as usize).min(end);
-            if k < cell_end {
-                gather(grid, sorted, view.bounds, cell, groups, headings, buf);
-                whole_cell(
-                    buf,
-                    q,
-                    (xs, ys, h, &sorted.g),
-                    (k..cell_end, base),
-                    out.runs,
-                );
-            }
-            k = cell_end;
+        for (cell, range) in cell_pieces(starts, base..end) {
+            gather(grid, sorted, view.bounds, cell, groups, headings, buf);
+            whole_cell(buf, q, cols, (range, base), out.runs);
         }
         out.settle_all(view, &order[base..end]);
         out.finish(view);
@@ -684,30 +669,20 @@ fn chunk(
         len: 0,
         group: 0,
     };
-    while k < end {
-        while starts[cell + 1] as usize <= k {
-            cell += 1;
-        }
-        let cell_end = (starts[cell + 1] as usize).min(end);
+    for (cell, range) in cell_pieces(starts, base..end) {
+        let (k, cell_end) = (range.start, range.end);
         // A cell of one group's agents alone (the common case where groups keep apart, or where
         // the other groups are few): as with one batched group, one kernel call straight from
         // the grid's columns. The kernel sums each agent on its own, so the bits are a batch's.
         let first = sorted.g[k];
-        if sorted.g[k..cell_end].iter().all(|&g| g == first) {
+        if sorted.g[range.clone()].iter().all(|&g| g == first) {
             if let Some(q) = &specs[first as usize] {
                 gather(grid, sorted, view.bounds, cell, groups, headings, buf);
-                whole_cell(
-                    buf,
-                    q,
-                    (xs, ys, h, &sorted.g),
-                    (k..cell_end, base),
-                    out.runs,
-                );
-                for (p, &i) in (k..cell_end).zip(&order[k..cell_end]) {
+                whole_cell(buf, q, cols, (range.clone(), base), out.runs);
+                for (p, &i) in range.clone().zip(&order[range]) {
                     out.settle(view, first as usize, (p - base, i as usize));
                 }
             }
-            k = cell_end;
             continue;
         }
         let mut gathered = false;
@@ -738,9 +713,32 @@ fn chunk(
             let q = specs[batch.group].as_ref().expect("batched");
             batch.run(view, q, buf, &mut out);
         }
-        k = cell_end;
     }
     out.finish(view);
+}
+
+/// The grid positions `range` cut at cell boundaries: `(cell, positions)` for each cell they
+/// reach, in order (`starts` the cells' prefix sums; the first cell may begin before the range
+/// and the last end after it). Every piece holds at least one position.
+fn cell_pieces(
+    starts: &[u32],
+    range: std::ops::Range<usize>,
+) -> impl Iterator<Item = (usize, std::ops::Range<usize>)> + '_ {
+    let end = range.end;
+    // The first cell holding position `range.start`.
+    let mut cell = starts.partition_point(|&s| s as usize <= range.start) - 1;
+    let mut k = range.start;
+    std::iter::from_fn(move || {
+        if k >= end {
+            return None;
+        }
+        while starts[cell + 1] as usize <= k {
+            cell += 1;
+        }
+        let piece = k..(starts[cell + 1] as usize).min(end);
+        k = piece.end;
+        Some((cell, piece))
+    })
 }
 
 /// The grid's columns: positions, unit headings (when filled), groups.
