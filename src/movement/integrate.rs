@@ -34,7 +34,7 @@ pub struct MotionState<'a> {
 
 impl MotionState<'_> {
     /// The same buffers, borrowed again for a shorter time.
-    pub fn reborrow(&mut self) -> MotionState<'_> {
+    pub(crate) fn reborrow(&mut self) -> MotionState<'_> {
         MotionState {
             pos_x: self.pos_x,
             pos_y: self.pos_y,

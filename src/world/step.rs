@@ -460,7 +460,7 @@ impl World {
             Execution::Parallel if edges => {
                 let bounds = self.bounds;
                 movement::integrate_then(state, steer, &self.scratch.params, dt, &|s| {
-                    bound_piece(s, bounds);
+                    bound_piece((s.pos_x, s.pos_y, s.vel_x, s.vel_y), bounds);
                 });
             }
             Execution::Parallel => movement::integrate(state, steer, &self.scratch.params, dt),
@@ -686,52 +686,41 @@ fn apply_bounds(a: &mut Agents, bounds: Bounds, parallel: bool) {
     if matches!(bounds, Bounds::Open) {
         return;
     }
-    let state = MotionState {
-        pos_x: &mut a.pos_x,
-        pos_y: &mut a.pos_y,
-        vel_x: &mut a.vel_x,
-        vel_y: &mut a.vel_y,
-        orientation: &mut [],
-        rotation: &mut [],
-    };
+    let columns = (
+        &mut a.pos_x[..],
+        &mut a.pos_y[..],
+        &mut a.vel_x[..],
+        &mut a.vel_y[..],
+    );
     if parallel {
         (
-            state.pos_x.par_chunks_mut(BOUNDS_CHUNK),
-            state.pos_y.par_chunks_mut(BOUNDS_CHUNK),
-            state.vel_x.par_chunks_mut(BOUNDS_CHUNK),
-            state.vel_y.par_chunks_mut(BOUNDS_CHUNK),
+            columns.0.par_chunks_mut(BOUNDS_CHUNK),
+            columns.1.par_chunks_mut(BOUNDS_CHUNK),
+            columns.2.par_chunks_mut(BOUNDS_CHUNK),
+            columns.3.par_chunks_mut(BOUNDS_CHUNK),
         )
             .into_par_iter()
-            .for_each(|(pos_x, pos_y, vel_x, vel_y)| {
-                let mut piece = MotionState {
-                    pos_x,
-                    pos_y,
-                    vel_x,
-                    vel_y,
-                    orientation: &mut [],
-                    rotation: &mut [],
-                };
-                bound_piece(&mut piece, bounds);
-            });
+            .for_each(|piece| bound_piece(piece, bounds));
     } else {
-        let mut state = state;
-        bound_piece(&mut state, bounds);
+        bound_piece(columns, bounds);
     }
 }
 
-/// The world's bounds on one piece of the agents (positions and velocities; the orientations
-/// are not read): each agent's result depends on its own values alone, so pieces of any size
-/// give the same bits.
-fn bound_piece(s: &mut MotionState<'_>, bounds: Bounds) {
+/// The world's bounds on one piece of the agents (positions x and y, velocities x and y): each
+/// agent's result depends on its own values alone, so pieces of any size give the same bits.
+fn bound_piece(
+    (pos_x, pos_y, vel_x, vel_y): (&mut [f32], &mut [f32], &mut [f32], &mut [f32]),
+    bounds: Bounds,
+) {
     match bounds {
         Bounds::Open => {}
         Bounds::Torus { size } => {
-            wrap_lined(s.pos_x, size.x);
-            wrap_lined(s.pos_y, size.y);
+            wrap_lined(pos_x, size.x);
+            wrap_lined(pos_y, size.y);
         }
         Bounds::Bounded { size } => {
-            clamp_axis(s.pos_x, s.vel_x, size.x);
-            clamp_axis(s.pos_y, s.vel_y, size.y);
+            clamp_axis(pos_x, vel_x, size.x);
+            clamp_axis(pos_y, vel_y, size.y);
         }
     }
 }
