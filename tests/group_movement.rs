@@ -188,6 +188,97 @@ fn the_keep_formation_plan_equals_the_general_loop_bit_for_bit() {
     }
 }
 
+/// Leader following (alone, or with separation after it) runs as a plan in lanes with the
+/// leader resolved once per run; with an angular-only behaviour beside it the same requests go
+/// through the general loop. Three wandering leaders, a squad behind each (one of them led by
+/// one of its own members, whose lane takes the per-agent path), spread slots, the keep-out
+/// area and separation in crowded slots: the same bits on a torus and in a walled world, in both
+/// models, on one thread and on two.
+#[test]
+fn the_follow_leader_plan_equals_the_general_loop_bit_for_bit() {
+    let bounded = Bounds::bounded(90.0, 70.0).unwrap();
+    for bounds in [bounded, Bounds::torus(90.0, 70.0).unwrap()] {
+        for model in [MovementModel::Dynamic, MovementModel::Kinematic] {
+            let run = |general: bool, threads: usize| {
+                let leaders = GroupParams {
+                    max_speed: 4.0,
+                    ..GroupParams::dynamic(SteeringProfile::single(Behaviour::wander()))
+                };
+                let mut b = World::builder().bounds(bounds).seed(21).group(leaders);
+                let mut rng = throng::rng::AgentRng::new(21, 0, 0, 5);
+                let centres = [
+                    Vec2::new(20.0, 20.0),
+                    Vec2::new(70.0, 50.0),
+                    Vec2::new(2.0, 66.0),
+                ];
+                for (k, &c) in centres.iter().enumerate() {
+                    let v = Vec2::new(1.0, k as f32 - 1.0);
+                    b = b.agent(AgentInit {
+                        velocity: v,
+                        ..AgentInit::at(bounds.wrap(c), 0)
+                    });
+                }
+                // Squads 1 and 2 follow the first two leaders with separation; squad 3 follows
+                // its own first member (agent 3), without separation.
+                let squads = [(AgentId(0), true), (AgentId(1), true), (AgentId(3), false)];
+                for (s, &(leader, separation)) in squads.iter().enumerate() {
+                    let params = FollowParams {
+                        offset: Vec2::new(-4.0, 0.5),
+                        spread: 2.0,
+                        clear_ahead: 5.0,
+                        clear_width: 1.5,
+                        ..FollowParams::default()
+                    };
+                    let mut profile =
+                        SteeringProfile::single(Behaviour::follow_leader_with(leader, params));
+                    profile.behaviours[0].weight = 1.3;
+                    if separation {
+                        profile = profile.with(Behaviour::separation(1.5), 1.2);
+                    }
+                    if general {
+                        profile = profile.with(Behaviour::look_where_you_are_going(), 1.0);
+                    }
+                    b = b.group(GroupParams {
+                        model,
+                        max_speed: 6.0,
+                        max_acceleration: 12.0,
+                        mass: 1.5,
+                        ..GroupParams::dynamic(profile)
+                    });
+                    for k in 0..70 {
+                        // Every tenth follower starts at rest.
+                        let speed = if k % 10 == 0 { 0.0 } else { 2.0 };
+                        let p = centres[s] + Vec2::new(rng.signed(), rng.signed()) * 12.0;
+                        b = b.agent(AgentInit {
+                            velocity: Vec2::new(rng.signed(), rng.signed()) * speed,
+                            ..AgentInit::at(bounds.wrap(p), s + 1)
+                        });
+                    }
+                }
+                let mut w = b.build().unwrap();
+                let pool = rayon::ThreadPoolBuilder::new()
+                    .num_threads(threads)
+                    .build()
+                    .unwrap();
+                let mut states = Vec::new();
+                pool.install(|| {
+                    for _ in 0..90 {
+                        w.step(DT).unwrap();
+                        states.extend((0..w.len()).map(|i| {
+                            let s = w.agent(w.agents().id(i)).unwrap();
+                            [s.position, s.velocity].map(|v| v.to_array().map(f32::to_bits))
+                        }));
+                    }
+                });
+                states
+            };
+            let plan = run(false, 2);
+            assert!(plan == run(true, 2), "{bounds:?} {model:?}");
+            assert!(plan == run(false, 1), "{bounds:?} {model:?}: one thread");
+        }
+    }
+}
+
 fn worst_slot_error(w: &World, f: FormationId) -> f32 {
     w.formation(f)
         .unwrap()

@@ -488,7 +488,9 @@ fn follow_leader(v: &SteerView, me: &Me, leader: Target, params: &FollowParams) 
     if params.spread > 0.0 {
         let mut rng = AgentRng::new(v.seed, a.ids[me.i].0, 0, Stream::Spread as u32);
         let r = params.spread * rng.unit().sqrt();
-        slot += Vec2::from_angle(TAU * rng.unit()) * r;
+        // The polynomial sine and cosine, which the leader's lanes evaluate too.
+        let (sin, cos) = crate::steering::trig::sin_cos(TAU * rng.unit());
+        slot += Vec2::new(cos, sin) * r;
     }
     let desired = group::follow_leader(
         me.position,

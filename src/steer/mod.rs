@@ -15,6 +15,7 @@
 //! - [`neighbours`]: the fused neighbour traversal (scalar reference and per-agent grid kernel);
 //! - [`cells`]: flocking evaluated in cell batches by a SIMD kernel;
 //! - [`pass`]: the steering pass that runs each agent by its plan into SoA outputs;
+//! - `leader`: leader following in lanes, the leader resolved once per run;
 //! - [`pack`]: left-packing the candidates within a radius, eight lanes at a time;
 //! - [`ped`]: the pedestrian models, which replace the requests of pedestrian groups by the
 //!   social force model's accelerations or the collision-free speed model's velocities;
@@ -27,6 +28,7 @@
 pub(crate) mod adapter;
 pub(crate) mod cells;
 pub(crate) mod eval;
+mod leader;
 pub(crate) mod neighbours;
 pub(crate) mod orca;
 pub(crate) mod pack;

@@ -2,11 +2,11 @@
 //!
 //! [`run`] evaluates each agent by its group's [`Plan`]: flocking-only plans in cell batches
 //! through the grid kernel when the uniform grid is ready ([`super::cells`]); a lone seek,
-//! arrive or wander eight agents at a time in lanes; everything else per agent
-//! ([`steer_agent`]: the flocking, flow-field, path and formation plans without dispatch, the
-//! general plan by [`evaluate`] over the profile's behaviours and their combination, over
-//! neighbour sums the cell batch computed for it when the plan has flocking terms the batch
-//! serves).
+//! arrive or wander, and leader following, a block of agents at a time in lanes; everything
+//! else per agent ([`steer_agent`]: the flocking, flow-field, path and formation plans without
+//! dispatch, the general plan by [`evaluate`] over the profile's behaviours and their
+//! combination, over neighbour sums the cell batch computed for it when the plan has flocking
+//! terms the batch serves).
 //!
 //! Invariants: the pass reads only frame-t state and writes only the outputs of the agent it
 //! evaluates, so results are independent of the thread count; the sequential pass runs the same
@@ -73,7 +73,7 @@ pub(crate) fn run(view: &SteerView, out: &mut SteerOut, scratch: &mut PassScratc
     let still = (0..view.plans.len()).all(|g| {
         matches!(
             view.plans[g].kind,
-            PlanKind::Seek { .. } | PlanKind::Arrive { .. }
+            PlanKind::Seek { .. } | PlanKind::Arrive { .. } | PlanKind::FollowLeader { .. }
         ) || (batched && cells::is_batched_group(view, g))
     });
     (out.angular, out.wandered) = (!still, !still);
@@ -99,6 +99,17 @@ pub(crate) fn run(view: &SteerView, out: &mut SteerOut, scratch: &mut PassScratc
                     let run = groups[k..].iter().take_while(|&&h| h as usize == g).count();
                     let outs = (&mut *lx, &mut *ly, &mut *an, &mut *wa, &mut *nb);
                     lane_run(view, g, (base + k, base + k + run), base, outs, !still);
+                    run
+                }
+                // Leader following in lanes, with its separation sums from the batch.
+                PlanKind::FollowLeader { separation, .. }
+                    if separation.is_none() || (batched && cells::is_summed_group(view, g)) =>
+                {
+                    let run = groups[k..].iter().take_while(|&&h| h as usize == g).count();
+                    let outs = (&mut *lx, &mut *ly, &mut *an, &mut *wa, &mut *nb);
+                    let sums = (batched && separation.is_some()).then_some(&scratch.cells);
+                    let turns = !still;
+                    super::leader::run(view, g, (i, i + run), base, outs, turns, sums);
                     run
                 }
                 _ if batched && cells::is_batched(view, i) => {
@@ -404,7 +415,7 @@ impl WanderLanes {
 /// Copies the first `len` of `from` into `lanes`: a whole block as one vector move (a copy of a
 /// length known only at run time is a library call).
 #[inline(always)]
-fn put(lanes: &mut [f32; LANES], from: &[f32], len: usize) {
+pub(super) fn put(lanes: &mut [f32; LANES], from: &[f32], len: usize) {
     if len == LANES {
         *lanes = from[..LANES].try_into().expect("a whole block");
     } else {
@@ -414,7 +425,7 @@ fn put(lanes: &mut [f32; LANES], from: &[f32], len: usize) {
 
 /// Copies the first `len` lanes into `to`, as [`put`] does the other way.
 #[inline(always)]
-fn take(to: &mut [f32], lanes: &[f32; LANES], len: usize) {
+pub(super) fn take(to: &mut [f32], lanes: &[f32; LANES], len: usize) {
     if len == LANES {
         to[..LANES].copy_from_slice(lanes);
     } else {
@@ -530,7 +541,7 @@ pub(crate) fn steer_agent(v: &SteerView, i: usize) -> (Steering, f32, f32) {
 
 /// [`steer_agent`] with the agent's neighbour sums when the cell batch computed them (the
 /// general plan then does not query its neighbourhood itself).
-fn steer_agent_with(
+pub(super) fn steer_agent_with(
     v: &SteerView,
     i: usize,
     sums: Option<&crate::steering::NeighbourSums>,
@@ -624,7 +635,8 @@ fn steer_agent_with(
         PlanKind::General
         | PlanKind::Vicsek { .. }
         | PlanKind::Seek { .. }
-        | PlanKind::Arrive { .. } => general(v, i, &adapter, sums),
+        | PlanKind::Arrive { .. }
+        | PlanKind::FollowLeader { .. } => general(v, i, &adapter, sums),
     }
 }
 

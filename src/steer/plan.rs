@@ -136,6 +136,19 @@ pub(crate) enum PlanKind {
         /// The behaviour's weight.
         weight: f32,
     },
+    /// `follow_leader` of one agent, alone or followed by `separation`, in a weighted sum:
+    /// evaluated a block of lanes at a time with the leader resolved once per run
+    /// ([`super::leader`]), the separation sums from the cell batch.
+    FollowLeader {
+        /// The leader.
+        leader: crate::agents::AgentId,
+        /// The slot and its approach.
+        params: crate::group::FollowParams,
+        /// The behaviour's weight.
+        weight: f32,
+        /// The separation term's weight, when the profile has one.
+        separation: Option<f32>,
+    },
     /// The general loop over the profile's behaviours and its combination.
     General,
 }
@@ -269,7 +282,9 @@ impl Plan {
         let (spec, flock) = neighbour_spec(profile);
         let kind = match flock {
             Some((terms, len)) => PlanKind::Flock { terms, len },
-            None => lone_plan(profile, follow).unwrap_or(PlanKind::General),
+            None => lone_plan(profile, follow)
+                .or_else(|| leader_plan(profile, &spec))
+                .unwrap_or(PlanKind::General),
         };
         Ok(Plan {
             adapter: Adapter::of(profile),
@@ -323,6 +338,37 @@ fn lone_plan(profile: &Profile, follow: Option<(usize, FollowChannel)>) -> Optio
         Behaviour::KeepFormation { params } => PlanKind::KeepFormation { params, weight },
         Behaviour::Vicsek { noise, .. } => PlanKind::Vicsek { noise, weight },
         _ => return None,
+    })
+}
+
+/// The plan of a profile that is `follow_leader` of one agent, alone or followed by
+/// `separation` the cell batch serves, in a weighted sum, or `None`.
+fn leader_plan(profile: &Profile, spec: &NeighbourSpec) -> Option<PlanKind> {
+    if profile.steering.combine != Combine::WeightedSum {
+        return None;
+    }
+    let (lead, separation) = match &profile.steering.behaviours[..] {
+        [lead] => (lead, None),
+        [lead, sep] if matches!(sep.behaviour, Behaviour::Separation { .. }) => {
+            (lead, Some(sep.weight))
+        }
+        _ => return None,
+    };
+    let Behaviour::FollowLeader {
+        leader: Target::Agent(leader),
+        params,
+    } = lead.behaviour
+    else {
+        return None;
+    };
+    if separation.is_some() && !spec.kernel_ok() {
+        return None;
+    }
+    Some(PlanKind::FollowLeader {
+        leader,
+        params,
+        weight: lead.weight,
+        separation,
     })
 }
 
