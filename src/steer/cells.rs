@@ -31,7 +31,7 @@
 //! rounding (`tests/flocking.rs` checks it against brute force).
 
 use std::cell::RefCell;
-use std::sync::atomic::{AtomicU32, Ordering};
+use std::sync::atomic::{AtomicU32, AtomicU64, Ordering};
 
 use glam::Vec2;
 use multiversion::multiversion;
@@ -75,6 +75,9 @@ pub(crate) struct CellOut {
     /// Per grid position: the neighbour sums of an agent of a summed group (empty when no
     /// group is summed).
     sums: Vec<NeighbourSums>,
+    /// The neighbours all agents found, when the batch evaluated every agent (a sum of whole
+    /// numbers, exact in any order).
+    found: Option<f64>,
 }
 
 /// One task's chunks of the pass outputs: linear x and y, angular, wander angle, neighbours.
@@ -235,20 +238,20 @@ fn flock_sums(r: &Reduced) -> NeighbourSums {
 }
 
 impl CellOut {
-    /// Copies the batched outputs of storage indices `base..base + lx.len()` (every agent
-    /// batched) into the per-agent output chunks: the linear requests and neighbour counts (the
-    /// angular outputs, all zero, and the wander angles, unchanged, are not written).
-    pub(crate) fn take_all(&self, base: usize, (lx, ly, nb): (&mut [f32], &mut [f32], &mut [f32])) {
+    /// Copies the batched linear requests of storage indices `base..base + lx.len()` (every
+    /// agent batched) into the per-agent output chunks (the neighbour counts are summed in the
+    /// batch, the angular outputs, all zero, and the wander angles, unchanged, are not written).
+    pub(crate) fn take_all(&self, base: usize, (lx, ly): (&mut [f32], &mut [f32])) {
         let n = lx.len();
         let rank = &self.rank[base..base + n];
-        let (ly, nb) = (&mut ly[..n], &mut nb[..n]);
+        let ly = &mut ly[..n];
         // The columns cut to one length, and each rank clamped below it: a select instead of a
         // bounds-check branch per load (ranks are grid positions, so the clamp changes none).
-        let m = self.lin_x.len().min(self.lin_y.len()).min(self.count.len());
+        let m = self.lin_x.len().min(self.lin_y.len());
         let Some(last) = m.checked_sub(1) else {
             return;
         };
-        let (px, py, pc) = (&self.lin_x[..m], &self.lin_y[..m], &self.count[..m]);
+        let (px, py) = (&self.lin_x[..m], &self.lin_y[..m]);
         for k in 0..n {
             let r = rank[k].load(Ordering::Relaxed) as usize;
             // A rank past the columns means outputs of another frame's batch (a stale grid).
@@ -256,8 +259,12 @@ impl CellOut {
             let r = r.min(last);
             lx[k] = px[r];
             ly[k] = py[r];
-            nb[k] = pc[r];
         }
+    }
+
+    /// The neighbours all agents found, when the batch evaluated every agent.
+    pub(crate) fn found(&self) -> Option<f64> {
+        self.found
     }
 
     /// The neighbour sums the batch computed for agent `i` (storage index) of a summed group.
@@ -300,6 +307,7 @@ fn ready<'a>(view: &SteerView<'a>) -> Option<(&'a GridIndex, &'a SortedCopies)> 
 /// of every agent of a summed group. Returns whether the batch ran; when it did not, every agent
 /// goes through the per-agent path.
 pub(crate) fn run(view: &SteerView, out: &mut CellOut, parallel: bool) -> bool {
+    out.found = None;
     let Some((grid, sorted)) = ready(view) else {
         return false;
     };
@@ -322,6 +330,10 @@ pub(crate) fn run(view: &SteerView, out: &mut CellOut, parallel: bool) -> bool {
     out.sums
         .resize(if any_summed { n } else { 0 }, NeighbourSums::default());
     out.rank.resize_with(n, AtomicU32::default);
+    // With every agent batched, each task adds up its agents' neighbour counts while they are
+    // in cache (whole numbers: the total is exact in any order).
+    let all = view.plans.iter().all(batched);
+    let found = AtomicU64::new(0);
     let (specs, rank) = (&out.specs, &out.rank);
     let work = |base: usize, (lx, ly, nb): Columns, sums: &mut [NeighbourSums]| {
         let len = lx.len();
@@ -339,6 +351,9 @@ pub(crate) fn run(view: &SteerView, out: &mut CellOut, parallel: bool) -> bool {
         let order = &grid.order()[base..base + len];
         for (p, &i) in (base..).zip(order) {
             rank[i as usize].store(p as u32, Ordering::Relaxed);
+        }
+        if all {
+            found.fetch_add(whole_sum(nb), Ordering::Relaxed);
         }
     };
     if parallel {
@@ -380,7 +395,22 @@ pub(crate) fn run(view: &SteerView, out: &mut CellOut, parallel: bool) -> bool {
             work(c * CELL_CHUNK, (lx, ly, nb), s);
         }
     }
+    out.found = all.then(|| found.into_inner() as f64);
     true
+}
+
+/// The sum of counts (whole numbers below 2^24), in eight lanes of doubles (exact: every
+/// partial sum is a whole number below 2^53).
+fn whole_sum(v: &[f32]) -> u64 {
+    let (blocks, rest) = v.as_chunks::<8>();
+    let mut acc = [0.0_f64; 8];
+    for b in blocks {
+        for (a, &x) in acc.iter_mut().zip(b) {
+            *a += f64::from(x);
+        }
+    }
+    let sum = acc.iter().sum::<f64>() + rest.iter().map(|&x| f64::from(x)).sum::<f64>();
+    sum as u64
 }
 
 /// One task's chunks of the batch's columns: linear x and y, neighbours found.

@@ -33,8 +33,10 @@ pub(crate) struct SteerOut {
     pub lin_y: Vec<f32>,
     pub ang: Vec<f32>,
     pub wander: Vec<f32>,
-    /// Neighbours found per agent this step.
+    /// Neighbours found per agent this step (not written when `found` holds their total).
     pub neighbours: Vec<f32>,
+    /// The neighbours all agents found this step, when the pass summed them itself.
+    pub found: Option<f64>,
     /// Whether `ang` was written this step; when not, every agent's angular output is zero.
     pub angular: bool,
     /// Whether `wander` was written this step; when not, every wander angle is unchanged.
@@ -68,6 +70,7 @@ pub(crate) struct PassScratch {
 pub(crate) fn run(view: &SteerView, out: &mut SteerOut, scratch: &mut PassScratch, parallel: bool) {
     let batched = cells::run(view, &mut scratch.cells, parallel);
     let all = batched && (0..view.plans.len()).all(|g| cells::is_batched_group(view, g));
+    out.found = if all { scratch.cells.found() } else { None };
     // The batch and the seek and arrive lanes turn nobody and leave wander angles as they are:
     // with every agent served by them, neither output is written (the step reads neither then).
     let still = (0..view.plans.len()).all(|g| {
@@ -84,7 +87,7 @@ pub(crate) fn run(view: &SteerView, out: &mut SteerOut, scratch: &mut PassScratc
                   wa: &mut [f32],
                   nb: &mut [f32]| {
         if all {
-            scratch.cells.take_all(base, (lx, ly, nb));
+            scratch.cells.take_all(base, (lx, ly));
             return;
         }
         let groups = &view.agents.group[base..base + lx.len()];

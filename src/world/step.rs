@@ -191,7 +191,8 @@ impl World {
         let mean_neighbours = if n == 0 {
             0.0
         } else {
-            sum_lanes(&self.scratch.out.neighbours) / n as f64
+            let found = self.scratch.out.found;
+            found.unwrap_or_else(|| sum_lanes(&self.scratch.out.neighbours)) / n as f64
         };
         let left = self.leave_through_exits();
         let (arrived, with_goal) = self.arrivals(exec == Execution::Parallel);
