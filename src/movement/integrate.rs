@@ -172,7 +172,8 @@ pub(crate) fn integrate_then(
 /// The scalar reference integrator: one agent at a time, same operations as [`integrate`].
 ///
 /// # Panics
-/// When the slices' lengths differ (an empty `ang` aside) or a group index is outside `params`.
+/// When the slices' lengths differ (an empty `ang` aside) or a group index is outside `params`
+/// (with one entry, the indices are not read).
 pub fn integrate_scalar(
     state: MotionState<'_>,
     steer: SteeringBuffers<'_>,
@@ -485,7 +486,11 @@ fn lane(
     params: &[IntegrationParams],
     i: usize,
 ) -> Lane {
-    let p = &params[st.group[i] as usize];
+    // With one entry the group indices are not read, as in the lanes.
+    let p = match params {
+        [p] => p,
+        _ => &params[st.group[i] as usize],
+    };
     Lane {
         kinematic: p.kinematic,
         face_velocity: p.face_velocity,

@@ -437,6 +437,12 @@ impl World {
         self.scratch
             .params
             .extend(self.groups.iter().map(|g| g.integration(dt)));
+        // Groups that all integrate alike (the copies of a tiled scenario, most worlds) are one
+        // entry, and the integrator reads no group index.
+        let params = &mut self.scratch.params;
+        if params.iter().all(|p| Some(p) == params.first()) {
+            params.truncate(1);
+        }
         let a = &mut self.agents;
         let state = MotionState {
             pos_x: &mut a.pos_x,
