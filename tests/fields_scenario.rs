@@ -202,13 +202,38 @@ steering = { behaviours = [{ kind = "follow_field" }] }
 fn the_follow_only_fast_path_equals_the_general_loop() {
     // A profile of one `follow_field` takes the fast path; adding an angular-only behaviour
     // forces the general loop. Positions and velocities must agree bit for bit.
-    let run = |extra: bool| {
+    assert_eq!(
+        follow_field_run(false, false),
+        follow_field_run(true, false)
+    );
+}
+
+#[test]
+fn the_follow_field_plan_with_separation_equals_the_general_loop() {
+    // The scenario's own profile, `follow_field` then `separation`, is a plan of its own with
+    // the separation sums from the cell batch; the angular-only extra behaviour sends the same
+    // profile through the general loop.
+    let plan = follow_field_run(false, true);
+    assert_eq!(plan, follow_field_run(true, true));
+    assert_ne!(
+        plan,
+        follow_field_run(false, false),
+        "separation changes the run"
+    );
+}
+
+/// The `fields` scenario for 60 steps, its profile cut to `follow_field` (or, with
+/// `separation`, kept with its separation), with an angular-only behaviour added when `extra`:
+/// each agent's id, position and velocity bits, sorted by id.
+fn follow_field_run(extra: bool, separation: bool) -> Vec<(throng::AgentId, u32, u32, u32, u32)> {
+    {
         let mut s = throng::scenario::builtin("fields").unwrap();
+        let keep = |name: &str| name == "follow_field" || (separation && name == "separation");
         s.groups[0]
             .params
             .steering
             .behaviours
-            .retain(|w| w.behaviour.name() == "follow_field");
+            .retain(|w| keep(w.behaviour.name()));
         if extra {
             s.groups[0]
                 .params
@@ -239,6 +264,5 @@ fn the_follow_only_fast_path_equals_the_general_loop() {
             .collect();
         v.sort();
         v
-    };
-    assert_eq!(run(false), run(true));
+    }
 }

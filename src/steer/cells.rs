@@ -129,11 +129,13 @@ pub(crate) fn is_summed_group(view: &SteerView, g: usize) -> bool {
 }
 
 /// Whether a plan's neighbour sums come from the batch while the rest of it is evaluated per
-/// agent or in the leader's lanes: the general plan and leader following, with sums the lane
-/// kernel serves.
+/// agent or in the leader's lanes: the general plan, and leader and field following with
+/// separation, with sums the lane kernel serves.
 fn summed(plan: &super::plan::Plan) -> bool {
-    matches!(plan.kind, PlanKind::General | PlanKind::FollowLeader { .. })
-        && plan.spec.active
+    matches!(
+        plan.kind,
+        PlanKind::General | PlanKind::FollowLeader { .. } | PlanKind::FollowField { .. }
+    ) && plan.spec.active
         && plan.spec.kernel_ok()
 }
 

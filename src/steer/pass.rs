@@ -18,7 +18,7 @@ use super::adapter::Adapter;
 use super::cells;
 use super::eval::{self, Draws, Me, evaluate};
 use super::neighbours::LANES;
-use super::plan::PlanKind;
+use super::plan::{PlanKind, SEP};
 use super::view::SteerView;
 use crate::rng::{AgentRng, Stream};
 use crate::steering::{self, Combine, Steering, Target};
@@ -562,6 +562,7 @@ pub(super) fn steer_agent_with(
             field,
             channel,
             weight,
+            separation,
         } => {
             let f = v.fields.follow(
                 field,
@@ -572,9 +573,19 @@ pub(super) fn steer_agent_with(
                 a.max_speed[i],
                 adapter.kinematic,
             );
-            // The general loop's sum without its dispatch (0 + f w, as there).
-            let total = Steering::linear(glam::Vec2::ZERO + f * weight);
-            (adapter.finish(total), a.wander[i], 0.0)
+            // The general loop's sum without its dispatch (0 + f w, then the separation term,
+            // as there).
+            let mut total = glam::Vec2::ZERO + f * weight;
+            let mut found = 0.0;
+            if let Some(w) = separation {
+                let sums = sums
+                    .copied()
+                    .unwrap_or_else(|| v.sums(i, velocity, a.orientation[i]));
+                let max_speed = a.max_speed[i];
+                total += eval::flock_force(&sums, SEP, velocity, max_speed, adapter.kinematic) * w;
+                found = sums.count;
+            }
+            (adapter.finish(Steering::linear(total)), a.wander[i], found)
         }
         PlanKind::FollowPath {
             path,

@@ -72,7 +72,9 @@ pub(crate) enum PlanKind {
         /// Entries in use.
         len: u8,
     },
-    /// One `follow_field` in a weighted sum.
+    /// One `follow_field` (or `choose_exit`), alone or followed by `separation`, in a weighted
+    /// sum: per agent without the general loop's dispatch, the separation sums from the cell
+    /// batch when it runs.
     FollowField {
         /// The field.
         field: usize,
@@ -80,6 +82,8 @@ pub(crate) enum PlanKind {
         channel: FollowChannel,
         /// The behaviour's weight.
         weight: f32,
+        /// The separation term's weight, when the profile has one.
+        separation: Option<f32>,
     },
     /// One `seek` of a fixed point, a target slot or each agent's own target alone in a
     /// weighted sum: evaluated eight agents at a time in lanes.
@@ -283,7 +287,7 @@ impl Plan {
         let kind = match flock {
             Some((terms, len)) => PlanKind::Flock { terms, len },
             None => lone_plan(profile, follow)
-                .or_else(|| leader_plan(profile, &spec))
+                .or_else(|| with_separation(profile, &spec, follow))
                 .unwrap_or(PlanKind::General),
         };
         Ok(Plan {
@@ -317,6 +321,7 @@ fn lone_plan(profile: &Profile, follow: Option<(usize, FollowChannel)>) -> Optio
                 field,
                 channel,
                 weight,
+                separation: None,
             }
         }
         Behaviour::Seek { target, threshold } if lanes(target) => PlanKind::Seek {
@@ -341,9 +346,15 @@ fn lone_plan(profile: &Profile, follow: Option<(usize, FollowChannel)>) -> Optio
     })
 }
 
-/// The plan of a profile that is `follow_leader` of one agent, alone or followed by
-/// `separation` the cell batch serves, in a weighted sum, or `None`.
-fn leader_plan(profile: &Profile, spec: &NeighbourSpec) -> Option<PlanKind> {
+/// The plan of a profile that is one behaviour with a plan of its own for this shape
+/// (`follow_leader` of one agent, `follow_field` or `choose_exit`), alone or followed by
+/// `separation` the cell batch serves, in a weighted sum, or `None` (`follow` as for
+/// [`lone_plan`]).
+fn with_separation(
+    profile: &Profile,
+    spec: &NeighbourSpec,
+    follow: Option<(usize, FollowChannel)>,
+) -> Option<PlanKind> {
     if profile.steering.combine != Combine::WeightedSum {
         return None;
     }
@@ -354,22 +365,31 @@ fn leader_plan(profile: &Profile, spec: &NeighbourSpec) -> Option<PlanKind> {
         }
         _ => return None,
     };
-    let Behaviour::FollowLeader {
-        leader: Target::Agent(leader),
-        params,
-    } = lead.behaviour
-    else {
-        return None;
-    };
     if separation.is_some() && !spec.kernel_ok() {
         return None;
     }
-    Some(PlanKind::FollowLeader {
-        leader,
-        params,
-        weight: lead.weight,
-        separation,
-    })
+    let weight = lead.weight;
+    match lead.behaviour {
+        Behaviour::FollowLeader {
+            leader: Target::Agent(leader),
+            params,
+        } => Some(PlanKind::FollowLeader {
+            leader,
+            params,
+            weight,
+            separation,
+        }),
+        Behaviour::FollowField { .. } | Behaviour::ChooseExit { .. } => {
+            let (field, channel) = follow?;
+            Some(PlanKind::FollowField {
+                field,
+                channel,
+                weight,
+                separation,
+            })
+        }
+        _ => None,
+    }
 }
 
 /// The neighbour spec of a profile (a behaviour listed twice: the last one counts), and its
