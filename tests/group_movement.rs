@@ -190,19 +190,32 @@ fn the_keep_formation_plan_equals_the_general_loop_bit_for_bit() {
 
 /// Leader following (alone, or with separation after it) runs as a plan in lanes with the
 /// leader resolved once per run; with an angular-only behaviour beside it the same requests go
-/// through the general loop. Three wandering leaders, a squad behind each (one of them led by
+/// through the general loop. Three leaders (seeking a point in the walled world, so that no
+/// agent of the plan run turns; wandering on the torus), a squad behind each (the third led by
 /// one of its own members, whose lane takes the per-agent path), spread slots, the keep-out
-/// area and separation in crowded slots: the same bits on a torus and in a walled world, in both
-/// models, on one thread and on two.
+/// area and separation in crowded slots, the second squad's leader removed half-way: the same
+/// bits on a torus and in a walled world, in both models and with a mass so small that the
+/// requests overflow, on one thread and on two (more agents than one steering task holds).
 #[test]
 fn the_follow_leader_plan_equals_the_general_loop_bit_for_bit() {
+    const SQUAD: u32 = 360;
     let bounded = Bounds::bounded(90.0, 70.0).unwrap();
+    let models = [
+        (MovementModel::Dynamic, 1.5),
+        (MovementModel::Kinematic, 1.5),
+        (MovementModel::Dynamic, 1e-20),
+    ];
     for bounds in [bounded, Bounds::torus(90.0, 70.0).unwrap()] {
-        for model in [MovementModel::Dynamic, MovementModel::Kinematic] {
+        for (model, mass) in models {
             let run = |general: bool, threads: usize| {
+                let lead = if bounds.is_torus() {
+                    Behaviour::wander()
+                } else {
+                    Behaviour::seek(Target::Point(Vec2::new(45.0, 35.0)))
+                };
                 let leaders = GroupParams {
                     max_speed: 4.0,
-                    ..GroupParams::dynamic(SteeringProfile::single(Behaviour::wander()))
+                    ..GroupParams::dynamic(SteeringProfile::single(lead))
                 };
                 let mut b = World::builder().bounds(bounds).seed(21).group(leaders);
                 let mut rng = throng::rng::AgentRng::new(21, 0, 0, 5);
@@ -219,8 +232,9 @@ fn the_follow_leader_plan_equals_the_general_loop_bit_for_bit() {
                     });
                 }
                 // Squads 1 and 2 follow the first two leaders with separation; squad 3 follows
-                // its own first member (agent 3), without separation.
-                let squads = [(AgentId(0), true), (AgentId(1), true), (AgentId(3), false)];
+                // its own first member, without separation.
+                let own = AgentId(3 + 2 * SQUAD);
+                let squads = [(AgentId(0), true), (AgentId(1), true), (own, false)];
                 for (s, &(leader, separation)) in squads.iter().enumerate() {
                     let params = FollowParams {
                         offset: Vec2::new(-4.0, 0.5),
@@ -242,10 +256,10 @@ fn the_follow_leader_plan_equals_the_general_loop_bit_for_bit() {
                         model,
                         max_speed: 6.0,
                         max_acceleration: 12.0,
-                        mass: 1.5,
+                        mass,
                         ..GroupParams::dynamic(profile)
                     });
-                    for k in 0..70 {
+                    for k in 0..SQUAD {
                         // Every tenth follower starts at rest.
                         let speed = if k % 10 == 0 { 0.0 } else { 2.0 };
                         let p = centres[s] + Vec2::new(rng.signed(), rng.signed()) * 12.0;
@@ -256,13 +270,17 @@ fn the_follow_leader_plan_equals_the_general_loop_bit_for_bit() {
                     }
                 }
                 let mut w = b.build().unwrap();
+                assert_eq!(w.agents().ids()[3 + 2 * SQUAD as usize], own);
                 let pool = rayon::ThreadPoolBuilder::new()
                     .num_threads(threads)
                     .build()
                     .unwrap();
                 let mut states = Vec::new();
                 pool.install(|| {
-                    for _ in 0..90 {
+                    for step in 0..90 {
+                        if step == 45 {
+                            w.remove_agent(AgentId(1)).unwrap();
+                        }
                         w.step(DT).unwrap();
                         states.extend((0..w.len()).map(|i| {
                             let s = w.agent(w.agents().id(i)).unwrap();
@@ -273,8 +291,11 @@ fn the_follow_leader_plan_equals_the_general_loop_bit_for_bit() {
                 states
             };
             let plan = run(false, 2);
-            assert!(plan == run(true, 2), "{bounds:?} {model:?}");
-            assert!(plan == run(false, 1), "{bounds:?} {model:?}: one thread");
+            assert!(plan == run(true, 2), "{bounds:?} {model:?} mass {mass}");
+            assert!(
+                plan == run(false, 1),
+                "{bounds:?} {model:?} mass {mass}: one thread"
+            );
         }
     }
 }

@@ -565,3 +565,43 @@ fn lane_plans_of_interleaved_groups_equal_the_general_loop_bit_for_bit() {
         }
     }
 }
+
+#[test]
+fn lane_plans_with_requests_that_overflow_equal_the_general_loop() {
+    // A mass so small that force / mass overflows: the lanes hand those agents to the
+    // per-agent finish, which keeps the request's direction at the acceleration limit (a
+    // lane's scale of zero would leave them standing).
+    let run = |general: bool| {
+        let mut profile =
+            SteeringProfile::single(Behaviour::seek(Target::Point(Vec2::new(70.0, 5.0))));
+        if general {
+            profile = profile.with(Behaviour::look_where_you_are_going(), 1.0);
+        }
+        let g = GroupParams {
+            max_speed: 6.0,
+            max_acceleration: 9.0,
+            mass: 1e-20,
+            ..GroupParams::dynamic(profile)
+        };
+        let mut b = World::builder().seed(4).group(g);
+        for k in 0..40 {
+            b = b.agent(AgentInit::at(Vec2::new(k as f32, 30.0), 0));
+        }
+        let mut w = b.build().unwrap();
+        for _ in 0..10 {
+            w.step(1.0 / 30.0).unwrap();
+        }
+        (0..w.len())
+            .map(|i| w.agent(w.agents().id(i)).unwrap().position)
+            .collect::<Vec<_>>()
+    };
+    let lanes = run(false);
+    assert_eq!(lanes, run(true));
+    assert!(
+        lanes
+            .iter()
+            .enumerate()
+            .all(|(k, p)| p.distance(Vec2::new(k as f32, 30.0)) > 0.1),
+        "every seeker moves"
+    );
+}

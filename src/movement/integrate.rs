@@ -103,7 +103,7 @@ pub fn wrap_orientation(a: f32) -> f32 {
 ///
 /// # Panics
 /// When the slices' lengths differ (an empty `ang` aside) or a group index is outside `params`
-/// (with one group, the indices are not read).
+/// (with one entry, the indices are not read).
 pub fn integrate(
     state: MotionState<'_>,
     steer: SteeringBuffers<'_>,

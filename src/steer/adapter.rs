@@ -146,7 +146,13 @@ impl Adapter {
                 let (vx, vy) = (tx[k] / mass, ty[k] / mass);
                 let len_sq = vx * vx + vy * vy;
                 let over = len_sq > max * max;
-                let s = max / len_sq.sqrt();
+                // A square length that overflowed takes `truncate_robust` there: NaN sends the
+                // lane to the per-agent finish below (a scale of zero would be finite).
+                let s = if len_sq.is_finite() {
+                    max / len_sq.sqrt()
+                } else {
+                    f32::NAN
+                };
                 ox[k] = if over { vx * s } else { vx };
                 oy[k] = if over { vy * s } else { vy };
             }

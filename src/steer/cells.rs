@@ -355,7 +355,8 @@ pub(crate) fn run(view: &SteerView, out: &mut CellOut, parallel: bool) -> bool {
             rank[i as usize].store(p as u32, Ordering::Relaxed);
         }
         if all {
-            found.fetch_add(whole_sum(nb), Ordering::Relaxed);
+            // Whole numbers below 2^24 each: the double-precision sum is exact.
+            found.fetch_add(sum_lanes(nb) as u64, Ordering::Relaxed);
         }
     };
     if parallel {
@@ -401,9 +402,16 @@ pub(crate) fn run(view: &SteerView, out: &mut CellOut, parallel: bool) -> bool {
     true
 }
 
-/// The sum of counts (whole numbers below 2^24), in eight lanes of doubles (exact: every
-/// partial sum is a whole number below 2^53).
-fn whole_sum(v: &[f32]) -> u64 {
+/// The sum of `v` in double precision, in eight interleaved accumulators (vector lanes rather
+/// than one chain of dependent additions), then those in order: the same order on any number of
+/// threads and in every dispatch target (the baseline build converts and adds two lanes at a
+/// time).
+#[multiversion::multiversion(targets(
+    "x86_64+avx2+fma+avx512f+avx512vl+avx512bw+avx512dq",
+    "x86_64+avx2+fma",
+    "x86_64+avx"
+))]
+pub(crate) fn sum_lanes(v: &[f32]) -> f64 {
     let (blocks, rest) = v.as_chunks::<8>();
     let mut acc = [0.0_f64; 8];
     for b in blocks {
@@ -411,8 +419,7 @@ fn whole_sum(v: &[f32]) -> u64 {
             *a += f64::from(x);
         }
     }
-    let sum = acc.iter().sum::<f64>() + rest.iter().map(|&x| f64::from(x)).sum::<f64>();
-    sum as u64
+    acc.iter().sum::<f64>() + rest.iter().map(|&x| f64::from(x)).sum::<f64>()
 }
 
 /// One task's chunks of the batch's columns: linear x and y, neighbours found.

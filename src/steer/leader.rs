@@ -12,8 +12,9 @@
 //! Invariants: every lane performs the operations of the per-agent evaluation
 //! ([`super::eval`]'s `follow_leader`, `group::follow_leader`, the separation term and the
 //! general plan's weighted sum) in the same order, so the result is the same bits; a lane the
-//! vector form does not serve exactly (the leader itself, a sum that overflowed) takes the
-//! per-agent path with the same neighbour sums.
+//! vector form does not serve exactly (the leader itself, a speed or request that overflowed)
+//! takes the per-agent path with the same neighbour sums, and so does a whole run whose leader
+//! is gone.
 
 use std::f32::consts::TAU;
 
@@ -43,9 +44,6 @@ struct Leader {
 /// Up to [`LANES`] consecutive followers of one plan.
 #[derive(Debug, Default)]
 struct Lanes {
-    len: usize,
-    /// The storage index of the first lane's agent.
-    first: usize,
     id: [u32; LANES],
     px: [f32; LANES],
     py: [f32; LANES],
@@ -76,7 +74,8 @@ struct Consts {
 
 /// Evaluates group `g`'s followers at storage indices `from..to` (one [`PlanKind::FollowLeader`]
 /// plan) into the chunks starting at `base`; the angular outputs and wander angles are written
-/// only when `turns`. `cells` holds the batch's neighbour sums when the plan has separation.
+/// when `turns` (and for the lanes that take the per-agent path). `cells` holds the batch's
+/// neighbour sums when the plan has separation.
 #[multiversion::multiversion(targets(
     "x86_64+avx2+fma+avx512f+avx512vl+avx512bw+avx512dq",
     "x86_64+avx2+fma",
@@ -124,7 +123,7 @@ pub(super) fn run(
         hx: c,
         hy: s,
     };
-    let k = Consts {
+    let consts = Consts {
         params,
         weight,
         separation,
@@ -140,7 +139,7 @@ pub(super) fn run(
     for s in (from..to).step_by(LANES) {
         let len = LANES.min(to - s);
         l.fill(view, s, len, cells, separation.is_some());
-        let (tx, ty, exact) = lanes(&l, &lead, &k);
+        let (tx, ty, exact) = lanes(&l, &lead, &consts);
         let (ox, oy) = plan.adapter.finish_lanes(tx, ty);
         let k0 = s - base;
         take(&mut lx[k0..], &ox, len);
@@ -173,7 +172,6 @@ impl Lanes {
         separation: bool,
     ) {
         let a = view.agents;
-        (self.first, self.len) = (i, len);
         for (l, id) in a.ids[i..i + len].iter().enumerate() {
             self.id[l] = id.0;
         }

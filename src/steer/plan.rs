@@ -448,3 +448,76 @@ fn neighbour_spec(g: &Profile) -> (NeighbourSpec, Option<([(u8, f32); FLOCK_MAX]
     }
     (s, pure.then_some((terms, len as u8)))
 }
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use crate::agents::AgentId;
+    use crate::steering::{SteeringProfile, Weighted};
+
+    fn kind_of(behaviours: Vec<Weighted>) -> PlanKind {
+        let mut steering = SteeringProfile::single(behaviours[0].behaviour.clone());
+        steering.behaviours = behaviours;
+        let refs = References {
+            channels: vec![1],
+            groups: 1,
+            ..References::default()
+        };
+        Plan::compile(&Profile::dynamic(steering), 0, &refs)
+            .unwrap()
+            .kind
+    }
+
+    #[test]
+    fn one_behaviour_then_separation_has_a_plan_of_its_own() {
+        let lead = Weighted::new(Behaviour::follow_leader(AgentId(4)), 1.5);
+        let field = Weighted::new(
+            Behaviour::FollowField {
+                field: 0,
+                channel: 0,
+            },
+            1.0,
+        );
+        let sep = Weighted::new(Behaviour::separation(2.0), 0.5);
+        let look = Weighted::new(Behaviour::look_where_you_are_going(), 1.0);
+        assert!(matches!(
+            kind_of(vec![lead.clone(), sep.clone()]),
+            PlanKind::FollowLeader {
+                leader: AgentId(4),
+                weight: 1.5,
+                separation: Some(0.5),
+                ..
+            }
+        ));
+        assert!(matches!(
+            kind_of(vec![lead.clone()]),
+            PlanKind::FollowLeader {
+                separation: None,
+                ..
+            }
+        ));
+        assert!(matches!(
+            kind_of(vec![field.clone(), sep.clone()]),
+            PlanKind::FollowField {
+                field: 0,
+                separation: Some(0.5),
+                ..
+            }
+        ));
+        // Another order, a third behaviour, or repulsion beside it: the general plan.
+        assert_eq!(kind_of(vec![sep.clone(), lead.clone()]), PlanKind::General);
+        assert_eq!(
+            kind_of(vec![lead.clone(), sep.clone(), look]),
+            PlanKind::General
+        );
+        let repel = Weighted::new(
+            Behaviour::Repulsion {
+                strength: 1.0,
+                exponent: 2.0,
+                radius: 2.0,
+            },
+            1.0,
+        );
+        assert_eq!(kind_of(vec![field, repel]), PlanKind::General);
+    }
+}

@@ -192,7 +192,8 @@ impl World {
             0.0
         } else {
             let found = self.scratch.out.found;
-            found.unwrap_or_else(|| sum_lanes(&self.scratch.out.neighbours)) / n as f64
+            found.unwrap_or_else(|| steer::cells::sum_lanes(&self.scratch.out.neighbours))
+                / n as f64
         };
         let left = self.leave_through_exits();
         let (arrived, with_goal) = self.arrivals(exec == Execution::Parallel);
@@ -649,26 +650,6 @@ thread_local! {
     /// use; `None` when its thread could not be started.
     static ONE_THREAD: Option<rayon::ThreadPool> =
         rayon::ThreadPoolBuilder::new().num_threads(1).build().ok();
-}
-
-/// The sum of `v` in double precision, in eight interleaved accumulators (vector lanes rather
-/// than one chain of dependent additions), then those in order: the same order on any number of
-/// threads and in every dispatch target (the baseline build converts and adds two lanes at a
-/// time).
-#[multiversion::multiversion(targets(
-    "x86_64+avx2+fma+avx512f+avx512vl+avx512bw+avx512dq",
-    "x86_64+avx2+fma",
-    "x86_64+avx"
-))]
-fn sum_lanes(v: &[f32]) -> f64 {
-    let (blocks, rest) = v.as_chunks::<8>();
-    let mut acc = [0.0_f64; 8];
-    for b in blocks {
-        for (a, &x) in acc.iter_mut().zip(b) {
-            *a += f64::from(x);
-        }
-    }
-    acc.iter().sum::<f64>() + rest.iter().map(|&x| f64::from(x)).sum::<f64>()
 }
 
 /// Makes `to` a copy of `from`, in parallel chunks when `parallel` and `from` is long.
