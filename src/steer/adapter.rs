@@ -146,24 +146,24 @@ impl Adapter {
                 let (vx, vy) = (tx[k] / mass, ty[k] / mass);
                 let len_sq = vx * vx + vy * vy;
                 let over = len_sq > max * max;
-                // A square length that overflowed takes `truncate_robust` there: NaN sends the
-                // lane to the per-agent finish below (a scale of zero would be finite).
-                let s = if len_sq.is_finite() {
-                    max / len_sq.sqrt()
-                } else {
-                    f32::NAN
-                };
+                let s = max / len_sq.sqrt();
                 ox[k] = if over { vx * s } else { vx };
                 oy[k] = if over { vy * s } else { vy };
             }
         }
-        let mut finite = true;
+        // A request whose square length overflowed after the division by the mass takes
+        // `truncate_robust` there and a scale of zero here: a non-zero request whose result is
+        // zero goes to the per-agent finish too (as does, needlessly but rarely, one that the
+        // division took below the smallest float).
+        let mut exact = true;
         for k in 0..n {
-            finite &= (ox[k] * ox[k] + oy[k] * oy[k]).is_finite();
+            let lost = (ox[k] == 0.0) & (oy[k] == 0.0) & ((tx[k] != 0.0) | (ty[k] != 0.0));
+            exact &= (ox[k] * ox[k] + oy[k] * oy[k]).is_finite() & !lost;
         }
-        if !finite {
+        if !exact {
             for k in 0..n {
-                if !(ox[k] * ox[k] + oy[k] * oy[k]).is_finite() {
+                let lost = (ox[k] == 0.0) & (oy[k] == 0.0) & ((tx[k] != 0.0) | (ty[k] != 0.0));
+                if lost || !(ox[k] * ox[k] + oy[k] * oy[k]).is_finite() {
                     let s = self.finish(Steering::linear(Vec2::new(tx[k], ty[k])));
                     (ox[k], oy[k]) = (s.linear.x, s.linear.y);
                 }
