@@ -194,8 +194,9 @@ fn the_keep_formation_plan_equals_the_general_loop_bit_for_bit() {
 /// agent of the plan run turns; wandering on the torus), a squad behind each (the third led by
 /// one of its own members, whose lane takes the per-agent path), spread slots, the keep-out
 /// area and separation in crowded slots, the second squad's leader removed half-way: the same
-/// bits on a torus and in a walled world, in both models and with a mass so small that the
-/// requests overflow, on one thread and on two (more agents than one steering task holds).
+/// bits on a torus and in a walled world, with the grid (separation sums from the cell batch)
+/// and a k-d tree (sums per agent), in both models and with a mass so small that the requests
+/// overflow, on one thread and on two (more agents than one steering task holds).
 #[test]
 fn the_follow_leader_plan_equals_the_general_loop_bit_for_bit() {
     const SQUAD: u32 = 360;
@@ -205,7 +206,9 @@ fn the_follow_leader_plan_equals_the_general_loop_bit_for_bit() {
         (MovementModel::Kinematic, 1.5),
         (MovementModel::Dynamic, 1e-20),
     ];
-    for bounds in [bounded, Bounds::torus(90.0, 70.0).unwrap()] {
+    let worlds = [bounded, Bounds::torus(90.0, 70.0).unwrap()];
+    let indices = [throng::IndexKind::Grid, throng::IndexKind::KdTree];
+    for (bounds, index) in worlds.into_iter().flat_map(|b| indices.map(|i| (b, i))) {
         for (model, mass) in models {
             let run = |general: bool, threads: usize| {
                 let lead = if bounds.is_torus() {
@@ -270,6 +273,8 @@ fn the_follow_leader_plan_equals_the_general_loop_bit_for_bit() {
                     }
                 }
                 let mut w = b.build().unwrap();
+                // Without the grid the cell batch does not run: separation sums per agent.
+                w.set_index(index);
                 assert_eq!(w.agents().ids()[3 + 2 * SQUAD as usize], own);
                 let pool = rayon::ThreadPoolBuilder::new()
                     .num_threads(threads)
@@ -291,11 +296,9 @@ fn the_follow_leader_plan_equals_the_general_loop_bit_for_bit() {
                 states
             };
             let plan = run(false, 2);
-            assert!(plan == run(true, 2), "{bounds:?} {model:?} mass {mass}");
-            assert!(
-                plan == run(false, 1),
-                "{bounds:?} {model:?} mass {mass}: one thread"
-            );
+            let case = format!("{bounds:?} {index:?} {model:?} mass {mass}");
+            assert!(plan == run(true, 2), "{case}");
+            assert!(plan == run(false, 1), "{case}: one thread");
         }
     }
 }

@@ -75,7 +75,8 @@ struct Consts {
 /// Evaluates group `g`'s followers at storage indices `from..to` (one [`PlanKind::FollowLeader`]
 /// plan) into the chunks starting at `base`; the angular outputs and wander angles are written
 /// when `turns` (and for the lanes that take the per-agent path). `cells` holds the batch's
-/// neighbour sums when the plan has separation.
+/// neighbour sums when it computed them; without it, each agent's separation sums come from its
+/// own query ([`SteerView::sums`]), as in the general plan.
 #[multiversion::multiversion(targets(
     "x86_64+avx2+fma+avx512f+avx512vl+avx512bw+avx512dq",
     "x86_64+avx2+fma",
@@ -181,12 +182,21 @@ impl Lanes {
         put(&mut self.vy, &a.vel_y[i..], len);
         put(&mut self.max_speed, &a.max_speed[i..], len);
         (self.sep_x, self.sep_y, self.count) = ([0.0; LANES], [0.0; LANES], [0.0; LANES]);
-        if let (true, Some(c)) = (separation, cells) {
-            for q in 0..len {
-                let s = c.sums_of(i + q);
-                (self.sep_x[q], self.sep_y[q], self.count[q]) =
-                    (s.separation.x, s.separation.y, s.count);
-            }
+        if !separation {
+            return;
+        }
+        for q in 0..len {
+            let j = i + q;
+            let own;
+            let s = match cells {
+                Some(c) => c.sums_of(j),
+                None => {
+                    own = view.sums(j, a.velocity(j), a.orientation[j]);
+                    &own
+                }
+            };
+            (self.sep_x[q], self.sep_y[q], self.count[q]) =
+                (s.separation.x, s.separation.y, s.count);
         }
     }
 }

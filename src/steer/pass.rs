@@ -106,13 +106,13 @@ pub(crate) fn run(view: &SteerView, out: &mut SteerOut, scratch: &mut PassScratc
                     lane_run(view, g, (base + k, base + k + run), base, outs, !still);
                     run
                 }
-                // Leader following in lanes, with its separation sums from the batch.
-                PlanKind::FollowLeader { separation, .. }
-                    if separation.is_none() || (batched && cells::is_summed_group(view, g)) =>
-                {
+                // Leader following in lanes, with its separation sums from the batch (or from
+                // each agent's own query when the batch does not run).
+                PlanKind::FollowLeader { .. } => {
                     let run = groups[k..].iter().take_while(|&&h| h as usize == g).count();
                     let outs = (&mut *lx, &mut *ly, &mut *an, &mut *wa, &mut *nb);
-                    let sums = (batched && separation.is_some()).then_some(&scratch.cells);
+                    let sums =
+                        (batched && cells::is_summed_group(view, g)).then_some(&scratch.cells);
                     let turns = !still;
                     super::leader::run(view, g, (i, i + run), base, outs, turns, sums);
                     run
