@@ -6,8 +6,9 @@
 //! instead of one per follower) and evaluates [`LANES`] followers at a time: the leader's
 //! nearest image, the follower's spread slot (its draws from the agent's fixed stream, the
 //! polynomial [`crate::steering::trig`] sine and cosine), the keep-out area in front of the
-//! leader, the predicted slot and its approach, the model adapter, the separation term from the
-//! neighbour sums the cell batch computed, and the adapter's finish.
+//! leader, the predicted slot and its approach, the model adapter, the separation term (from
+//! the neighbour sums the cell batch computed, or each agent's own query when the batch does not
+//! run), and the adapter's finish.
 //!
 //! Invariants: every lane performs the operations of the per-agent evaluation
 //! ([`super::eval`]'s `follow_leader`, `group::follow_leader`, the separation term and the

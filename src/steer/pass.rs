@@ -70,11 +70,11 @@ pub(crate) struct PassScratch {
 pub(crate) fn run(view: &SteerView, out: &mut SteerOut, scratch: &mut PassScratch, parallel: bool) {
     let batched = cells::run(view, &mut scratch.cells, parallel);
     let all = batched && (0..view.plans.len()).all(|g| cells::is_batched_group(view, g));
-    out.found = if all { scratch.cells.found() } else { None };
-    // The batch, the seek and arrive lanes and leader following (in lanes or, without the
-    // batch's sums, through the general loop: its two behaviours have no angular part) turn
-    // nobody and leave wander angles as they are: with every agent served by them, neither
-    // output is written (the step reads neither then).
+    // The batch's total of the neighbours found (when it served every agent).
+    out.found = scratch.cells.found();
+    // The batch, the seek and arrive lanes and the leader lanes turn nobody and leave wander
+    // angles as they are: with every agent served by them, neither output is written (the step
+    // reads neither then).
     let still = (0..view.plans.len()).all(|g| {
         matches!(
             view.plans[g].kind,
