@@ -87,6 +87,72 @@ pub fn agent_line(
     }
 }
 
+/// Whether the line [`agent_line`] gives for these inputs surely permits `v`: `true` only when
+/// its violation at `v` is below `-margin`, where the margin (a `2^-12` share of the magnitudes
+/// involved) is far above the rounding of either computation, so that the built line's
+/// [`Line::violation`] at `v` is then at most zero. `false` when that is not certain, when the
+/// agents overlap, or for non-finite inputs.
+///
+/// It decides without building the line: no division, and no square root in the cut-off case.
+/// In the cut-off case (the same `w`, bit for bit, as [`agent_line`]'s) the violation is
+/// `w . (vel - v) / |w| + share * (radius / tau - |w|)`, below `-m` exactly when
+/// `share |w|^2 - w . (vel - v) >= (share * radius / tau + m) |w|`, compared in squares. On a
+/// leg (the same unnormalised leg `d`, of length `|rel_pos|^2`) it is
+/// `(d x (vel - v) - share * d x rel_vel) / |rel_pos|^2`.
+#[inline(always)]
+#[must_use]
+#[allow(clippy::too_many_arguments)]
+pub fn permits(
+    vel: Vec2,
+    rel_pos: Vec2,
+    rel_vel: Vec2,
+    radius: f32,
+    inv_tau: f32,
+    share: f32,
+    v: Vec2,
+) -> bool {
+    let dist_sq = rel_pos.length_squared();
+    let r_sq = radius * radius;
+    // Overlapping (a value that is not a number fails every comparison below).
+    if dist_sq <= r_sq {
+        return false;
+    }
+    let w = rel_vel - rel_pos * inv_tau;
+    let w_len_sq = w.length_squared();
+    let dot = w.dot(rel_pos);
+    let change = vel - v;
+    let magnitude = vel.abs().element_sum()
+        + v.abs().element_sum()
+        + rel_vel.abs().element_sum()
+        + w.abs().element_sum()
+        + radius * inv_tau;
+    let margin = PERMIT_MARGIN * magnitude;
+    if dot < 0.0 && dot * dot > r_sq * w_len_sq {
+        let x = share * w_len_sq - w.dot(change);
+        let y = share * radius * inv_tau + margin;
+        x > 0.0 && x * x > y * y * w_len_sq
+    } else {
+        let leg = (dist_sq - r_sq).sqrt();
+        let d = if rel_pos.perp_dot(w) > 0.0 {
+            Vec2::new(
+                rel_pos.x * leg - rel_pos.y * radius,
+                rel_pos.x * radius + rel_pos.y * leg,
+            )
+        } else {
+            -Vec2::new(
+                rel_pos.x * leg + rel_pos.y * radius,
+                -rel_pos.x * radius + rel_pos.y * leg,
+            )
+        };
+        d.perp_dot(change) - share * d.perp_dot(rel_vel) < -margin * dist_sq
+    }
+}
+
+/// [`permits`]' margin, as a share of the sum of the magnitudes of its inputs: about 2,000
+/// times the rounding of one operation, more than the few dozen operations of either
+/// computation can lose.
+const PERMIT_MARGIN: f32 = 1.0 / 4096.0;
+
 /// Lanes in a [`LineBlock`].
 pub const LANES: usize = 8;
 
@@ -278,5 +344,142 @@ mod tests {
         // Each forbids standing still and permits moving away from the other.
         assert!(a.violation(Vec2::ZERO) > 0.0 && b.violation(Vec2::ZERO) > 0.0);
         assert!(a.point.dot(b.point) < 0.0);
+    }
+
+    /// [`permits`] never claims a velocity the built line forbids: velocities at every
+    /// distance from the line, down to a few units in the last place on either side, for both
+    /// cases of apart agents, every share, scales from tiny to large; and it is not vacuous: it
+    /// claims every velocity that the line clearly permits (by more than a hundredth of the
+    /// magnitudes involved).
+    #[test]
+    fn permits_only_what_the_built_line_permits_and_all_it_clearly_does() {
+        let mut rng = crate::rng::AgentRng::new(9, 4, 2, 7);
+        let (mut claimed, mut clear, mut cases) = (0, 0, [0usize; 2]);
+        for case in 0..200_000 {
+            let scale = [1e-3, 0.3, 1.0, 5.0, 300.0][case % 5];
+            let signed = |rng: &mut crate::rng::AgentRng, s: f32| rng.signed() * s;
+            let vel = Vec2::new(signed(&mut rng, 2.0 * scale), signed(&mut rng, 2.0 * scale));
+            let rel = Vec2::new(
+                signed(&mut rng, 20.0 * scale),
+                signed(&mut rng, 20.0 * scale),
+            );
+            // Nearly equal velocities (a stream, the circle's ring) as often as any others.
+            let spread = if case % 2 == 0 { 4.0 } else { 0.01 };
+            let rel_vel = Vec2::new(
+                signed(&mut rng, spread * scale),
+                signed(&mut rng, spread * scale),
+            );
+            let radius = (0.2 + rng.unit() * 3.0) * scale;
+            let inv_tau = [0.1, 0.5, 1.0, 4.0][(case / 5) % 4];
+            let share = [0.5, 1.0, 0.25, 0.0, 0.9][(case / 20) % 5];
+            let line = agent_line(vel, rel, rel_vel, radius, inv_tau, 4.0, share, 1.0);
+            // A velocity at a random distance from the line (a few ulps to far), either side.
+            let along = signed(&mut rng, 4.0 * scale);
+            let off = match case % 3 {
+                0 => signed(&mut rng, 4.0 * scale),
+                1 => signed(&mut rng, 1e-3 * scale),
+                _ => signed(&mut rng, 1e-6 * scale),
+            };
+            let normal = Vec2::new(line.dir.y, -line.dir.x);
+            let v = line.point + line.dir * along + normal * off;
+            let magnitude = vel.abs().element_sum()
+                + v.abs().element_sum()
+                + rel_vel.abs().element_sum()
+                + rel.length() * inv_tau
+                + radius * inv_tau;
+            let got = permits(vel, rel, rel_vel, radius, inv_tau, share, v);
+            if got {
+                claimed += 1;
+                assert!(
+                    line.violation(v) <= 0.0,
+                    "case {case}: claimed, violation {}: {vel} {rel} {rel_vel} {radius} \
+                     {inv_tau} {share} {v}",
+                    line.violation(v)
+                );
+            }
+            if rel.length_squared() > radius * radius {
+                let w = rel_vel - rel * inv_tau;
+                let cut =
+                    w.dot(rel) < 0.0 && w.dot(rel).powi(2) > radius * radius * w.length_squared();
+                cases[usize::from(cut)] += 1;
+                if line.violation(v) < -0.01 * magnitude {
+                    clear += 1;
+                    assert!(got, "case {case}: clearly permitted, not claimed");
+                }
+            }
+        }
+        assert!(claimed > 25_000 && clear > 20_000, "{claimed} {clear}");
+        // Values that are not numbers, and overlapping agents, are never claimed.
+        let (one, far) = (Vec2::ONE, Vec2::new(9.0, 0.0));
+        assert!(permits(one, far, Vec2::ZERO, 1.0, 0.1, 0.5, one));
+        for bad in [f32::NAN, f32::INFINITY] {
+            let odd = Vec2::new(bad, 0.0);
+            assert!(!permits(odd, far, Vec2::ZERO, 1.0, 0.1, 0.5, one));
+            assert!(!permits(one, odd, Vec2::ZERO, 1.0, 0.1, 0.5, one));
+            assert!(!permits(one, far, odd, 1.0, 0.1, 0.5, one));
+            assert!(!permits(one, far, Vec2::ZERO, bad, 0.1, 0.5, one));
+            assert!(!permits(one, far, Vec2::ZERO, 1.0, 0.1, bad, one));
+            assert!(!permits(one, far, Vec2::ZERO, 1.0, 0.1, 0.5, odd));
+        }
+        assert!(!permits(one, Vec2::new(0.5, 0.0), Vec2::ZERO, 1.0, 0.1, 0.5, one));
+        assert!(cases.iter().all(|&c| c > 5_000), "{cases:?}");
+    }
+
+    /// When [`permits`] holds for every neighbour, the programs' answer over the built lines is
+    /// [`crate::orca::lp::accepted`] of the velocity they test, bit for bit: the filter's free
+    /// flow gives what building the lines and solving gives. Neighbourhoods of a stream (nearly
+    /// equal velocities, where most hold) and of a crowd in conflict (where most do not).
+    #[test]
+    fn when_every_neighbour_permits_the_programs_answer_is_the_tested_velocity() {
+        use crate::orca::lp::{accepted, solve, tested, unconstrained};
+        let mut rng = crate::rng::AgentRng::new(3, 8, 1, 5);
+        let (mut free, mut bound) = (0, 0);
+        let mut projected = Vec::new();
+        for case in 0..20_000 {
+            let spread = if case % 2 == 0 { 0.05 } else { 2.0 };
+            let max_speed = 2.0;
+            let vel = Vec2::new(rng.signed(), rng.signed()) * 1.5;
+            let pref = vel + Vec2::new(rng.signed(), rng.signed()) * spread;
+            let n = 1 + case % 12;
+            let lines: Vec<Line> = (0..n)
+                .map(|_| {
+                    let rel = Vec2::new(rng.signed(), rng.signed()) * 15.0;
+                    let rel_vel = Vec2::new(rng.signed(), rng.signed()) * spread;
+                    let radius = 1.0 + rng.unit() * 2.0;
+                    let share = [0.5, 1.0, 0.3][case % 3];
+                    let line = agent_line(vel, rel, rel_vel, radius, 0.1, 4.0, share, 1.0);
+                    (
+                        line,
+                        permits(
+                            vel,
+                            rel,
+                            rel_vel,
+                            radius,
+                            0.1,
+                            share,
+                            tested(pref, max_speed),
+                        ),
+                    )
+                })
+                .filter_map(|(line, permitted)| {
+                    // Only the neighbourhoods where every neighbour permits are compared.
+                    permitted.then_some(line).or_else(|| {
+                        bound += 1;
+                        None
+                    })
+                })
+                .collect();
+            if lines.len() < n {
+                continue;
+            }
+            free += 1;
+            let want = accepted(tested(pref, max_speed), max_speed);
+            let bits = |v: Vec2| [v.x.to_bits(), v.y.to_bits()];
+            let got = solve(&lines, 0, max_speed, pref, &mut projected);
+            assert_eq!(bits(got), bits(want), "case {case}");
+            let got = unconstrained(&lines, max_speed, pref).expect("no line violated");
+            assert_eq!(bits(got), bits(want), "case {case}");
+        }
+        assert!(free > 5_000 && bound > 5_000, "{free} {bound}");
     }
 }

@@ -61,12 +61,29 @@ pub fn solve(
 #[inline]
 #[must_use]
 pub fn unconstrained(lines: &[Line], max_speed: f32, pref: Vec2) -> Option<Vec2> {
-    let v = closest_in_circle(pref, max_speed);
+    let v = tested(pref, max_speed);
     if lines.iter().any(|line| line.violation(v) > 0.0) {
         None
     } else {
-        Some(within(v, max_speed))
+        Some(accepted(v, max_speed))
     }
+}
+
+/// The velocity [`unconstrained`] tests against the lines: the point of the speed circle
+/// closest to `pref`.
+#[inline]
+#[must_use]
+pub fn tested(pref: Vec2, max_speed: f32) -> Vec2 {
+    closest_in_circle(pref, max_speed)
+}
+
+/// [`unconstrained`]'s answer (and so [`solve`]'s) when `v = tested(pref, max_speed)` violates
+/// none of the lines, for a caller that has made sure of that without building them
+/// ([`crate::orca::lines::permits`]).
+#[inline]
+#[must_use]
+pub fn accepted(v: Vec2, max_speed: f32) -> Vec2 {
+    within(v, max_speed)
 }
 
 /// The point of the circle of radius `radius` about the origin closest to `opt`.

@@ -12,7 +12,10 @@
 //! `time_horizon_obst * max_speed + radius`; the lines of the nearest `max_neighbours` agents
 //! within `neighbour_dist`, sorted by `(distance, id)` (when fewer lie within reach of the
 //! hashed grid, in the order found, and sorted only when one cuts the preferred velocity: only
-//! then does the program's answer depend on the order); the linear program. The result is
+//! then does the program's answer depend on the order); the linear program. In free flow the
+//! agent lines are not built: when the hard lines and every neighbour surely permit the
+//! velocity the program starts from (`orca::lines::permits`, decided with a margin far above
+//! rounding), that velocity is the program's answer, the same bits. The result is
 //! written back as the desired velocity (kinematic) or as the acceleration towards it, clamped
 //! to the group's maximum (dynamic).
 //!
@@ -693,9 +696,6 @@ fn filter(
             0.5
         }
     };
-    // One line per neighbour, only the case that applies computed (measured faster than
-    // blocks of eight in lanes, whose inputs are written a lane at a time and read back as
-    // vectors, which the store buffer cannot forward).
     let (rx, ry, js) = (&b.rx[..], &b.ry[..], &b.js[..]);
     let (count, mut nearest) = match hits {
         Hits::Ordered => (
@@ -704,52 +704,71 @@ fn filter(
         ),
         Hits::All(n) => (n, u32::MAX),
     };
-    for q in 0..count {
-        let p = match hits {
-            Hits::Ordered => b.near[q] as u32 as usize,
-            Hits::All(_) => {
+    // The hit that gives the `q`-th line: its place in `rx`, `ry` and `js`.
+    let place = |q: usize| match hits {
+        Hits::Ordered => b.near[q] as u32 as usize,
+        Hits::All(_) => q,
+    };
+    let me = Pairs {
+        view,
+        orca,
+        g,
+        own_share,
+        vel,
+        radius,
+        hits: (rx, ry, js),
+    };
+    // Free flow: when the velocity the programs would start from violates no hard line and
+    // surely none of the agent lines ([`crate::orca::lines::permits`], which builds none), it is
+    // their answer, the same bits as theirs. Most agents of a crowd that is not in conflict
+    // take this way; the first neighbour it is not sure of sends the agent to the programs.
+    let start = crate::orca::lp::tested(pref, max_speed);
+    let mut free = !b.lines.iter().any(|line| line.violation(start) > 0.0);
+    if free {
+        for q in 0..count {
+            let p = place(q);
+            if let Hits::All(_) = hits {
                 // The nearest's squared distance as its key would hold it (the bits of
                 // non-negative floats order as their values).
-                nearest = nearest.min((rx[q] * rx[q] + ry[q] * ry[q]).to_bits());
-                q
+                nearest = nearest.min((rx[p] * rx[p] + ry[p] * ry[p]).to_bits());
             }
-        };
-        let (rel, j) = (Vec2::new(rx[p], ry[p]), js[p] as usize);
-        let rel_vel = vel - Vec2::new(vx[j], vy[j]);
-        let gj = groups[j] as usize;
-        let share = if gj == g {
-            own_share
-        } else {
-            match view.plans[gj].orca {
-                Some(o) => {
-                    let sum = orca.responsibility + o.responsibility;
-                    if sum > 0.0 {
-                        orca.responsibility / sum
-                    } else {
-                        0.5
-                    }
-                }
-                None => 1.0,
+            let (rel, rel_vel, r, share, _) = me.pair(p);
+            if !crate::orca::lines::permits(vel, rel, rel_vel, r, inv_tau, share, start) {
+                free = false;
+                break;
             }
-        };
-        let tie = if id < ids[j].0 { 1.0 } else { -1.0 };
-        let r = radius + radii[j];
-        b.lines.push(agent_line(
-            vel, rel, rel_vel, r, inv_tau, inv_dt, share, tie,
-        ));
+        }
     }
+    let chosen = if free {
+        crate::orca::lp::accepted(start, max_speed)
+    } else {
+        // One line per neighbour, only the case that applies computed (measured faster than
+        // blocks of eight in lanes, whose inputs are written a lane at a time and read back as
+        // vectors, which the store buffer cannot forward).
+        for q in 0..count {
+            let p = place(q);
+            if let Hits::All(_) = hits {
+                nearest = nearest.min((rx[p] * rx[p] + ry[p] * ry[p]).to_bits());
+            }
+            let (rel, rel_vel, r, share, j) = me.pair(p);
+            let tie = if id < ids[j].0 { 1.0 } else { -1.0 };
+            b.lines.push(agent_line(
+                vel, rel, rel_vel, r, inv_tau, inv_dt, share, tie,
+            ));
+        }
+        match hits {
+            Hits::Ordered => solve(&b.lines, hard, max_speed, pref, &mut b.projected),
+            // When the preferred velocity violates no line, the lines' order does not matter;
+            // otherwise the program gets them nearest first, as for `Hits::Ordered`.
+            Hits::All(n) => unconstrained(&b.lines, max_speed, pref).unwrap_or_else(|| {
+                order_lines(b, hard, n, k, ids);
+                solve(&b.lines, hard, max_speed, pref, &mut b.projected)
+            }),
+        }
+    };
     if count > 0 {
         close |= f32::from_bits(nearest) < limit * limit;
     }
-    let chosen = match hits {
-        Hits::Ordered => solve(&b.lines, hard, max_speed, pref, &mut b.projected),
-        // When the preferred velocity violates no line, the lines' order does not matter;
-        // otherwise the program gets them nearest first, as for `Hits::Ordered`.
-        Hits::All(n) => unconstrained(&b.lines, max_speed, pref).unwrap_or_else(|| {
-            order_lines(b, hard, n, k, ids);
-            solve(&b.lines, hard, max_speed, pref, &mut b.projected)
-        }),
-    };
     let chosen = if chosen.is_finite() {
         chosen
     } else {
@@ -761,6 +780,48 @@ fn filter(
         crate::steering::truncate((chosen - vel) / dt, plan.adapter.max_acceleration)
     };
     (out.x, out.y, close)
+}
+
+/// An agent's pairs with its hits.
+struct Pairs<'a> {
+    view: &'a SteerView<'a>,
+    orca: &'a Orca,
+    /// The agent's group, and its share of the avoidance against an agent of that group.
+    g: usize,
+    own_share: f32,
+    vel: Vec2,
+    radius: f32,
+    /// The hits' offsets and storage indices.
+    hits: (&'a [f32], &'a [f32], &'a [u32]),
+}
+
+impl Pairs<'_> {
+    /// The pair with the hit at place `p`: the neighbour's offset, the relative velocity, the
+    /// summed radii, the agent's share of the avoidance, the neighbour's storage index.
+    #[inline(always)]
+    fn pair(&self, p: usize) -> (Vec2, Vec2, f32, f32, usize) {
+        let a = self.view.agents;
+        let (rx, ry, js) = self.hits;
+        let (rel, j) = (Vec2::new(rx[p], ry[p]), js[p] as usize);
+        let gj = a.group[j] as usize;
+        let share = if gj == self.g {
+            self.own_share
+        } else {
+            match self.view.plans[gj].orca {
+                Some(o) => {
+                    let sum = self.orca.responsibility + o.responsibility;
+                    if sum > 0.0 {
+                        self.orca.responsibility / sum
+                    } else {
+                        0.5
+                    }
+                }
+                None => 1.0,
+            }
+        };
+        let other = Vec2::new(a.vel_x[j], a.vel_y[j]);
+        (rel, self.vel - other, self.radius + a.radius[j], share, j)
+    }
 }
 
 #[cfg(test)]
