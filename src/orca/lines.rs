@@ -421,7 +421,15 @@ mod tests {
             assert!(!permits(one, far, Vec2::ZERO, 1.0, 0.1, bad, one));
             assert!(!permits(one, far, Vec2::ZERO, 1.0, 0.1, 0.5, odd));
         }
-        assert!(!permits(one, Vec2::new(0.5, 0.0), Vec2::ZERO, 1.0, 0.1, 0.5, one));
+        assert!(!permits(
+            one,
+            Vec2::new(0.5, 0.0),
+            Vec2::ZERO,
+            1.0,
+            0.1,
+            0.5,
+            one
+        ));
         assert!(cases.iter().all(|&c| c > 5_000), "{cases:?}");
     }
 

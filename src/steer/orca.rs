@@ -67,10 +67,10 @@ struct Buffers {
     /// The squared distance of the previous agent's `k`-th nearest neighbour (infinite when it
     /// had fewer, and at the start of every chunk).
     kth_sq: f32,
-    /// The last query's block of cells (reset for every chunk of agents: the grid changes
+    /// The block of cells last gathered (reset for every chunk of agents: the grid changes
     /// between steps), and its points gathered from the hashed grid's runs into one contiguous
-    /// list (positions and indices, then [`LANES`] of padding), which every agent of the block
-    /// scans eight lanes at a time.
+    /// list (positions and indices, then [`LANES`] of padding), which every agent whose query's
+    /// block lies within it scans eight lanes at a time.
     block: Option<[i32; 4]>,
     block_x: Vec<f32>,
     block_y: Vec<f32>,
@@ -402,12 +402,27 @@ fn candidates(
     match ctx.source {
         Source::Hash(hash) => {
             // Agents lie in the order of a hashed grid of these cells (the world reorders them
-            // every few frames), so the next agent's block of cells is often this one's: its
-            // points are gathered once, for all of them.
+            // every few frames), so the next agents' blocks of cells often lie within this
+            // one's: its points are gathered once, for all of them. Where the query reaches no
+            // farther than the neighbouring cells (wide cells), the block gathered is the
+            // agent's cell and its eight neighbours, which holds the query of every agent of
+            // that cell. Any block that holds the query's has the same candidates within
+            // reach, so the results are the same bits.
             let cells = hash.cells(pos, r + ctx.slack);
-            if b.block != Some(cells) {
-                b.block = Some(cells);
-                gather_block(hash, &hash.runs_of(cells), b);
+            let holds = |[x0, x1, y0, y1]: [i32; 4]| {
+                x0 <= cells[0] && cells[1] <= x1 && y0 <= cells[2] && cells[3] <= y1
+            };
+            if !b.block.is_some_and(holds) {
+                let [cx, _, cy, _] = hash.cells(pos, 0.0);
+                let around = [
+                    cx.saturating_sub(1),
+                    cx.saturating_add(1),
+                    cy.saturating_sub(1),
+                    cy.saturating_add(1),
+                ];
+                let block = if holds(around) { around } else { cells };
+                b.block = Some(block);
+                gather_block(hash, &hash.runs_of(block), b);
             }
             // In a crowd, first within a little more than the distance of the previous
             // agent's `k`-th neighbour (its neighbourhood is this one's): when `k` agents lie
