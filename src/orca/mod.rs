@@ -32,8 +32,8 @@ use serde::{Deserialize, Serialize};
 
 use crate::error::{Error, Result, non_negative, positive};
 
-pub use lines::{LineBlock, agent_line};
-pub use lp::{Line, solve, unconstrained};
+pub use lines::{LineBlock, agent_line, permits};
+pub use lp::{Line, accepted, solve, tested, unconstrained};
 pub use obstacles::WallChains;
 
 /// The largest `max_neighbours` a group may ask for.

@@ -326,6 +326,13 @@ impl HashGrid {
         out
     }
 
+    /// The cell holding `p`, `[x, y]`: the cell points at `p` are bucketed in.
+    #[inline(always)]
+    #[must_use]
+    pub fn cell_of(&self, p: Vec2) -> [i32; 2] {
+        [cell(p.x, self.inv_side), cell(p.y, self.inv_side)]
+    }
+
     /// The runs of points of a block of cells from [`cells`](Self::cells).
     #[inline(always)]
     #[must_use]

@@ -33,7 +33,9 @@ use super::pass::{STEER_CHUNK, SteerOut};
 use super::view::SteerView;
 use crate::agents::AgentId;
 use crate::orca::lines::LANES;
-use crate::orca::{Line, Orca, WallChains, agent_line, solve, unconstrained};
+use crate::orca::{
+    Line, Orca, WallChains, accepted, agent_line, permits, solve, tested, unconstrained,
+};
 use crate::rng::{self, Stream};
 use crate::spatial::{HashGrid, Neighbour, NeighbourIndex, Runs, farthest_move};
 use crate::steering::trig;
@@ -418,7 +420,7 @@ fn candidates(
                 x0 <= cells[0] && cells[1] <= x1 && y0 <= cells[2] && cells[3] <= y1
             };
             if !b.block.is_some_and(holds) {
-                let [cx, _, cy, _] = hash.cells(pos, 0.0);
+                let [cx, cy] = hash.cell_of(pos);
                 let around = [
                     cx.saturating_sub(1),
                     cx.saturating_add(1),
@@ -557,6 +559,20 @@ fn nearest_in_order(
         insertion_sort(near, |x, y| {
             x >> 32 > y >> 32 || (x >> 32 == y >> 32 && id(x) > id(y))
         });
+    }
+}
+
+/// Whether the filter may take the free-flow way (always, but in this crate's own tests,
+/// which turn it off on their thread to compare the two ways).
+#[inline(always)]
+fn free_flow_on() -> bool {
+    #[cfg(test)]
+    {
+        !tests::NO_FREE_FLOW.get()
+    }
+    #[cfg(not(test))]
+    {
+        true
     }
 }
 
@@ -748,8 +764,8 @@ fn filter(
     // surely none of the agent lines ([`crate::orca::lines::permits`], which builds none), it is
     // their answer, the same bits as theirs. Most agents of a crowd that is not in conflict
     // take this way; the first neighbour it is not sure of sends the agent to the programs.
-    let start = crate::orca::lp::tested(pref, max_speed);
-    let tests = b.untested == 0;
+    let start = tested(pref, max_speed);
+    let tests = b.untested == 0 && free_flow_on();
     b.untested = b.untested.saturating_sub(1);
     let mut free = tests && !b.lines.iter().any(|line| line.violation(start) > 0.0);
     if free {
@@ -761,7 +777,7 @@ fn filter(
                 nearest = nearest.min((rx[p] * rx[p] + ry[p] * ry[p]).to_bits());
             }
             let (rel, rel_vel, r, share, _) = me.pair(p);
-            if !crate::orca::lines::permits(vel, rel, rel_vel, r, inv_tau, share, start) {
+            if !permits(vel, rel, rel_vel, r, inv_tau, share, start) {
                 free = false;
                 break;
             }
@@ -770,8 +786,13 @@ fn filter(
     if tests && !free {
         b.untested = UNTESTED_AFTER_FAILURE;
     }
+    #[cfg(test)]
+    tests::FREE_OF.with_borrow_mut(|[taken, all]| {
+        *taken += usize::from(free);
+        *all += 1;
+    });
     let chosen = if free {
-        crate::orca::lp::accepted(start, max_speed)
+        accepted(start, max_speed)
     } else {
         // One line per neighbour, only the case that applies computed (measured faster than
         // blocks of eight in lanes, whose inputs are written a lane at a time and read back as
@@ -817,8 +838,9 @@ fn filter(
 struct Pairs<'a> {
     view: &'a SteerView<'a>,
     orca: &'a Orca,
-    /// The agent's group, and its share of the avoidance against an agent of that group.
+    /// The agent's group.
     g: usize,
+    /// Its share of the avoidance against an agent of its own group.
     own_share: f32,
     vel: Vec2,
     radius: f32,
@@ -859,6 +881,99 @@ impl Pairs<'_> {
 mod tests {
     use super::*;
     use crate::rng::AgentRng;
+
+    thread_local! {
+        /// Set by a test to send every agent of the filters run on its thread to the programs.
+        pub(super) static NO_FREE_FLOW: std::cell::Cell<bool> = const {
+            std::cell::Cell::new(false)
+        };
+        /// The agents filtered on this thread that took the free-flow way, and all of them.
+        pub(super) static FREE_OF: RefCell<[usize; 2]> = const { RefCell::new([0; 2]) };
+    }
+
+    /// The free-flow way gives the bits of building every line and solving: the ORCA
+    /// scenarios (open, walled, with obstacles, on a torus, dynamic agents) stepped with it and
+    /// without it, on this thread (the sequential step), agree after every step; and it is
+    /// taken by many agents and not by all of them.
+    #[test]
+    fn free_flow_equals_building_every_line() {
+        use crate::scenario;
+        let torus = {
+            let mut s = scenario::builtin("circle")
+                .unwrap()
+                .with_agents(400)
+                .unwrap();
+            s.world = toml::from_str("kind = \"torus\"\nsize = [460, 460]").unwrap();
+            for g in &mut s.groups {
+                g.spawn = toml::from_str(
+                    "kind = \"circle\"\ncenter = [230, 230]\nradius = 200\nper = 400",
+                )
+                .unwrap();
+            }
+            s
+        };
+        let dynamic = {
+            let mut s = scenario::builtin("circle")
+                .unwrap()
+                .with_agents(300)
+                .unwrap();
+            for g in &mut s.groups {
+                g.params.model = crate::movement::MovementModel::Dynamic;
+            }
+            s
+        };
+        let cases = [
+            (
+                scenario::builtin("circle")
+                    .unwrap()
+                    .with_agents(600)
+                    .unwrap(),
+                900,
+            ),
+            (
+                scenario::builtin("crossing")
+                    .unwrap()
+                    .with_agents(1500)
+                    .unwrap(),
+                150,
+            ),
+            (scenario::builtin("blocks").unwrap(), 400),
+            (
+                scenario::builtin("evacuation")
+                    .unwrap()
+                    .with_agents(600)
+                    .unwrap(),
+                150,
+            ),
+            (torus, 600),
+            (dynamic, 600),
+        ];
+        for (s, steps) in cases {
+            FREE_OF.set([0; 2]);
+            let mut with = s.build().unwrap();
+            let mut without = s.build().unwrap();
+            for step in 0..steps {
+                NO_FREE_FLOW.set(false);
+                with.step_here(s.dt).unwrap();
+                NO_FREE_FLOW.set(true);
+                without.step_here(s.dt).unwrap();
+                NO_FREE_FLOW.set(false);
+                let bits = |w: &crate::World| {
+                    let a = w.agents();
+                    let columns = [a.pos_x(), a.pos_y(), a.vel_x(), a.vel_y()];
+                    columns.map(|c| c.iter().map(|x| x.to_bits()).collect::<Vec<_>>())
+                };
+                assert_eq!(bits(&with), bits(&without), "{}: step {step}", s.name);
+            }
+            // Counted over both runs: the second never takes the free way.
+            let [taken, all] = FREE_OF.with_borrow(|c| *c);
+            assert!(
+                taken * 50 > all && taken < all / 2,
+                "{}: {taken} of {all}",
+                s.name
+            );
+        }
+    }
 
     /// The `k` nearest by `(distance, id)` in that order, against a full sort, with many equal
     /// distances (on both sides of the `k`-th place too) and hits in any order.

@@ -93,6 +93,13 @@ impl World {
         })
     }
 
+    /// The sequential step on the calling thread itself (no pool of one), for this crate's
+    /// tests that set thread-local switches of the per-agent loops.
+    #[cfg(test)]
+    pub(crate) fn step_here(&mut self, dt: f32) -> Result<StepStats> {
+        self.step_with(dt, Execution::Sequential)
+    }
+
     /// Compiles the groups' plans when a profile or something profiles refer to changed.
     pub(crate) fn ensure_plans(&mut self) -> Result<()> {
         if !self.plans_stale {
