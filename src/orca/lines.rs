@@ -53,20 +53,7 @@ pub fn agent_line(
             dir = Vec2::new(unit.y, -unit.x);
             u = unit * (radius * inv_tau - w_len);
         } else {
-            let leg = (dist_sq - r_sq).sqrt();
-            dir = if rel_pos.perp_dot(w) > 0.0 {
-                // The left leg.
-                Vec2::new(
-                    rel_pos.x * leg - rel_pos.y * radius,
-                    rel_pos.x * radius + rel_pos.y * leg,
-                ) / dist_sq
-            } else {
-                // The right leg.
-                -Vec2::new(
-                    rel_pos.x * leg + rel_pos.y * radius,
-                    -rel_pos.x * radius + rel_pos.y * leg,
-                ) / dist_sq
-            };
+            dir = leg_of(rel_pos, w, radius, (dist_sq - r_sq).sqrt()) / dist_sq;
             u = dir * rel_vel.dot(dir) - rel_vel;
         }
     } else {
@@ -141,18 +128,7 @@ pub fn permits(
         let bound = y * y * w_len_sq;
         bound >= PERMIT_TINY && x > 0.0 && x * x > bound
     } else {
-        let leg = (dist_sq - r_sq).sqrt();
-        let d = if rel_pos.perp_dot(w) > 0.0 {
-            Vec2::new(
-                rel_pos.x * leg - rel_pos.y * radius,
-                rel_pos.x * radius + rel_pos.y * leg,
-            )
-        } else {
-            -Vec2::new(
-                rel_pos.x * leg + rel_pos.y * radius,
-                -rel_pos.x * radius + rel_pos.y * leg,
-            )
-        };
+        let d = leg_of(rel_pos, w, radius, (dist_sq - r_sq).sqrt());
         d.perp_dot(change) - share * d.perp_dot(rel_vel) < -margin * dist_sq
     }
 }
@@ -167,6 +143,25 @@ const PERMIT_TINY: f32 = 7.888_609e-31;
 
 /// The largest scaled product [`permits`] decides on (2^120, far below overflow).
 const PERMIT_HUGE: f32 = 1.329_228e36;
+
+/// The leg of the velocity obstacle nearest to `w` (the left one when `w` lies to the left of
+/// `rel_pos`), unnormalised: its length is `|rel_pos|^2` (`leg` is the length of the tangent,
+/// `sqrt(|rel_pos|^2 - radius^2)`). [`agent_line`] divides it by that length; [`permits`] uses
+/// it as it is, the same bits.
+#[inline(always)]
+fn leg_of(rel_pos: Vec2, w: Vec2, radius: f32, leg: f32) -> Vec2 {
+    if rel_pos.perp_dot(w) > 0.0 {
+        Vec2::new(
+            rel_pos.x * leg - rel_pos.y * radius,
+            rel_pos.x * radius + rel_pos.y * leg,
+        )
+    } else {
+        -Vec2::new(
+            rel_pos.x * leg + rel_pos.y * radius,
+            -rel_pos.x * radius + rel_pos.y * leg,
+        )
+    }
+}
 
 /// Lanes in a [`LineBlock`].
 pub const LANES: usize = 8;

@@ -155,15 +155,17 @@ impl Adapter {
         // `truncate_robust` there and a scale of zero here: a non-zero request whose result is
         // zero goes to the per-agent finish too (as does, needlessly but rarely, one that the
         // division took below the smallest float).
+        let inexact = |k: usize, ox: &[f32], oy: &[f32]| {
+            let lost = (ox[k] == 0.0) & (oy[k] == 0.0) & ((tx[k] != 0.0) | (ty[k] != 0.0));
+            lost | !(ox[k] * ox[k] + oy[k] * oy[k]).is_finite()
+        };
         let mut exact = true;
         for k in 0..n {
-            let lost = (ox[k] == 0.0) & (oy[k] == 0.0) & ((tx[k] != 0.0) | (ty[k] != 0.0));
-            exact &= (ox[k] * ox[k] + oy[k] * oy[k]).is_finite() & !lost;
+            exact &= !inexact(k, ox, oy);
         }
         if !exact {
             for k in 0..n {
-                let lost = (ox[k] == 0.0) & (oy[k] == 0.0) & ((tx[k] != 0.0) | (ty[k] != 0.0));
-                if lost || !(ox[k] * ox[k] + oy[k] * oy[k]).is_finite() {
+                if inexact(k, ox, oy) {
                     let s = self.finish(Steering::linear(Vec2::new(tx[k], ty[k])));
                     (ox[k], oy[k]) = (s.linear.x, s.linear.y);
                 }
