@@ -50,8 +50,13 @@ use crate::steering::NeighbourSums;
 #[cfg(target_arch = "x86_64")]
 mod avx512;
 
-/// Agents (in grid order) per parallel task.
-const CELL_CHUNK: usize = 2048;
+/// Agents (in grid order) per parallel task; each chunk is a task of its own
+/// (`with_max_len(1)`), so that two threads running at different speeds (a core shared with
+/// another process) share the tasks by speed rather than in rayon's default runs of several
+/// chunks, which one thread then finishes alone. The flock at 100,000 agents on 2 threads: the
+/// idle time of the batch's loop, median per step, 135 µs in runs of 2,048-agent chunks, 35 µs
+/// in single tasks of 1,024 (docs/PERFORMANCE.md).
+const CELL_CHUNK: usize = 1024;
 /// Lanes of the neighbour kernel: two vectors per operation, for instruction-level parallelism
 /// over the short candidate lists of a cell.
 const KLANES: usize = 8;
@@ -374,11 +379,13 @@ pub(crate) fn run(view: &SteerView, out: &mut CellOut, parallel: bool) -> bool {
             )
                 .into_par_iter()
                 .enumerate()
+                .with_max_len(1)
                 .for_each(|(c, (lx, ly, nb, s))| work(c * CELL_CHUNK, (lx, ly, nb), s));
         } else {
             columns
                 .into_par_iter()
                 .enumerate()
+                .with_max_len(1)
                 .for_each(|(c, (lx, ly, nb))| work(c * CELL_CHUNK, (lx, ly, nb), &mut []));
         }
     } else {
