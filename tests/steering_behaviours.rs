@@ -428,6 +428,21 @@ fn the_arrive_plan_in_lanes_equals_the_general_loop_bit_for_bit() {
 }
 
 #[test]
+fn the_arrive_plan_in_lanes_equals_the_general_loop_when_the_slowed_velocity_overflows() {
+    // A time to target so short that offset / time overflows inside the slow radius: the
+    // kinematic lanes hand those agents to `kinematic_arrive`, whose truncation then takes its
+    // robust way (the velocity's direction at full speed).
+    assert_lane_plan_equals_the_general_loop(Behaviour::Arrive {
+        target: Target::Point(Vec2::new(70.0, 5.0)),
+        params: ArriveParams {
+            target_radius: 1.0,
+            slow_radius: 1e6,
+            time_to_target: 1e-38,
+        },
+    });
+}
+
+#[test]
 fn the_lane_plans_of_each_agents_own_target_equal_the_general_loop_bit_for_bit() {
     // Seek and arrive of `Target::Own` run in lanes with a target per lane.
     assert_lane_plan_equals_the_general_loop(Behaviour::Seek {

@@ -238,6 +238,19 @@ impl SeekLanes {
         (self.tx, self.ty) = ([point.x; LANES], [point.y; LANES]);
     }
 
+    /// Lane `k`'s offset to its target: the target resolved to its nearest image on a torus of
+    /// `torus` (its size), then the offset to it, as the scalar path computes them.
+    #[inline(always)]
+    fn to_target(&self, k: usize, torus: Option<glam::Vec2>) -> (f32, f32) {
+        let (px, py) = (self.px[k], self.py[k]);
+        let (mut dx, mut dy) = (self.tx[k] - px, self.ty[k] - py);
+        if let Some(size) = torus {
+            dx = crate::bounds::wrap_delta(dx, size.x);
+            dy = crate::bounds::wrap_delta(dy, size.y);
+        }
+        ((px + dx) - px, (py + dy) - py)
+    }
+
     /// Evaluates the filled lanes and writes their outputs into the chunks starting at `base`
     /// (the angular outputs and wander angles only when `turns`: some agent of the frame may
     /// turn or wander, so the step reads them).
@@ -273,6 +286,15 @@ impl SeekLanes {
     }
 }
 
+/// The size of a torus world, `None` for the others.
+#[inline(always)]
+fn torus_size(bounds: crate::bounds::Bounds) -> Option<glam::Vec2> {
+    match bounds {
+        crate::bounds::Bounds::Torus { size } => Some(size),
+        _ => None,
+    }
+}
+
 /// The weighted seek request of every lane: the same operations in the same order as
 /// resolving the point target (its nearest image) and `steering::seek` / `kinematic_seek`.
 #[inline(always)]
@@ -284,20 +306,10 @@ fn seek_lanes(
     kinematic: bool,
 ) -> ([f32; LANES], [f32; LANES]) {
     let (mut tx, mut ty) = ([0.0_f32; LANES], [0.0_f32; LANES]);
-    let torus = match bounds {
-        crate::bounds::Bounds::Torus { size } => Some(size),
-        _ => None,
-    };
+    let torus = torus_size(bounds);
     let thr_sq = threshold * threshold;
     for k in 0..LANES {
-        let (px, py) = (l.px[k], l.py[k]);
-        let (mut dx, mut dy) = (l.tx[k] - px, l.ty[k] - py);
-        if let Some(size) = torus {
-            dx = crate::bounds::wrap_delta(dx, size.x);
-            dy = crate::bounds::wrap_delta(dy, size.y);
-        }
-        // The resolved target, then the offset to it, as the scalar path computes them.
-        let (to_x, to_y) = ((px + dx) - px, (py + dy) - py);
+        let (to_x, to_y) = l.to_target(k, torus);
         let d_sq = to_x * to_x + to_y * to_y;
         let stop = (d_sq <= thr_sq) | (d_sq == 0.0);
         let s = l.max_speed[k] / d_sq.sqrt();
@@ -314,10 +326,11 @@ fn seek_lanes(
     (tx, ty)
 }
 
-/// The weighted arrive request of every lane: the target resolved as the scalar path resolves
-/// it (its nearest image), then `steering::arrive` / `kinematic_arrive` themselves, so the lanes
-/// equal the general plan bit for bit; the gain is the dispatch the general plan does per
-/// agent.
+/// The weighted arrive request of every lane: the same operations in the same order as
+/// resolving the point target (its nearest image) and `steering::arrive` /
+/// `kinematic_arrive`, each case computed in every lane and the lane's own case selected, so
+/// that the loop runs in vector lanes. A kinematic lane whose slowed velocity's squared length
+/// overflows (where `truncate` takes its robust way) is computed by `kinematic_arrive` itself.
 #[inline(always)]
 fn arrive_lanes(
     l: &SeekLanes,
@@ -327,18 +340,55 @@ fn arrive_lanes(
     kinematic: bool,
 ) -> ([f32; LANES], [f32; LANES]) {
     let (mut tx, mut ty) = ([0.0_f32; LANES], [0.0_f32; LANES]);
+    let torus = torus_size(bounds);
+    let ttt = params.time_to_target;
+    let mut robust = [false; LANES];
     for k in 0..LANES {
-        let p = glam::Vec2::new(l.px[k], l.py[k]);
-        let resolved = p + bounds.offset(p, glam::Vec2::new(l.tx[k], l.ty[k]));
-        let f = if kinematic {
-            crate::steering::kinematic_arrive(p, resolved, l.max_speed[k], params)
+        let (to_x, to_y) = l.to_target(k, torus);
+        let dist = (to_x * to_x + to_y * to_y).sqrt();
+        let rest = dist <= params.target_radius;
+        let m = l.max_speed[k];
+        let (fx, fy);
+        if kinematic {
+            // Inside the slow radius: the offset over the time to target, truncated.
+            let (vx, vy) = (to_x / ttt, to_y / ttt);
+            let len_sq = vx * vx + vy * vy;
+            let over = len_sq > m * m;
+            robust[k] = over & !len_sq.is_finite();
+            let t = if over { m / len_sq.sqrt() } else { 1.0 };
+            let s = m / dist;
+            let slow = dist < params.slow_radius;
+            let (kx, ky) = if slow {
+                (vx * t, vy * t)
+            } else {
+                (to_x * s, to_y * s)
+            };
+            // `v * 1.0` is `v`: the untruncated velocity's bits.
+            fx = if rest { 0.0 } else { kx };
+            fy = if rest { 0.0 } else { ky };
         } else {
-            let v = glam::Vec2::new(l.vx[k], l.vy[k]);
-            crate::steering::arrive(p, v, resolved, l.max_speed[k], params)
-        };
+            let speed = if dist > params.slow_radius {
+                m
+            } else {
+                m * dist / params.slow_radius
+            };
+            let s = speed / dist;
+            let (vx, vy) = (l.vx[k], l.vy[k]);
+            fx = if rest { -vx } else { to_x * s - vx } / ttt;
+            fy = if rest { -vy } else { to_y * s - vy } / ttt;
+        }
         // `Steering::ZERO + request * weight`, as the general plan sums it.
-        tx[k] = 0.0 + f.x * weight;
-        ty[k] = 0.0 + f.y * weight;
+        tx[k] = 0.0 + fx * weight;
+        ty[k] = 0.0 + fy * weight;
+    }
+    if robust.contains(&true) {
+        for k in (0..LANES).filter(|&k| robust[k]) {
+            let p = glam::Vec2::new(l.px[k], l.py[k]);
+            let resolved = p + bounds.offset(p, glam::Vec2::new(l.tx[k], l.ty[k]));
+            let f = crate::steering::kinematic_arrive(p, resolved, l.max_speed[k], params);
+            tx[k] = 0.0 + f.x * weight;
+            ty[k] = 0.0 + f.y * weight;
+        }
     }
     (tx, ty)
 }
