@@ -632,14 +632,14 @@ fn filter_chunk(
     for k in 0..lx.len() {
         let i = base + k;
         let g = a.group[i] as usize;
-        if let Some(orca) = view.plans[g].orca {
+        if let Some(orca) = &view.plans[g].orca {
             let turb = if ctx.perturbs {
                 let s = orca.perturbation * b.turb_len[k];
                 Vec2::new(b.turb_cos[k], b.turb_sin[k]) * s
             } else {
                 Vec2::ZERO
             };
-            let (x, y, close) = filter(view, ctx, &orca, i, (lx[k], ly[k]), turb, b);
+            let (x, y, close) = filter(view, ctx, orca, i, (lx[k], ly[k]), turb, b);
             lx[k] = x;
             ly[k] = y;
             near[k] = close;
@@ -741,6 +741,7 @@ fn filter(
     // Measured against the largest radius: a farther but larger neighbour may be within reach
     // when the nearest is not, and every other candidate is at least as far as the nearest.
     let limit = (max_speed + ctx.v_max) * dt + crate::orca::contact::REACH * (radius + ctx.r_max);
+    let limit_sq = limit * limit;
     let mut close = r < limit;
     let own_share = {
         let sum = orca.responsibility + orca.responsibility;
@@ -751,12 +752,16 @@ fn filter(
         }
     };
     let (rx, ry, js) = (&b.rx[..], &b.ry[..], &b.js[..]);
-    let (count, mut nearest) = match hits {
-        Hits::Ordered => (
-            b.near.len(),
-            b.near.first().map_or(u32::MAX, |&key| (key >> 32) as u32),
-        ),
-        Hits::All(n) => (n, u32::MAX),
+    // With the hits in order, the nearest is the first; otherwise each hit is compared as it
+    // is visited (every hit is visited by at least one of the two ways below).
+    let count = match hits {
+        Hits::Ordered => {
+            if let Some(&key) = b.near.first() {
+                close |= f32::from_bits((key >> 32) as u32) < limit_sq;
+            }
+            b.near.len()
+        }
+        Hits::All(n) => n,
     };
     // The hit that gives the `q`-th line: its place in `rx`, `ry` and `js`.
     let place = |q: usize| match hits {
@@ -784,9 +789,7 @@ fn filter(
         for q in 0..count {
             let p = place(q);
             if let Hits::All(_) = hits {
-                // The nearest's squared distance as its key would hold it (the bits of
-                // non-negative floats order as their values).
-                nearest = nearest.min((rx[p] * rx[p] + ry[p] * ry[p]).to_bits());
+                close |= rx[p] * rx[p] + ry[p] * ry[p] < limit_sq;
             }
             let (rel, rel_vel, r, share, _) = me.pair(p);
             if !permits(vel, rel, rel_vel, r, inv_tau, share, start) {
@@ -812,7 +815,7 @@ fn filter(
         for q in 0..count {
             let p = place(q);
             if let Hits::All(_) = hits {
-                nearest = nearest.min((rx[p] * rx[p] + ry[p] * ry[p]).to_bits());
+                close |= rx[p] * rx[p] + ry[p] * ry[p] < limit_sq;
             }
             let (rel, rel_vel, r, share, j) = me.pair(p);
             let tie = if id < ids[j].0 { 1.0 } else { -1.0 };
@@ -830,9 +833,6 @@ fn filter(
             }),
         }
     };
-    if count > 0 {
-        close |= f32::from_bits(nearest) < limit * limit;
-    }
     let chosen = if chosen.is_finite() {
         chosen
     } else {
