@@ -48,7 +48,9 @@ pub(crate) const SORTED_PAD: usize = 8;
 ///
 /// # Rebuild
 ///
-/// A two-level counting sort, O(N + cells), on the current rayon pool when N is large:
+/// A counting sort, O(N + cells) (`super::sort`): in the two levels below, on the current rayon
+/// pool, when N or the cells are large; in one level on the calling thread otherwise (up to
+/// 65,536 points and 262,144 cells):
 ///
 /// 1. Per chunk of points: copy the positions and compute each point's cell id.
 /// 2. Per chunk: a histogram of *buckets*, runs of `2^k` consecutive cells chosen so that there
@@ -557,7 +559,8 @@ fn bounding_box(xs: &[f32], ys: &[f32], parallel: bool) -> (Vec2, Vec2) {
 }
 
 impl NeighbourIndex for GridIndex {
-    /// Rebuilds the grid by counting sort; in parallel on the current rayon pool for large N.
+    /// Rebuilds the grid by counting sort; the cell ids in parallel on the current rayon pool
+    /// for large N, the sort as `super::sort` decides.
     fn rebuild(&mut self, xs: &[f32], ys: &[f32], bounds: Bounds, max_radius: f32) {
         let parts = if xs.len() >= PARALLEL_MIN_POINTS {
             rayon::current_num_threads()

@@ -21,10 +21,11 @@
 //! * A query visits every bucket that can hold a point within reach, each at most once (the
 //!   runs of its rows are sorted and merged), so each point is offered once; other cells that
 //!   share a bucket only add candidates, which the caller's distance filter drops.
-//! * The rebuild is a stable counting sort by bucket, the same two-level sort as
-//!   [`super::GridIndex`]'s (per-chunk histograms of at most 1024 runs of buckets, a scatter into
-//!   chunk-owned slots, then a counting sort within each run), on the current rayon pool for
-//!   large N: the result does not depend on the thread count.
+//! * The rebuild is a stable counting sort by bucket, the same sort as [`super::GridIndex`]'s: in
+//!   one level on the calling thread up to 65,536 points, beyond in two levels (per-chunk
+//!   histograms of at most 1024 runs of buckets, a scatter into chunk-owned slots, then a
+//!   counting sort within each run) on the current rayon pool; the result does not depend on
+//!   the thread count or the way.
 //! * Offsets are plain differences: open and walled worlds only (on a torus the world's own
 //!   index serves).
 //! * Buffers are reused: once warm, a rebuild of the same size allocates nothing.
@@ -41,7 +42,8 @@ use super::{gather_radius, to_u32};
 const ROW: u32 = 0x9E37_79B1;
 /// Queries spanning more rows than this scan every point instead.
 const MAX_ROWS: usize = 8;
-/// From this many points on, the rebuild (buckets and sort) runs on the current rayon pool.
+/// From this many points on, the rebuild's bucket pass runs on the current rayon pool (and the
+/// sort too, beyond the sizes it sorts in one level).
 const PARALLEL_MIN_POINTS: usize = 8 * 1024;
 /// Points per work item of the bucket pass.
 const CHUNK: usize = 8 * 1024;
