@@ -23,10 +23,9 @@
 //!   share a bucket only add candidates, which the caller's distance filter drops.
 //! * The rebuild is a stable counting sort by bucket, the same sort as [`super::GridIndex`]'s: in
 //!   one level up to 131,072 points (on the calling thread up to 65,536), beyond in two levels
-//!   (per-chunk
-//!   histograms of at most 1024 runs of buckets, a scatter into chunk-owned slots, then a
-//!   counting sort within each run) on the current rayon pool; the result does not depend on
-//!   the thread count or the way.
+//!   (per-chunk histograms of at most 1024 runs of buckets, a scatter into chunk-owned slots,
+//!   then a counting sort within each run) on the current rayon pool; the result does not
+//!   depend on the thread count or the way.
 //! * Offsets are plain differences: open and walled worlds only (on a torus the world's own
 //!   index serves).
 //! * Buffers are reused: once warm, a rebuild of the same size allocates nothing.
