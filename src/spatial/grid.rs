@@ -49,8 +49,8 @@ pub(crate) const SORTED_PAD: usize = 8;
 /// # Rebuild
 ///
 /// A counting sort, O(N + cells) (`super::sort`): in the two levels below, on the current rayon
-/// pool, when N or the cells are large; in one level otherwise (up to 131,072 points and 262,144
-/// cells; on the calling thread up to 65,536 points):
+/// pool, when N or the cells are large; in one level otherwise (up to 1,048,576 points and
+/// 262,144 cells; on the calling thread up to 65,536 points):
 ///
 /// 1. Per chunk of points: copy the positions and compute each point's cell id.
 /// 2. Per chunk: a histogram of *buckets*, runs of `2^k` consecutive cells chosen so that there

@@ -22,7 +22,8 @@
 //!   runs of its rows are sorted and merged), so each point is offered once; other cells that
 //!   share a bucket only add candidates, which the caller's distance filter drops.
 //! * The rebuild is a stable counting sort by bucket, the same sort as [`super::GridIndex`]'s: in
-//!   one level up to 131,072 points (on the calling thread up to 65,536), beyond in two levels
+//!   one level up to 1,048,576 points and 262,144 buckets (on the calling thread up to 65,536
+//!   points), beyond in two levels
 //!   (per-chunk histograms of at most 1024 runs of buckets, a scatter into chunk-owned slots,
 //!   then a counting sort within each run) on the current rayon pool; the result does not
 //!   depend on the thread count or the way.

@@ -34,7 +34,7 @@
 //! * The positions come through a generic closure, so the inner loops are specialised for each
 //!   caller's layout (no dynamic dispatch).
 
-use std::sync::atomic::{AtomicU64, Ordering};
+use std::sync::atomic::{AtomicU32, AtomicU64, Ordering};
 
 use rayon::prelude::*;
 
@@ -51,10 +51,10 @@ const DIRECT_MAX_POINTS: usize = 1 << 16;
 /// See [`DIRECT_MAX_POINTS`]; also the most keys [`CountingSort::sort_rows`] takes.
 const DIRECT_MAX_KEYS: usize = 1 << 18;
 /// Points up to which more than [`DIRECT_MAX_POINTS`] are sorted in one level on the rayon pool
-/// ([`CountingSort::sort_rows`]): beyond, its scatter over all the points leaves the caches, and
-/// the two levels are quicker (at 1,000,000 points in 173,889 keys: 4.4 ms in two levels, 4.9
-/// in rows).
-const ROWS_MAX_POINTS: usize = 1 << 17;
+/// ([`CountingSort::sort_rows`]), as far as it was measured quicker than the two levels: the
+/// flock's 1,000,000 points in 173,889 keys took 3.8 to 4.0 ms in two levels, 3.0 to 3.3 in rows
+/// (on two threads).
+const ROWS_MAX_POINTS: usize = 1 << 20;
 
 /// A counting sort by key with its outputs and reusable scratch.
 #[derive(Clone, Debug, Default)]
@@ -73,6 +73,8 @@ pub(super) struct CountingSort {
     histogram: Vec<u32>,
     /// Scratch: `key << 32 | index` grouped by coarse bucket.
     pairs: Pairs,
+    /// Scratch: point indices in their slots ([`CountingSort::sort_rows`]).
+    slots: Slots,
 }
 
 /// Scratch space for the bucket scatter; cloning gives an empty one.
@@ -82,6 +84,16 @@ struct Pairs(Vec<AtomicU64>);
 impl Clone for Pairs {
     fn clone(&self) -> Self {
         Pairs::default()
+    }
+}
+
+/// Scratch space for the rows' scatter; cloning gives an empty one.
+#[derive(Debug, Default)]
+struct Slots(Vec<AtomicU32>);
+
+impl Clone for Slots {
+    fn clone(&self) -> Self {
+        Slots::default()
     }
 }
 
@@ -140,8 +152,8 @@ impl CountingSort {
     /// each chunk its first slot of each key (chunk order within a key keeps the sort stable);
     /// each chunk scatters its points' indices to its slots; the sorted indices and positions
     /// are then written in order. The same result as [`CountingSort::sort_levels`], quicker
-    /// where the rows and the scatter stay in cache (the flock's 100,000 points in 17,424 keys
-    /// on two threads: 313 to 325 µs in two levels, 205 to 245 in rows).
+    /// where each row of counts stays in cache (the flock's 100,000 points in 17,424 keys on two
+    /// threads: 313 to 325 µs in two levels, 205 to 245 in rows).
     fn sort_rows<P>(&mut self, input: Input<'_, P>)
     where
         P: Fn(usize) -> (f32, f32) + Sync,
@@ -174,8 +186,8 @@ impl CountingSort {
 
         // Pass 3: each chunk scatters its points' indices into its slots. The slots of
         // different chunks interleave, so they are relaxed atomics (plain stores on x86).
-        self.pairs.0.resize_with(n, || AtomicU64::new(0));
-        let slots = &self.pairs.0[..n];
+        self.slots.0.resize_with(n, || AtomicU32::new(0));
+        let slots = &self.slots.0[..n];
         self.histogram
             .par_chunks_mut(keys.max(1))
             .zip(key.par_chunks(chunk_len))
@@ -185,7 +197,7 @@ impl CountingSort {
                 let first = t * chunk_len;
                 for (i, &k) in key.iter().enumerate() {
                     let slot = &mut row[k as usize];
-                    slots[*slot as usize].store((first + i) as u64, Ordering::Relaxed);
+                    slots[*slot as usize].store((first + i) as u32, Ordering::Relaxed);
                     *slot += 1;
                 }
             });
@@ -204,7 +216,7 @@ impl CountingSort {
             .with_max_len(1)
             .for_each(|(((order, sx), sy), slots)| {
                 for (((o, x), y), s) in order.iter_mut().zip(sx).zip(sy).zip(slots) {
-                    let i = s.load(Ordering::Relaxed) as u32;
+                    let i = s.load(Ordering::Relaxed);
                     *o = i;
                     (*x, *y) = pos(i as usize);
                 }
