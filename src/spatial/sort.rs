@@ -20,8 +20,8 @@
 //! per key, their prefix sums and one scatter, on the calling thread
 //! ([`CountingSort::sort_direct`]): at those sizes the passes' per-bucket work costs more than
 //! their cache-friendliness and their second thread save. Up to [`ROWS_MAX_POINTS`] points (and
-//! as many keys) it is one level on the rayon pool, a row of counts per chunk of points
-//! ([`CountingSort::sort_rows`]).
+//! [`DIRECT_MAX_KEYS`] keys) it is one level on the rayon pool, a row of counts per chunk of
+//! points ([`CountingSort::sort_rows`]).
 //!
 //! # Invariants
 //!
