@@ -163,23 +163,20 @@ impl CountingSort {
             keys,
             pos,
             parts,
-            pad: (pad, pad_value),
+            pad,
         } = input;
         let n = key.len();
+        self.resize_outputs(n, pad);
         let chunk_len = n.div_ceil(parts).max(1);
         let chunks = n.div_ceil(chunk_len);
         // Pass 1: per chunk, a count per key.
-        self.histogram.resize(chunks * keys, 0);
-        self.histogram
-            .par_chunks_mut(keys.max(1))
-            .zip(key.par_chunks(chunk_len))
-            .with_max_len(1)
-            .for_each(|(row, key)| {
-                row.fill(0);
-                for &k in key {
-                    row[k as usize] += 1;
-                }
-            });
+        count_chunks(
+            &mut self.histogram,
+            key,
+            (chunks, chunk_len),
+            (keys, 0),
+            true,
+        );
         // Pass 2: key by key, each chunk's first slot (its row becomes its write cursors), and
         // the keys' starts.
         column_starts(&mut self.histogram, keys, chunks, &mut self.start);
@@ -203,11 +200,6 @@ impl CountingSort {
             });
 
         // Pass 4: the sorted indices and positions, in order.
-        self.order.resize(n, 0);
-        self.sorted_x.resize(n + pad, 0.0);
-        self.sorted_y.resize(n + pad, 0.0);
-        self.sorted_x[n..].fill(pad_value);
-        self.sorted_y[n..].fill(pad_value);
         self.order
             .par_chunks_mut(chunk_len)
             .zip(self.sorted_x[..n].par_chunks_mut(chunk_len))
@@ -233,9 +225,10 @@ impl CountingSort {
             keys,
             pos,
             parts,
-            pad: (pad, pad_value),
+            pad,
         } = input;
         let n = key.len();
+        self.resize_outputs(n, pad);
         let parts = parts.clamp(1, MAX_PARTS);
         let parallel = parts > 1;
 
@@ -247,27 +240,14 @@ impl CountingSort {
         let buckets = (keys + (1 << shift) - 1) >> shift;
         let chunk_len = n.div_ceil(parts).max(1);
         let chunks = n.div_ceil(chunk_len);
-        self.histogram.clear();
-        self.histogram.resize(chunks * buckets, 0);
-        let count = |row: &mut [u32], key: &[u32]| {
-            for &k in key {
-                row[(k >> shift) as usize] += 1;
-            }
-        };
-        if parallel {
-            self.histogram
-                .par_chunks_mut(buckets)
-                .zip(key.par_chunks(chunk_len))
-                .for_each(|(row, key)| count(row, key));
-        } else {
-            for (row, key) in self
-                .histogram
-                .chunks_mut(buckets)
-                .zip(key.chunks(chunk_len))
-            {
-                count(row, key);
-            }
-        }
+        let widths = (buckets, shift);
+        count_chunks(
+            &mut self.histogram,
+            key,
+            (chunks, chunk_len),
+            widths,
+            parallel,
+        );
         // Bucket starts, and each chunk's first slot in each bucket: chunk order within a bucket
         // keeps the scatter stable.
         column_starts(&mut self.histogram, buckets, chunks, &mut self.bucket_start);
@@ -306,11 +286,6 @@ impl CountingSort {
         // ranges of the outputs, so they run in parallel.
         self.start.resize(keys + 1, 0);
         self.start[0] = 0;
-        self.order.resize(n, 0);
-        self.sorted_x.resize(n + pad, 0.0);
-        self.sorted_y.resize(n + pad, 0.0);
-        self.sorted_x[n..].fill(pad_value);
-        self.sorted_y[n..].fill(pad_value);
         let shared = Shared {
             bucket_start: &self.bucket_start,
             pairs,
@@ -328,6 +303,16 @@ impl CountingSort {
         sort_buckets(&shared, 0, buckets, out);
     }
 
+    /// `order` for `n` points, and the sorted positions for `n` then their padding (`pad.0`
+    /// entries of `pad.1`), written.
+    fn resize_outputs(&mut self, n: usize, (pad, pad_value): (usize, f32)) {
+        self.order.resize(n, 0);
+        self.sorted_x.resize(n + pad, 0.0);
+        self.sorted_y.resize(n + pad, 0.0);
+        self.sorted_x[n..].fill(pad_value);
+        self.sorted_y[n..].fill(pad_value);
+    }
+
     /// The sort in one level on this thread, for few points and keys: a count per key, their
     /// prefix sums, one scatter. The same result as [`CountingSort::sort_levels`] (the stable
     /// order is unique), for a fraction of its work where the keys' counters fit in cache: a
@@ -337,21 +322,11 @@ impl CountingSort {
     where
         P: Fn(usize) -> (f32, f32),
     {
-        let Input {
-            key,
-            keys,
-            pos,
-            pad: (pad, pad_value),
-            ..
-        } = input;
+        let Input { key, keys, pos, .. } = input;
         let n = key.len();
         self.start.clear();
         self.start.resize(keys + 1, 0);
-        self.order.resize(n, 0);
-        self.sorted_x.resize(n + pad, 0.0);
-        self.sorted_y.resize(n + pad, 0.0);
-        self.sorted_x[n..].fill(pad_value);
-        self.sorted_y[n..].fill(pad_value);
+        self.resize_outputs(n, input.pad);
         // `start[k + 1]` counts key `k`, then holds its first slot, then (the scatter's cursor)
         // its end: the start of key `k + 1`.
         let (start, order) = (&mut self.start[..], &mut self.order[..n]);
@@ -384,6 +359,37 @@ struct Input<'a, P> {
     pos: P,
     parts: usize,
     pad: (usize, f32),
+}
+
+/// Pass 1 of the sorts: a row of `width` counts per chunk of `chunk_len` points (`chunks` of
+/// them), each point counted at its key shifted right by `shift`; on the current rayon pool
+/// when `parallel`, a task per chunk.
+fn count_chunks(
+    histogram: &mut Vec<u32>,
+    key: &[u32],
+    (chunks, chunk_len): (usize, usize),
+    (width, shift): (usize, u32),
+    parallel: bool,
+) {
+    histogram.resize(chunks * width, 0);
+    let count = |row: &mut [u32], key: &[u32]| {
+        row.fill(0);
+        for &k in key {
+            row[(k >> shift) as usize] += 1;
+        }
+    };
+    let rows = width.max(1);
+    if parallel {
+        histogram
+            .par_chunks_mut(rows)
+            .zip(key.par_chunks(chunk_len))
+            .with_max_len(1)
+            .for_each(|(row, key)| count(row, key));
+    } else {
+        for (row, key) in histogram.chunks_mut(rows).zip(key.chunks(chunk_len)) {
+            count(row, key);
+        }
+    }
 }
 
 /// Prefix sums over a histogram of `chunks` rows of `width` counts, column by column: each count
