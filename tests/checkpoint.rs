@@ -407,6 +407,37 @@ fn crafted_values_are_rejected_by_the_worlds_validation() {
     }
 }
 
+/// A file whose agent carries a maximum speed other than its group's without the flag of an
+/// own speed (a file no world writes) loads as if the agent had been given that speed: it
+/// steers as in a world where it was (a speed above the group's, so that giving it truncates
+/// no velocity).
+#[test]
+fn a_speed_other_than_the_groups_in_a_file_is_the_agents_own() {
+    let flock = |n| {
+        scenario::builtin("flock")
+            .unwrap()
+            .with_agents(n)
+            .unwrap()
+            .build()
+            .unwrap()
+    };
+    let dt = 1.0 / 30.0;
+    let mut w = flock(400);
+    steps(&mut w, 2, dt);
+    let bytes = saved(&w);
+    let edited = crafted(&bytes, |v| {
+        entry(v, &["world", "agents", "max_speed"])
+            .as_array_mut()
+            .unwrap()[5] = ciborium::Value::Float(5.5);
+    });
+    let mut loaded = World::load(&edited as &[u8]).unwrap();
+    let id = w.agents().id(5);
+    w.set_max_speed(id, 5.5).unwrap();
+    steps(&mut w, 10, dt);
+    steps(&mut loaded, 10, dt);
+    assert_eq!(bits(&loaded), bits(&w));
+}
+
 /// A world with a walkable area and a rectangle and a polygon exit, saved: the file written
 /// before walkable areas and polygon exits existed is this one without the `walkable` key and
 /// with only rectangle exits, `{ min, max }`; it still loads, with no area.

@@ -198,6 +198,30 @@ fn nearest_distances(w: &World) -> Vec<f32> {
         .collect()
 }
 
+/// While no agent has a maximum speed of its own, the batch takes the group's from its
+/// profile; once one agent has one (here the group's value), it reads every agent's. Both ways
+/// steer the same bits, after a change of the group's parameters too.
+#[test]
+fn the_groups_max_speed_and_the_agents_own_steer_alike() {
+    let run = |own: bool| {
+        let mut w = flock_world(800, 1.5, 1.0, 0.8, 5);
+        let params = GroupParams {
+            max_speed: 3.0,
+            ..w.groups()[0].clone()
+        };
+        w.set_group_params(0, params).unwrap();
+        if own {
+            let id = w.agents().id(17);
+            w.set_max_speed(id, 3.0).unwrap();
+        }
+        for _ in 0..20 {
+            w.step(DT).unwrap();
+        }
+        snapshot(&w)
+    };
+    assert_eq!(run(false), run(true));
+}
+
 #[test]
 fn flocking_is_bit_identical_on_one_two_and_four_threads() {
     for kind in [IndexKind::Grid, IndexKind::KdTree] {

@@ -92,6 +92,10 @@ pub struct Agents {
     /// Desired walking speed (pedestrian models).
     pub(crate) desired_speed: Vec<f32>,
     pub(crate) overrides: Vec<u8>,
+    /// How many agents have [`OVERRIDE_SPEED`] set. While it is zero, every agent's maximum
+    /// speed is its group's (the world keeps the others' at their group's value), so a pass
+    /// may take the group's value instead of reading the column through an order.
+    own_speeds: usize,
     /// Per-agent target point .
     pub(crate) target_x: Vec<f32>,
     pub(crate) target_y: Vec<f32>,
@@ -250,6 +254,7 @@ impl Agents {
         let mut flags = 0;
         if init.max_speed.is_some() {
             flags |= OVERRIDE_SPEED;
+            self.own_speeds += 1;
         }
         if init.radius.is_some() {
             flags |= OVERRIDE_RADIUS;
@@ -264,6 +269,9 @@ impl Agents {
     /// Removes an agent by storage index, moving the last agent into its place.
     pub(crate) fn swap_remove(&mut self, index: usize) -> AgentId {
         let id = self.ids[index];
+        if self.overrides[index] & OVERRIDE_SPEED != 0 {
+            self.own_speeds -= 1;
+        }
         let swap = |v: &mut Vec<f32>| {
             v.swap_remove(index);
         };
@@ -482,6 +490,10 @@ impl Agents {
             max_speed,
             radius,
             desired_speed,
+            own_speeds: overrides
+                .iter()
+                .filter(|&&o| o & OVERRIDE_SPEED != 0)
+                .count(),
             overrides,
             target_x,
             target_y,
@@ -489,6 +501,21 @@ impl Agents {
             index_of,
             ..Agents::default()
         })
+    }
+
+    /// Gives agent `i` a maximum speed of its own.
+    pub(crate) fn set_own_max_speed(&mut self, i: usize, max_speed: f32) {
+        self.max_speed[i] = max_speed;
+        if self.overrides[i] & OVERRIDE_SPEED == 0 {
+            self.overrides[i] |= OVERRIDE_SPEED;
+            self.own_speeds += 1;
+        }
+    }
+
+    /// Whether no agent has a maximum speed of its own: every agent's is then its group's.
+    #[must_use]
+    pub(crate) fn speeds_of_groups(&self) -> bool {
+        self.own_speeds == 0
     }
 
     /// Copies of the state buffers, in storage order.
@@ -565,6 +592,44 @@ mod tests {
             let p = p as usize;
             p < seen.len() && !std::mem::replace(&mut seen[p], true)
         })
+    }
+
+    /// The count of agents with a maximum speed of their own follows every push, removal,
+    /// own speed given and store rebuilt from columns.
+    #[test]
+    fn own_speeds_are_counted_through_every_change() {
+        let flags = |a: &Agents| {
+            a.overrides
+                .iter()
+                .filter(|&&o| o & OVERRIDE_SPEED != 0)
+                .count()
+        };
+        let mut a = Agents::new();
+        for k in 0..12 {
+            let init = AgentInit {
+                max_speed: (k % 4 == 0).then_some(2.0),
+                ..AgentInit::at(Vec2::new(k as f32, 0.0), 0)
+            };
+            a.push(&init, 1.0, 0.5, 0.0, 1.0);
+        }
+        assert_eq!((a.own_speeds, flags(&a)), (3, 3));
+        a.set_own_max_speed(1, 3.0);
+        a.set_own_max_speed(1, 2.5);
+        a.set_own_max_speed(4, 3.0);
+        assert_eq!((a.own_speeds, flags(&a)), (4, 4));
+        for i in [0, 3, 1, 0] {
+            a.swap_remove(i);
+            assert_eq!(a.own_speeds, flags(&a));
+        }
+        a.reorder(&(0..a.len() as u32).rev().collect::<Vec<_>>());
+        let rebuilt = Agents::from_columns(a.to_columns(), a.ids_issued()).unwrap();
+        assert_eq!(rebuilt.own_speeds, flags(&a));
+        assert_eq!(a.speeds_of_groups(), flags(&a) == 0);
+        while a.own_speeds > 0 {
+            let i = a.overrides.iter().position(|&o| o & OVERRIDE_SPEED != 0);
+            a.swap_remove(i.unwrap());
+        }
+        assert!(a.speeds_of_groups() && !a.is_empty());
     }
 
     /// The lanes give the sequential folds' answers at every length, NaN and zeros included.

@@ -337,6 +337,15 @@ fn restore_agents(mut c: AgentColumns, issued: usize, w: &World) -> Result<Agent
         };
         at(part, check())?;
     }
+    // An agent without a maximum speed of its own carries its group's (the world keeps it so);
+    // one whose value differs is marked as having its own, so that the passes which take the
+    // group's value while no agent has its own never replace a speed the file gave it.
+    for i in 0..n {
+        let own = c.overrides[i] & crate::agents::store_flags::OVERRIDE_SPEED != 0;
+        if !own && c.max_speed[i] != w.groups[c.group[i] as usize].max_speed {
+            c.overrides[i] |= crate::agents::store_flags::OVERRIDE_SPEED;
+        }
+    }
     Agents::from_columns(c, issued).map_err(|id| {
         invalid(
             "agents",

@@ -298,6 +298,18 @@ impl CellOut {
     }
 }
 
+/// The maximum speed of agent `i` (storage index) of `group`: its group's while no agent has
+/// one of its own, without a read of the agents' column (the batch visits agents in the grid's
+/// order, which scatters reads of storage-ordered columns as the order goes stale).
+#[inline(always)]
+fn max_speed_of(view: &SteerView, group: usize, i: usize) -> f32 {
+    if view.agents.speeds_of_groups() {
+        view.profiles[group].max_speed
+    } else {
+        view.agents.max_speed[i]
+    }
+}
+
 /// The grid and its copies when the batch can run: the grid kernel is ready and, on a torus,
 /// the grid has at least three cells per axis (so a 3 x 3 block never holds a cell twice).
 fn ready<'a>(view: &SteerView<'a>) -> Option<(&'a GridIndex, &'a SortedCopies)> {
@@ -522,14 +534,14 @@ impl Outputs<'_> {
             PlanKind::Flock { .. } => {
                 // The sums still hold the agent itself: `finish` takes it out in lanes.
                 runs.mark[j] = group as u32 + 1;
-                runs.max_speed[j] = view.agents.max_speed[i];
+                runs.max_speed[j] = max_speed_of(view, group, i);
             }
             PlanKind::Vicsek { .. } => {
                 // The summed headings wait too: the turns, the headings and the adapter then run
                 // over each run of the group in lanes (`vicsek_run`).
                 runs.mark[j] = group as u32 + 1;
                 runs.id[j] = view.agents.ids[i].0;
-                runs.max_speed[j] = view.agents.max_speed[i];
+                runs.max_speed[j] = max_speed_of(view, group, i);
             }
             _ => self.summed(&plan.spec, j),
         }
@@ -559,9 +571,14 @@ impl Outputs<'_> {
         }
         let runs = &mut *self.runs;
         runs.mark[..n].fill(1);
-        let max_speed = &view.agents.max_speed;
-        for (m, &i) in runs.max_speed[..n].iter_mut().zip(order) {
-            *m = max_speed[i as usize];
+        if view.agents.speeds_of_groups() {
+            // Every agent's is the group's: no read through the order.
+            runs.max_speed[..n].fill(view.profiles[0].max_speed);
+        } else {
+            let max_speed = &view.agents.max_speed;
+            for (m, &i) in runs.max_speed[..n].iter_mut().zip(order) {
+                *m = max_speed[i as usize];
+            }
         }
         if let PlanKind::Vicsek { .. } = plan.kind {
             let ids = &view.agents.ids;

@@ -534,8 +534,7 @@ impl World {
     pub fn set_max_speed(&mut self, id: AgentId, max_speed: f32) -> Result<()> {
         check_max_speed(max_speed)?;
         let i = self.index(id)?;
-        self.agents.max_speed[i] = max_speed;
-        self.agents.overrides[i] |= crate::agents::store_flags::OVERRIDE_SPEED;
+        self.agents.set_own_max_speed(i, max_speed);
         self.clamp_velocity(i);
         Ok(())
     }
