@@ -5,6 +5,7 @@
 //! `order`. The layout, geometry and rebuild are documented on [`GridIndex`].
 
 use std::ops::Range;
+use std::sync::atomic::{AtomicU32, Ordering};
 
 use glam::Vec2;
 use rayon::prelude::*;
@@ -253,6 +254,13 @@ impl GridIndex {
         (&self.sort.sorted_x, &self.sort.sorted_y)
     }
 
+    /// `ranks()[i]`: the position of point `i` in [`order`](Self::order), the inverse
+    /// permutation, written by the rebuild where it places each point (relaxed atomics: plain
+    /// loads on x86).
+    pub(crate) fn ranks(&self) -> &[AtomicU32] {
+        &self.sort.rank.0
+    }
+
     /// Makes the grid the one a rebuild would give after the points were permuted into its
     /// [`order`](Self::order) (point `k` becomes the old point `order()[k]`), without sorting:
     /// the same set of points gives the same cells and sorted positions, and a stable sort of
@@ -267,9 +275,16 @@ impl GridIndex {
         let (start, sx, sy) = (&sort.start, &sort.sorted_x, &sort.sorted_y);
         // Positions `base..base + len` of the new order: the sorted points, their cells (the
         // cell holding `base` found by a search of the prefix sums, then walked), the identity.
+        let rank = &sort.rank.0[..n];
         let adopt = |base: usize, pts: &mut [Vec2], cell: &mut [u32], order: &mut [u32]| {
             let mut c = start.partition_point(|&s| s as usize <= base) - 1;
-            for (j, ((p, ce), o)) in pts.iter_mut().zip(cell).zip(order).enumerate() {
+            let rank = &rank[base..base + order.len()];
+            for (j, ((p, ce), (o, r))) in pts
+                .iter_mut()
+                .zip(cell)
+                .zip(order.iter_mut().zip(rank))
+                .enumerate()
+            {
                 let k = base + j;
                 while start[c + 1] as usize <= k {
                     c += 1;
@@ -277,6 +292,7 @@ impl GridIndex {
                 *p = Vec2::new(sx[k], sy[k]);
                 *ce = c as u32;
                 *o = k as u32;
+                r.store(k as u32, Ordering::Relaxed);
             }
         };
         let (pts, cell, order) = (&mut self.pts[..n], &mut self.cell[..n], &mut sort.order[..]);
@@ -781,6 +797,11 @@ mod tests {
             assert_eq!(adopted.cell, rebuilt.cell, "{n} points");
             assert_eq!(adopted.sort.start, rebuilt.sort.start);
             assert_eq!(adopted.sort.order, rebuilt.sort.order);
+            let ranks = |g: &GridIndex| {
+                let r = g.ranks().iter().map(|r| r.load(Ordering::Relaxed));
+                r.collect::<Vec<u32>>()
+            };
+            assert_eq!(ranks(&adopted), ranks(&rebuilt));
             assert_eq!(adopted.sort.sorted_x, rebuilt.sort.sorted_x);
             assert_eq!(adopted.sort.sorted_y, rebuilt.sort.sorted_y);
             assert_eq!(adopted.scale.to_bits(), rebuilt.scale.to_bits());

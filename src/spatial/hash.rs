@@ -232,8 +232,15 @@ impl HashGrid {
     /// the same points give the same buckets and sorted positions, and a stable sort of points
     /// already in bucket order is the identity.
     pub(crate) fn adopt_order(&mut self) {
-        for (k, o) in self.sort.order.iter_mut().enumerate() {
+        for (k, (o, r)) in self
+            .sort
+            .order
+            .iter_mut()
+            .zip(&self.sort.rank.0)
+            .enumerate()
+        {
             *o = k as u32;
+            r.store(k as u32, std::sync::atomic::Ordering::Relaxed);
         }
     }
 

@@ -27,6 +27,9 @@
 //!
 //! * `order` is the stable sort of `0..N` by key: the points of one key in ascending index order,
 //!   whatever the number of chunks, so the result does not depend on the thread count.
+//! * `rank` is the inverse of `order`: point `i` sits at `order[rank[i]]`. Each way writes it
+//!   where it places a point (in point order in the one-level ways), so a caller that maps
+//!   points to their sorted positions reads it instead of scattering the order itself.
 //! * `start` holds its prefix sums, `keys + 1` long with `start[0] = 0`; the sorted positions
 //!   follow `order`, then the caller's padding (`pad.0` entries of `pad.1`: zeros for the grid,
 //!   `f32::MAX` for the hash grid).
@@ -67,6 +70,8 @@ pub(super) struct CountingSort {
     pub(super) sorted_x: Vec<f32>,
     /// y coordinates in `order`, then the padding.
     pub(super) sorted_y: Vec<f32>,
+    /// `rank[i]`: the position of point `i` in `order`.
+    pub(super) rank: Ranks,
     /// Scratch: points per coarse bucket, as prefix sums.
     bucket_start: Vec<u32>,
     /// Scratch: per chunk of points, a histogram of coarse buckets, then write cursors.
@@ -94,6 +99,18 @@ struct Slots(Vec<AtomicU32>);
 impl Clone for Slots {
     fn clone(&self) -> Self {
         Slots::default()
+    }
+}
+
+/// The sorted position of each point: relaxed atomics, because the two-level way writes them
+/// from its buckets in any point order (plain stores and loads on x86).
+#[derive(Debug, Default)]
+pub(super) struct Ranks(pub(super) Vec<AtomicU32>);
+
+impl Clone for Ranks {
+    fn clone(&self) -> Self {
+        let values = self.0.iter().map(|r| r.load(Ordering::Relaxed));
+        Ranks(values.map(AtomicU32::new).collect())
     }
 }
 
@@ -183,18 +200,21 @@ impl CountingSort {
 
         // Pass 3: each chunk scatters its points' indices into its slots. The slots of
         // different chunks interleave, so they are relaxed atomics (plain stores on x86).
+        // Each point's slot is its rank, written in point order.
         self.slots.0.resize_with(n, || AtomicU32::new(0));
         let slots = &self.slots.0[..n];
         self.histogram
             .par_chunks_mut(keys.max(1))
             .zip(key.par_chunks(chunk_len))
+            .zip(self.rank.0[..n].par_chunks(chunk_len))
             .enumerate()
             .with_max_len(1)
-            .for_each(|(t, (row, key))| {
+            .for_each(|(t, ((row, key), rank))| {
                 let first = t * chunk_len;
-                for (i, &k) in key.iter().enumerate() {
+                for (i, (&k, r)) in key.iter().zip(rank).enumerate() {
                     let slot = &mut row[k as usize];
                     slots[*slot as usize].store((first + i) as u32, Ordering::Relaxed);
+                    r.store(*slot, Ordering::Relaxed);
                     *slot += 1;
                 }
             });
@@ -289,6 +309,7 @@ impl CountingSort {
         let shared = Shared {
             bucket_start: &self.bucket_start,
             pairs,
+            rank: &self.rank.0[..n],
             pos: &pos,
             shift,
             keys,
@@ -303,10 +324,12 @@ impl CountingSort {
         sort_buckets(&shared, 0, buckets, out);
     }
 
-    /// `order` for `n` points, and the sorted positions for `n` then their padding (`pad.0`
-    /// entries of `pad.1`), written.
+    /// `order` and `rank` for `n` points, and the sorted positions for `n` then their padding
+    /// (`pad.0` entries of `pad.1`), written.
     fn resize_outputs(&mut self, n: usize, (pad, pad_value): (usize, f32)) {
         self.order.resize(n, 0);
+        self.rank.0.resize_with(n, AtomicU32::default);
+        self.rank.0.truncate(n);
         self.sorted_x.resize(n + pad, 0.0);
         self.sorted_y.resize(n + pad, 0.0);
         self.sorted_x[n..].fill(pad_value);
@@ -331,6 +354,7 @@ impl CountingSort {
         // its end: the start of key `k + 1`.
         let (start, order) = (&mut self.start[..], &mut self.order[..n]);
         let (sx, sy) = (&mut self.sorted_x[..n], &mut self.sorted_y[..n]);
+        let rank = &self.rank.0[..n];
         let ends = &mut start[1..];
         for &k in key {
             ends[k as usize] += 1;
@@ -339,9 +363,10 @@ impl CountingSort {
         for e in ends.iter_mut() {
             (*e, run) = (run, run + *e);
         }
-        for (i, &k) in key.iter().enumerate() {
+        for (i, (&k, r)) in key.iter().zip(rank).enumerate() {
             let slot = &mut ends[k as usize];
             let at = *slot as usize;
+            r.store(*slot, Ordering::Relaxed);
             *slot += 1;
             let (x, y) = pos(i);
             order[at] = i as u32;
@@ -412,6 +437,7 @@ fn column_starts(histogram: &mut [u32], width: usize, chunks: usize, starts: &mu
 struct Shared<'a, P> {
     bucket_start: &'a [u32],
     pairs: &'a [AtomicU64],
+    rank: &'a [AtomicU32],
     pos: &'a P,
     shift: u32,
     keys: usize,
@@ -492,6 +518,7 @@ where
             let (k, i) = ((pair >> 32) as usize, pair as u32);
             let slot = &mut ends[k - k0];
             let at = (*slot - base) as usize;
+            sh.rank[i as usize].store(*slot, Ordering::Relaxed);
             *slot += 1;
             let (x, y) = (sh.pos)(i as usize);
             out.order[at] = i;
@@ -557,6 +584,10 @@ mod tests {
                 .chain([1, 2, 5].map(|p| (1, p)))
                 .chain([2, 3, 7].map(|p| (2, p)))
             {
+                // Ranks left from the way before would hide a way that writes none.
+                for r in &sort.rank.0 {
+                    r.store(u32::MAX, Ordering::Relaxed);
+                }
                 let pos = |i: usize| (xs[i], ys[i]);
                 let input = Input {
                     key: &key,
@@ -572,9 +603,11 @@ mod tests {
                 }
                 assert_eq!(sort.start, start, "{n} points, {parts} parts");
                 assert_eq!(sort.order, order, "{n} points, {parts} parts");
+                assert_eq!(sort.rank.0.len(), n);
                 for (k, &i) in order.iter().enumerate() {
                     assert_eq!(sort.sorted_x[k], xs[i as usize]);
                     assert_eq!(sort.sorted_y[k], ys[i as usize]);
+                    assert_eq!(sort.rank.0[i as usize].load(Ordering::Relaxed), k as u32);
                 }
                 assert_eq!(sort.sorted_x[n..], [f32::MAX; 3]);
                 assert_eq!(sort.sorted_y[n..], [f32::MAX; 3]);

@@ -65,16 +65,12 @@ const MIN_CELL_BUF: usize = 4096;
 /// A padding coordinate: far from every point, with a finite square.
 const FAR: f32 = 1e18;
 
-/// The batch's outputs in the grid's order, and the map from storage index to that order.
+/// The batch's outputs in the grid's order (the grid's ranks map storage indices to it).
 #[derive(Debug, Default)]
 pub(crate) struct CellOut {
     lin_x: Vec<f32>,
     lin_y: Vec<f32>,
     count: Vec<f32>,
-    /// `rank[i]`: the position of storage index `i` in the grid's order. Written by the
-    /// parallel tasks for their own positions (a scatter: relaxed atomics, plain stores and loads
-    /// on x86, instead of `unsafe`), read after they all finish.
-    rank: Vec<AtomicU32>,
     /// Per group: the kernel's query template, when the group is batched or summed.
     specs: Vec<Option<Query>>,
     /// Per grid position: the neighbour sums of an agent of a summed group (empty when no
@@ -248,9 +244,14 @@ impl CellOut {
     /// Copies the batched linear requests of storage indices `base..base + lx.len()` (every
     /// agent batched) into the per-agent output chunks (the neighbour counts are summed in the
     /// batch, the angular outputs, all zero, and the wander angles, unchanged, are not written).
-    pub(crate) fn take_all(&self, base: usize, (lx, ly): (&mut [f32], &mut [f32])) {
+    pub(crate) fn take_all(
+        &self,
+        view: &SteerView,
+        base: usize,
+        (lx, ly): (&mut [f32], &mut [f32]),
+    ) {
         let n = lx.len();
-        let rank = &self.rank[base..base + n];
+        let rank = &ranks(view)[base..base + n];
         let ly = &mut ly[..n];
         // The columns cut to one length, and each rank clamped below it: a select instead of a
         // bounds-check branch per load (ranks are grid positions, so the clamp changes none).
@@ -276,8 +277,8 @@ impl CellOut {
 
     /// The neighbour sums the batch computed for agent `i` (storage index) of a summed group.
     #[inline]
-    pub(crate) fn sums_of(&self, i: usize) -> &NeighbourSums {
-        &self.sums[self.rank[i].load(Ordering::Relaxed) as usize]
+    pub(crate) fn sums_of(&self, view: &SteerView, i: usize) -> &NeighbourSums {
+        &self.sums[ranks(view)[i].load(Ordering::Relaxed) as usize]
     }
 
     /// Copies agent `i`'s batched outputs into slot `k` of the per-agent output chunks.
@@ -289,12 +290,22 @@ impl CellOut {
         (lx, ly, an, wa, nb): OutChunks,
         k: usize,
     ) {
-        let r = self.rank[i].load(Ordering::Relaxed) as usize;
+        let r = ranks(view)[i].load(Ordering::Relaxed) as usize;
         lx[k] = self.lin_x[r];
         ly[k] = self.lin_y[r];
         an[k] = 0.0;
         wa[k] = view.agents.wander[i];
         nb[k] = self.count[r];
+    }
+}
+
+/// The grid's position of each storage index (the grid's ranks, written by its rebuild), for
+/// the outputs the batch wrote in the grid's order; empty without a grid (the batch then did
+/// not run).
+fn ranks<'a>(view: &SteerView<'a>) -> &'a [AtomicU32] {
+    match view.index {
+        SpatialIndex::Grid(grid) => grid.ranks(),
+        _ => &[],
     }
 }
 
@@ -348,14 +359,12 @@ pub(crate) fn run(view: &SteerView, out: &mut CellOut, parallel: bool) -> bool {
     let any_summed = view.plans.iter().any(summed);
     out.sums
         .resize(if any_summed { n } else { 0 }, NeighbourSums::default());
-    out.rank.resize_with(n, AtomicU32::default);
     // With every agent batched, each task adds up its agents' neighbour counts while they are
     // in cache (whole numbers: the total is exact in any order).
     let all = view.plans.iter().all(batched);
     let found = AtomicU64::new(0);
-    let (specs, rank) = (&out.specs, &out.rank);
+    let specs = &out.specs;
     let work = |base: usize, (lx, ly, nb): Columns, sums: &mut [NeighbourSums]| {
-        let len = lx.len();
         BUF.with_borrow_mut(|(buf, runs)| {
             chunk(
                 view,
@@ -367,10 +376,6 @@ pub(crate) fn run(view: &SteerView, out: &mut CellOut, parallel: bool) -> bool {
                 (buf, runs),
             );
         });
-        let order = &grid.order()[base..base + len];
-        for (p, &i) in (base..).zip(order) {
-            rank[i as usize].store(p as u32, Ordering::Relaxed);
-        }
         if all {
             // Whole numbers below 2^24 each: the double-precision sum is exact.
             found.fetch_add(sum_lanes(nb) as u64, Ordering::Relaxed);

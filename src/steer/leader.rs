@@ -107,7 +107,7 @@ pub(super) fn run(
     // term alone: rare, and left to it.
     let Some(j) = a.index_of(leader) else {
         for i in from..to {
-            let sums = cells.map(|c| c.sums_of(i));
+            let sums = cells.map(|c| c.sums_of(view, i));
             let (st, w, count) = steer_agent_with(view, i, sums);
             let k = i - base;
             (lx[k], ly[k], an[k], wa[k], nb[k]) = (st.linear.x, st.linear.y, st.angular, w, count);
@@ -153,7 +153,7 @@ pub(super) fn run(
         }
         for q in (0..len).filter(|&q| !exact[q] || s + q == lead.index) {
             let i = s + q;
-            let (st, w, count) = steer_agent_with(view, i, cells.map(|c| c.sums_of(i)));
+            let (st, w, count) = steer_agent_with(view, i, cells.map(|c| c.sums_of(view, i)));
             let kq = k0 + q;
             (lx[kq], ly[kq], an[kq], wa[kq], nb[kq]) =
                 (st.linear.x, st.linear.y, st.angular, w, count);
@@ -190,7 +190,7 @@ impl Lanes {
             let j = i + q;
             let own;
             let s = match cells {
-                Some(c) => c.sums_of(j),
+                Some(c) => c.sums_of(view, j),
                 None => {
                     own = view.sums(j, a.velocity(j), a.orientation[j]);
                     &own

@@ -89,7 +89,7 @@ pub(crate) fn run(view: &SteerView, out: &mut SteerOut, scratch: &mut PassScratc
                   wa: &mut [f32],
                   nb: &mut [f32]| {
         if all {
-            scratch.cells.take_all(base, (lx, ly));
+            scratch.cells.take_all(view, base, (lx, ly));
             return;
         }
         let groups = &view.agents.group[base..base + lx.len()];
@@ -124,7 +124,7 @@ pub(crate) fn run(view: &SteerView, out: &mut SteerOut, scratch: &mut PassScratc
                 _ => {
                     // A summed group's neighbour sums come from the batch.
                     let sums = (batched && cells::is_summed_group(view, g))
-                        .then(|| scratch.cells.sums_of(i));
+                        .then(|| scratch.cells.sums_of(view, i));
                     let (st, w, count) = steer_agent_with(view, i, sums);
                     (lx[k], ly[k], an[k], wa[k], nb[k]) =
                         (st.linear.x, st.linear.y, st.angular, w, count);
