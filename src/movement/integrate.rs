@@ -110,12 +110,26 @@ pub fn integrate(
     params: &[IntegrationParams],
     dt: f32,
 ) {
-    integrate_then(state, steer, params, dt, &|_| {});
+    integrate_then(state, steer, params, dt, &|_| {}, None);
+}
+
+/// Fills the linear requests of the agents `base..base + x.len()` into `(x, y)`.
+pub(crate) type LinearSource<'s> = &'s (dyn Fn(usize, &mut [f32], &mut [f32]) + Sync);
+
+thread_local! {
+    /// A task's linear requests from a [`LinearSource`], reused across tasks and steps.
+    static LINEAR: std::cell::RefCell<(Vec<f32>, Vec<f32>)> =
+        const { std::cell::RefCell::new((Vec::new(), Vec::new())) };
 }
 
 /// [`integrate`], then `then` on each task's agents (positions and velocities) while they are
 /// still in cache: the same values as `then` over all agents after [`integrate`], without a
 /// second pass through memory (the step's world bounds, for one).
+///
+/// With `linear`, each task takes its agents' linear requests from it, into a buffer of the
+/// task's that stays in cache (`steer.lin_x` and `steer.lin_y` are not read and may be empty):
+/// where the requests are a gather from another order, the gather and the integration then cost
+/// one pass through memory instead of a stored copy and a second pass.
 ///
 /// # Panics
 /// As [`integrate`].
@@ -125,9 +139,10 @@ pub(crate) fn integrate_then(
     params: &[IntegrationParams],
     dt: f32,
     then: &(dyn Fn(&mut MotionState<'_>) + Sync),
+    linear: Option<LinearSource<'_>>,
 ) {
     let n = state.pos_x.len();
-    check_lengths(&state, &steer, n);
+    check_lengths(&state, &steer, n, linear.is_some());
     let chunk = chunk_len(n);
     (
         state.pos_x.par_chunks_mut(chunk),
@@ -136,14 +151,12 @@ pub(crate) fn integrate_then(
         state.vel_y.par_chunks_mut(chunk),
         state.orientation.par_chunks_mut(chunk),
         state.rotation.par_chunks_mut(chunk),
-        steer.lin_x.par_chunks(chunk),
-        steer.lin_y.par_chunks(chunk),
         steer.max_speed.par_chunks(chunk),
         steer.group.par_chunks(chunk),
     )
         .into_par_iter()
         .enumerate()
-        .for_each(|(c, (px, py, vx, vy, or, rot, lx, ly, ms, grp))| {
+        .for_each(|(c, (px, py, vx, vy, or, rot, ms, grp))| {
             let ang = if steer.ang.is_empty() {
                 steer.ang
             } else {
@@ -157,14 +170,31 @@ pub(crate) fn integrate_then(
                 orientation: or,
                 rotation: rot,
             };
-            let chunk_steer = SteeringBuffers {
-                lin_x: lx,
-                lin_y: ly,
-                ang,
-                max_speed: ms,
-                group: grp,
+            let range = c * chunk..c * chunk + ms.len();
+            let task = |lin_x: &[f32], lin_y: &[f32], state: MotionState<'_>| {
+                let steer = SteeringBuffers {
+                    lin_x,
+                    lin_y,
+                    ang,
+                    max_speed: ms,
+                    group: grp,
+                };
+                integrate_chunk(state, steer, params, dt);
             };
-            integrate_chunk(chunk_state.reborrow(), chunk_steer, params, dt);
+            match linear {
+                Some(fill) => LINEAR.with_borrow_mut(|(x, y)| {
+                    x.resize(chunk, 0.0);
+                    y.resize(chunk, 0.0);
+                    let (x, y) = (&mut x[..range.len()], &mut y[..range.len()]);
+                    fill(range.start, x, y);
+                    task(x, y, chunk_state.reborrow());
+                }),
+                None => task(
+                    &steer.lin_x[range.clone()],
+                    &steer.lin_y[range],
+                    chunk_state.reborrow(),
+                ),
+            }
             then(&mut chunk_state);
         });
 }
@@ -182,21 +212,24 @@ pub fn integrate_scalar(
 ) {
     let mut state = state;
     let n = state.pos_x.len();
-    check_lengths(&state, &steer, n);
+    check_lengths(&state, &steer, n, false);
     for i in 0..n {
         integrate_one(&mut state, &steer, params, dt, i);
     }
 }
 
-fn check_lengths(state: &MotionState<'_>, steer: &SteeringBuffers<'_>, n: usize) {
+/// Panics unless every buffer has `n` values (the linear requests' unless they are
+/// `gathered`, from elsewhere).
+fn check_lengths(state: &MotionState<'_>, steer: &SteeringBuffers<'_>, n: usize, gathered: bool) {
+    let lin = |v: &[f32]| if gathered { n } else { v.len() };
     for len in [
         state.pos_y.len(),
         state.vel_x.len(),
         state.vel_y.len(),
         state.orientation.len(),
         state.rotation.len(),
-        steer.lin_x.len(),
-        steer.lin_y.len(),
+        lin(steer.lin_x),
+        lin(steer.lin_y),
         if steer.ang.is_empty() {
             n
         } else {

@@ -246,12 +246,12 @@ impl CellOut {
     /// batch, the angular outputs, all zero, and the wander angles, unchanged, are not written).
     pub(crate) fn take_all(
         &self,
-        view: &SteerView,
+        index: &SpatialIndex,
         base: usize,
         (lx, ly): (&mut [f32], &mut [f32]),
     ) {
         let n = lx.len();
-        let rank = &ranks(view)[base..base + n];
+        let rank = &ranks(index)[base..base + n];
         let ly = &mut ly[..n];
         // The columns cut to one length, and each rank clamped below it: a select instead of a
         // bounds-check branch per load (ranks are grid positions, so the clamp changes none).
@@ -278,7 +278,7 @@ impl CellOut {
     /// The neighbour sums the batch computed for agent `i` (storage index) of a summed group.
     #[inline]
     pub(crate) fn sums_of(&self, view: &SteerView, i: usize) -> &NeighbourSums {
-        &self.sums[ranks(view)[i].load(Ordering::Relaxed) as usize]
+        &self.sums[ranks(view.index)[i].load(Ordering::Relaxed) as usize]
     }
 
     /// Copies agent `i`'s batched outputs into slot `k` of the per-agent output chunks.
@@ -290,7 +290,7 @@ impl CellOut {
         (lx, ly, an, wa, nb): OutChunks,
         k: usize,
     ) {
-        let r = ranks(view)[i].load(Ordering::Relaxed) as usize;
+        let r = ranks(view.index)[i].load(Ordering::Relaxed) as usize;
         lx[k] = self.lin_x[r];
         ly[k] = self.lin_y[r];
         an[k] = 0.0;
@@ -302,8 +302,8 @@ impl CellOut {
 /// The grid's position of each storage index (the grid's ranks, written by its rebuild), for
 /// the outputs the batch wrote in the grid's order; empty without a grid (the batch then did
 /// not run).
-fn ranks<'a>(view: &SteerView<'a>) -> &'a [AtomicU32] {
-    match view.index {
+fn ranks(index: &SpatialIndex) -> &[AtomicU32] {
+    match index {
         SpatialIndex::Grid(grid) => grid.ranks(),
         _ => &[],
     }

@@ -41,6 +41,10 @@ pub(crate) struct SteerOut {
     pub angular: bool,
     /// Whether `wander` was written this step; when not, every wander angle is unchanged.
     pub wandered: bool,
+    /// Whether `lin_x` and `lin_y` were left unwritten because every agent's request waits in
+    /// the cell batch's outputs, in the grid's order ([`cells::CellOut::take_all`] copies them
+    /// out, as the integrator does task by task).
+    pub deferred: bool,
 }
 
 impl SteerOut {
@@ -66,8 +70,14 @@ pub(crate) struct PassScratch {
 }
 
 /// Runs the steering pass over all agents (in parallel, or on this thread when `parallel` is
-/// false).
-pub(crate) fn run(view: &SteerView, out: &mut SteerOut, scratch: &mut PassScratch, parallel: bool) {
+/// false). With `defer`, when the cell batch serves every agent, the linear requests stay in
+/// its outputs ([`SteerOut::deferred`]).
+pub(crate) fn run(
+    view: &SteerView,
+    out: &mut SteerOut,
+    scratch: &mut PassScratch,
+    (parallel, defer): (bool, bool),
+) {
     let batched = cells::run(view, &mut scratch.cells, parallel);
     let all = batched && (0..view.plans.len()).all(|g| cells::is_batched_group(view, g));
     // The batch's total of the neighbours found (when it served every agent).
@@ -82,6 +92,10 @@ pub(crate) fn run(view: &SteerView, out: &mut SteerOut, scratch: &mut PassScratc
         ) || (batched && cells::is_batched_group(view, g))
     });
     (out.angular, out.wandered) = (!still, !still);
+    out.deferred = all && defer;
+    if out.deferred {
+        return;
+    }
     let kernel = |base: usize,
                   lx: &mut [f32],
                   ly: &mut [f32],
@@ -89,7 +103,7 @@ pub(crate) fn run(view: &SteerView, out: &mut SteerOut, scratch: &mut PassScratc
                   wa: &mut [f32],
                   nb: &mut [f32]| {
         if all {
-            scratch.cells.take_all(view, base, (lx, ly));
+            scratch.cells.take_all(view.index, base, (lx, ly));
             return;
         }
         let groups = &view.agents.group[base..base + lx.len()];

@@ -143,7 +143,8 @@ impl World {
 
         // steer
         let t = Instant::now();
-        self.steer_phase(dt, exec, use_kernel);
+        // The parallel step lets the integrator gather the cell batch's requests itself.
+        self.steer_phase(dt, exec, use_kernel, exec == Execution::Parallel);
         if self.scratch.out.wandered {
             std::mem::swap(&mut self.agents.wander, &mut self.scratch.out.wander);
         }
@@ -250,8 +251,10 @@ impl World {
         use_kernel
     }
 
-    /// The steering pass (parallel or sequential): reads frame-t state, writes the outputs.
-    fn steer_phase(&mut self, dt: f32, exec: Execution, use_kernel: bool) {
+    /// The steering pass (parallel or sequential): reads frame-t state, writes the outputs
+    /// (with `defer`, possibly leaving the linear requests in the cell batch's outputs:
+    /// [`steer::pass::SteerOut::deferred`]).
+    fn steer_phase(&mut self, dt: f32, exec: Execution, use_kernel: bool, defer: bool) {
         let view = SteerView {
             agents: &self.agents,
             profiles: &self.groups,
@@ -274,7 +277,7 @@ impl World {
             &view,
             &mut self.scratch.out,
             &mut self.scratch.pass,
-            exec == Execution::Parallel,
+            (exec == Execution::Parallel, defer),
         );
         if steer::ped::any(&view) {
             steer::ped::run(&view, &mut self.scratch.out, exec == Execution::Parallel);
@@ -460,27 +463,31 @@ impl World {
             orientation: &mut a.orientation,
             rotation: &mut a.rotation,
         };
+        let out = &self.scratch.out;
         let steer = SteeringBuffers {
-            lin_x: &self.scratch.out.lin_x,
-            lin_y: &self.scratch.out.lin_y,
-            ang: if self.scratch.out.angular {
-                &self.scratch.out.ang
-            } else {
-                &[]
-            },
+            lin_x: &out.lin_x,
+            lin_y: &out.lin_y,
+            ang: if out.angular { &out.ang } else { &[] },
             max_speed: &a.max_speed,
             group: &a.group,
         };
-        match exec {
-            Execution::Parallel if edges => {
-                let bounds = self.bounds;
-                movement::integrate_then(state, steer, &self.scratch.params, dt, &|s| {
-                    bound_piece((s.pos_x, s.pos_y, s.vel_x, s.vel_y), bounds);
-                });
+        let bounds = self.bounds;
+        let edge = |s: &mut MotionState<'_>| {
+            if edges {
+                bound_piece((s.pos_x, s.pos_y, s.vel_x, s.vel_y), bounds);
             }
-            Execution::Parallel => movement::integrate(state, steer, &self.scratch.params, dt),
+        };
+        let (cells, index) = (&self.scratch.pass.cells, &self.index);
+        let take = |base: usize, x: &mut [f32], y: &mut [f32]| cells.take_all(index, base, (x, y));
+        // Requests still in the cell batch's outputs: each task gathers its own.
+        match exec {
+            Execution::Parallel => {
+                let linear = out.deferred.then_some(&take as _);
+                movement::integrate_then(state, steer, &self.scratch.params, dt, &edge, linear);
+            }
             Execution::Sequential => {
-                movement::integrate_scalar(state, steer, &self.scratch.params, dt)
+                debug_assert!(!out.deferred, "the sequential step writes every request");
+                movement::integrate_scalar(state, steer, &self.scratch.params, dt);
             }
         }
     }
@@ -501,7 +508,7 @@ impl World {
         self.scratch.out.resize(self.agents.len());
         let mut phases = PhaseTimes::default();
         let use_kernel = self.prepare(dt, &mut phases);
-        self.steer_phase(dt, Execution::Parallel, use_kernel);
+        self.steer_phase(dt, Execution::Parallel, use_kernel, false);
         let o = &self.scratch.out;
         Ok((0..self.agents.len())
             .map(|i| {
