@@ -39,7 +39,7 @@ use multiversion::target::target_cfg;
 use rayon::prelude::*;
 
 use super::adapter::Adapter;
-use super::neighbours::{LANES, SortedCopies, positive_finite, without_self};
+use super::neighbours::{LANES, SortedCopies, positive_finite, unit_headings_at, without_self};
 use super::plan::{ALI, COH, NeighbourSpec, PlanKind, SEP};
 use super::view::SteerView;
 use crate::bounds::Bounds;
@@ -106,7 +106,17 @@ struct CellBuf {
 }
 
 thread_local! {
-    static BUF: RefCell<(CellBuf, Runs)> = RefCell::new((CellBuf::default(), Runs::default()));
+    static BUF: RefCell<(CellBuf, Runs, TaskHeadings)> =
+        RefCell::new((CellBuf::default(), Runs::default(), TaskHeadings::default()));
+}
+
+/// A task's unit headings, when the copies hold none (no Vicsek plan) and a view cone needs its
+/// agents' own: computed for the task's grid positions alone, in cache, instead of a pass over
+/// every agent that stores them.
+#[derive(Debug, Default)]
+struct TaskHeadings {
+    x: Vec<f32>,
+    y: Vec<f32>,
 }
 
 /// Whether agent `i` is evaluated by the batch (its plan is flocking-only and the kernel serves
@@ -365,7 +375,7 @@ pub(crate) fn run(view: &SteerView, out: &mut CellOut, parallel: bool) -> bool {
     let found = AtomicU64::new(0);
     let specs = &out.specs;
     let work = |base: usize, (lx, ly, nb): Columns, sums: &mut [NeighbourSums]| {
-        BUF.with_borrow_mut(|(buf, runs)| {
+        BUF.with_borrow_mut(|(buf, runs, heads)| {
             chunk(
                 view,
                 grid,
@@ -373,7 +383,7 @@ pub(crate) fn run(view: &SteerView, out: &mut CellOut, parallel: bool) -> bool {
                 specs,
                 base,
                 (lx, ly, nb, sums),
-                (buf, runs),
+                (buf, runs, heads),
             );
         });
         if all {
@@ -698,7 +708,7 @@ fn chunk(
     specs: &[Option<Query>],
     base: usize,
     (lx, ly, nb, sums): (&mut [f32], &mut [f32], &mut [f32], &mut [NeighbourSums]),
-    (buf, runs): (&mut CellBuf, &mut Runs),
+    (buf, runs, heads): (&mut CellBuf, &mut Runs, &mut TaskHeadings),
 ) {
     let order = grid.order();
     let starts = grid.cell_start();
@@ -716,7 +726,26 @@ fn chunk(
         sorted,
     };
     let (xs, ys) = grid.sorted_padded();
-    let h = sorted.headings.then_some((&sorted.hx[..], &sorted.hy[..]));
+    let cones = specs.iter().flatten().any(Query::needs_headings);
+    let h = if sorted.headings {
+        Some((&sorted.hx[..], &sorted.hy[..], 0))
+    } else if cones {
+        let positions = base..end;
+        let (hx, hy) = (&mut heads.x, &mut heads.y);
+        hx.resize(CELL_CHUNK, 0.0);
+        hy.resize(CELL_CHUNK, 0.0);
+        let (hx, hy) = (&mut hx[..positions.len()], &mut hy[..positions.len()]);
+        unit_headings_at(
+            (&sorted.vx, &sorted.vy),
+            positions,
+            (hx, hy),
+            order,
+            &view.agents.orientation,
+        );
+        Some((&hx[..], &hy[..], base))
+    } else {
+        None
+    };
     let cols = (xs, ys, h, &sorted.g[..]);
     if let [Some(q)] = specs {
         // One batched group: every agent of a cell is its, in one kernel call that reads the
@@ -773,7 +802,7 @@ fn chunk(
             let m = batch.len;
             // The unit heading from the copies; they have none when no batched query has a
             // view cone, and then no kernel reads it.
-            (batch.hx[m], batch.hy[m]) = h.map_or((0.0, 0.0), |(hx, hy)| (hx[p], hy[p]));
+            (batch.hx[m], batch.hy[m]) = h.map_or((0.0, 0.0), |(hx, hy, f)| (hx[p - f], hy[p - f]));
             (batch.x[m], batch.y[m], batch.g[m]) = (xs[p], ys[p], sorted.g[p]);
             (batch.slot[m], batch.i[m]) = (p - base, order[p] as usize);
             batch.group = g;
@@ -812,11 +841,12 @@ fn cell_pieces(
     })
 }
 
-/// The grid's columns: positions, unit headings (when filled), groups.
+/// The grid's columns: positions, unit headings (when some query reads them: the copies', or
+/// the task's, with the grid position of their first value), groups.
 type GridCols<'a> = (
     &'a [f32],
     &'a [f32],
-    Option<(&'a [f32], &'a [f32])>,
+    Option<(&'a [f32], &'a [f32], usize)>,
     &'a [f32],
 );
 
@@ -834,7 +864,10 @@ fn whole_cell(
     let agents = AgentCols {
         x: &xs[range.clone()],
         y: &ys[range.clone()],
-        h: h.map(|(hx, hy)| (&hx[range.clone()], &hy[range.clone()])),
+        h: h.map(|(hx, hy, f)| {
+            let at = range.start - f..range.end - f;
+            (&hx[at.clone()], &hy[at])
+        }),
         g: &g[range.clone()],
     };
     let slots = Slots {
@@ -1324,6 +1357,11 @@ impl Query {
             g: a.g,
             ..*self
         }
+    }
+
+    /// Whether some slot in use has a view cone (the kernel reads the agent's unit heading).
+    fn needs_headings(&self) -> bool {
+        (0..3).any(|b| self.r_sq[b] >= 0.0 && self.cone[b] != 0)
     }
 
     /// Whether some slot counts only the agent's own group (the kernel reads groups).

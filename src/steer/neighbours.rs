@@ -170,8 +170,7 @@ fn unit_lanes((vx, vy): (&[f32], &[f32]), (hx, hy): (&mut [f32], &mut [f32])) ->
 }
 
 /// The unit headings of the cell-ordered velocities `(vx, vy)` into `(hx, hy)` (same padding),
-/// as [`unit_heading`] computes them: in vector lanes over parallel chunks, then the agents at
-/// rest (no direction) along their orientations.
+/// as [`unit_heading`] computes them, in parallel chunks ([`unit_headings_at`]).
 fn unit_headings(
     (vx, vy): (&[f32], &[f32]),
     (hx, hy): (&mut Vec<f32>, &mut Vec<f32>),
@@ -184,17 +183,29 @@ fn unit_headings(
         h.resize(n + LANES, 0.0);
         h[n..].fill(0.0);
     }
-    let at_rest = (
-        hx[..n].par_chunks_mut(CHUNK),
-        hy[..n].par_chunks_mut(CHUNK),
-        vx[..n].par_chunks(CHUNK),
-        vy[..n].par_chunks(CHUNK),
-    )
+    (hx[..n].par_chunks_mut(CHUNK), hy[..n].par_chunks_mut(CHUNK))
         .into_par_iter()
-        .map(|(hx, hy, vx, vy)| unit_lanes((vx, vy), (hx, hy)))
-        .reduce(|| false, |a, b| a | b);
-    if at_rest {
-        for (k, &j) in order.iter().enumerate() {
+        .enumerate()
+        .for_each(|(c, (hx, hy))| {
+            let positions = c * CHUNK..c * CHUNK + hx.len();
+            unit_headings_at((vx, vy), positions, (hx, hy), order, orientation);
+        });
+}
+
+/// The unit headings of the agents at grid positions `positions` into `(hx, hy)` (one value
+/// per position), as [`unit_heading`] computes them: in vector lanes from the cell-ordered
+/// velocities `(vx, vy)`, then the agents at rest (no direction) along their orientations
+/// (`orientation` in storage order, `order` the grid's).
+pub(crate) fn unit_headings_at(
+    (vx, vy): (&[f32], &[f32]),
+    positions: std::ops::Range<usize>,
+    (hx, hy): (&mut [f32], &mut [f32]),
+    order: &[u32],
+    orientation: &[f32],
+) {
+    let (vx, vy) = (&vx[positions.clone()], &vy[positions.clone()]);
+    if unit_lanes((vx, vy), (&mut *hx, &mut *hy)) {
+        for (k, &j) in order[positions].iter().enumerate() {
             if !positive_finite(1.0 / (vx[k] * vx[k] + vy[k] * vy[k]).sqrt()) {
                 let h = Vec2::from_angle(orientation[j as usize]);
                 (hx[k], hy[k]) = (h.x, h.y);

@@ -645,11 +645,9 @@ impl World {
         let SpatialIndex::Grid(grid) = &self.index else {
             return false;
         };
-        // Unit headings for Vicsek sums and for view cones.
-        let headings = self.plans.iter().any(|p| {
-            let s = &p.spec;
-            s.vicsek_r_sq.is_some() || (s.active && (0..3).any(|b| s.on[b] && s.cos[b] > -1.0))
-        });
+        // Unit headings for Vicsek sums, which read every neighbour's (the cell batch computes
+        // a view cone's, the agent's own, per task).
+        let headings = self.plans.iter().any(|p| p.spec.vicsek_r_sq.is_some());
         let one_group = self.plans.len() == 1;
         self.scratch
             .sorted
