@@ -59,6 +59,9 @@ const DIRECT_MAX_KEYS: usize = 1 << 18;
 /// (on two threads).
 const ROWS_MAX_POINTS: usize = 1 << 20;
 
+/// Sorted positions per task of the last pass of [`CountingSort::sort_rows`].
+const ORDER_CHUNK: usize = 16 * 1024;
+
 /// A counting sort by key with its outputs and reusable scratch.
 #[derive(Clone, Debug, Default)]
 pub(super) struct CountingSort {
@@ -219,12 +222,13 @@ impl CountingSort {
                 }
             });
 
-        // Pass 4: the sorted indices and positions, in order.
+        // Pass 4: the sorted indices and positions, in order, in tasks of their own size (not
+        // the chunks': two threads at different speeds then share the pass by speed).
         self.order
-            .par_chunks_mut(chunk_len)
-            .zip(self.sorted_x[..n].par_chunks_mut(chunk_len))
-            .zip(self.sorted_y[..n].par_chunks_mut(chunk_len))
-            .zip(slots.par_chunks(chunk_len))
+            .par_chunks_mut(ORDER_CHUNK)
+            .zip(self.sorted_x[..n].par_chunks_mut(ORDER_CHUNK))
+            .zip(self.sorted_y[..n].par_chunks_mut(ORDER_CHUNK))
+            .zip(slots.par_chunks(ORDER_CHUNK))
             .with_max_len(1)
             .for_each(|(((order, sx), sy), slots)| {
                 for (((o, x), y), s) in order.iter_mut().zip(sx).zip(sy).zip(slots) {
