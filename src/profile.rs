@@ -175,6 +175,7 @@ impl Profile {
             },
             max_rotation: self.max_rotation,
             face_velocity: self.orientation == OrientationMode::FaceVelocity,
+            max_speed: self.max_speed,
         }
     }
 }

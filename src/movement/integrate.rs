@@ -13,6 +13,9 @@ pub struct IntegrationParams {
     pub max_rotation: f32,
     /// Whether orientation follows the velocity.
     pub face_velocity: bool,
+    /// The group's maximum speed: every one of its agents' when
+    /// [`SteeringBuffers::max_speed`] is empty (no agent has a speed of its own).
+    pub max_speed: f32,
 }
 
 /// Mutable views of the agents' motion buffers (all of one length).
@@ -56,7 +59,8 @@ pub struct SteeringBuffers<'a> {
     /// Angular: clamped angular acceleration (dynamic) or rotation (kinematic); empty when it
     /// is zero for every agent (nothing is read then).
     pub ang: &'a [f32],
-    /// Per-agent maximum speed.
+    /// Per-agent maximum speed; empty when every agent's is its group's
+    /// ([`IntegrationParams::max_speed`]), which then is not read per agent.
     pub max_speed: &'a [f32],
     /// Per-agent group index into the parameter table.
     pub group: &'a [u32],
@@ -151,17 +155,13 @@ pub(crate) fn integrate_then(
         state.vel_y.par_chunks_mut(chunk),
         state.orientation.par_chunks_mut(chunk),
         state.rotation.par_chunks_mut(chunk),
-        steer.max_speed.par_chunks(chunk),
         steer.group.par_chunks(chunk),
     )
         .into_par_iter()
         .enumerate()
-        .for_each(|(c, (px, py, vx, vy, or, rot, ms, grp))| {
-            let ang = if steer.ang.is_empty() {
-                steer.ang
-            } else {
-                &steer.ang[c * chunk..c * chunk + px.len()]
-            };
+        .for_each(|(c, (px, py, vx, vy, or, rot, grp))| {
+            let range = c * chunk..c * chunk + px.len();
+            let (ang, ms) = (part(steer.ang, &range), part(steer.max_speed, &range));
             let mut chunk_state = MotionState {
                 pos_x: px,
                 pos_y: py,
@@ -170,7 +170,6 @@ pub(crate) fn integrate_then(
                 orientation: or,
                 rotation: rot,
             };
-            let range = c * chunk..c * chunk + ms.len();
             let task = |lin_x: &[f32], lin_y: &[f32], state: MotionState<'_>| {
                 let steer = SteeringBuffers {
                     lin_x,
@@ -197,6 +196,11 @@ pub(crate) fn integrate_then(
             }
             then(&mut chunk_state);
         });
+}
+
+/// A task's `range` of an optional buffer: an empty one stays empty (nothing is read per agent).
+fn part<'s>(v: &'s [f32], range: &std::ops::Range<usize>) -> &'s [f32] {
+    if v.is_empty() { v } else { &v[range.clone()] }
 }
 
 /// The scalar reference integrator: one agent at a time, same operations as [`integrate`].
@@ -235,7 +239,11 @@ fn check_lengths(state: &MotionState<'_>, steer: &SteeringBuffers<'_>, n: usize,
         } else {
             steer.ang.len()
         },
-        steer.max_speed.len(),
+        if steer.max_speed.is_empty() {
+            n
+        } else {
+            steer.max_speed.len()
+        },
         steer.group.len(),
     ] {
         assert_eq!(len, n, "integrator buffers must have one length");
@@ -466,7 +474,14 @@ fn integrate_chunk(
         } else {
             load(st.ang)
         };
-        let (lx, ly, ms) = (load(st.lin_x), load(st.lin_y), load(st.max_speed));
+        let (lx, ly) = (load(st.lin_x), load(st.lin_y));
+        let ms = match (st.max_speed.is_empty(), one) {
+            (false, _) => load(st.max_speed),
+            (true, Some(p)) => [p.max_speed; LANES],
+            (true, None) => {
+                std::array::from_fn(|k| params[st.group[i + k.min(lanes - 1)] as usize].max_speed)
+            }
+        };
         let (orient, rot) = (load(s.orientation), load(s.rotation));
         let mut out = [[0.0_f32; LANES]; 6];
         for k in 0..LANES {
@@ -536,7 +551,7 @@ fn lane(
         lx: st.lin_x[i],
         ly: st.lin_y[i],
         ang: st.ang.get(i).copied().unwrap_or(0.0),
-        max_speed: st.max_speed[i],
+        max_speed: st.max_speed.get(i).copied().unwrap_or(p.max_speed),
         orientation: s.orientation[i],
         rotation: s.rotation[i],
     }
@@ -630,6 +645,7 @@ mod tests {
                         damp,
                         max_rotation,
                         face_velocity,
+                        max_speed: 1.5 + damp,
                     });
                 }
             }
@@ -677,6 +693,29 @@ mod tests {
         for i in 0..n {
             let speed = a[2][i].hypot(a[3][i]);
             assert!(speed <= ms[i] * (1.0 + 1e-6), "speed {speed} > {}", ms[i]);
+        }
+        // No per-agent speeds: each group's, in the lanes and the reference, give the bits of a
+        // column that holds them (groups in runs of blocks and mixed within blocks).
+        for runs in [false, true] {
+            let grp: Vec<u32> = (0..n as u32)
+                .map(|i| if runs { i / 40 % 8 } else { i % 8 })
+                .collect();
+            let own: Vec<f32> = grp.iter().map(|&g| p[g as usize].max_speed).collect();
+            let column = SteeringBuffers {
+                lin_x: &lx,
+                lin_y: &ly,
+                ang: &ang,
+                max_speed: &own,
+                group: &grp,
+            };
+            let want = run_with(&cols, column, &p, dt, false);
+            for simd in [true, false] {
+                let none = SteeringBuffers {
+                    max_speed: &[],
+                    ..column
+                };
+                assert_same_bits(&run_with(&cols, none, &p, dt, simd), &want);
+            }
         }
         // One group (its parameters splat across the lanes, no group index read), and an empty
         // angular buffer (no agent turns): the scalar reference with zeros gives the same bits.

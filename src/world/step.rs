@@ -448,6 +448,15 @@ impl World {
         self.scratch
             .params
             .extend(self.groups.iter().map(|g| g.integration(dt)));
+        // While no agent has a maximum speed of its own, the integrator takes each group's
+        // from its entry instead of reading the agents' column; otherwise the entries carry
+        // none, so that groups which differ only in it still make one entry.
+        let group_speeds = self.agents.speeds_of_groups();
+        if !group_speeds {
+            for p in &mut self.scratch.params {
+                p.max_speed = 0.0;
+            }
+        }
         // Groups that all integrate alike (the copies of a tiled scenario, most worlds) are one
         // entry, and the integrator reads no group index.
         let params = &mut self.scratch.params;
@@ -468,7 +477,7 @@ impl World {
             lin_x: &out.lin_x,
             lin_y: &out.lin_y,
             ang: if out.angular { &out.ang } else { &[] },
-            max_speed: &a.max_speed,
+            max_speed: if group_speeds { &[] } else { &a.max_speed },
             group: &a.group,
         };
         let bounds = self.bounds;
