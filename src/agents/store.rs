@@ -96,6 +96,9 @@ pub struct Agents {
     /// speed is its group's (the world keeps the others' at their group's value), so a pass
     /// may take the group's value instead of reading the column through an order.
     own_speeds: usize,
+    /// Whether some agent's rotation may be other than `+0.0` (when false, every one is: the
+    /// integrator then neither reads nor writes them while no agent turns).
+    turning: bool,
     /// Per-agent target point .
     pub(crate) target_x: Vec<f32>,
     pub(crate) target_y: Vec<f32>,
@@ -246,6 +249,7 @@ impl Agents {
         self.vel_y.push(init.velocity.y);
         self.orientation.push(init.orientation);
         self.rotation.push(init.rotation);
+        self.turning |= init.rotation.to_bits() != 0;
         self.wander.push(wander);
         self.group.push(init.group as u32);
         self.max_speed.push(max_speed);
@@ -478,6 +482,7 @@ impl Agents {
             target_y,
             ids,
         } = columns;
+        let turning = rotation.iter().any(|r| r.to_bits() != 0);
         Ok(Agents {
             pos_x,
             pos_y,
@@ -490,6 +495,7 @@ impl Agents {
             max_speed,
             radius,
             desired_speed,
+            turning,
             own_speeds: overrides
                 .iter()
                 .filter(|&&o| o & OVERRIDE_SPEED != 0)
@@ -510,6 +516,17 @@ impl Agents {
             self.overrides[i] |= OVERRIDE_SPEED;
             self.own_speeds += 1;
         }
+    }
+
+    /// Whether every agent's rotation is `+0.0`.
+    #[must_use]
+    pub(crate) fn rotations_at_rest(&self) -> bool {
+        !self.turning
+    }
+
+    /// Records whether some rotation the integrator wrote is other than `+0.0`.
+    pub(crate) fn set_turning(&mut self, turning: bool) {
+        self.turning = turning;
     }
 
     /// Whether no agent has a maximum speed of its own: every agent's is then its group's.

@@ -1,5 +1,6 @@
 use std::f32::consts::TAU;
 
+use rayon::iter::Either;
 use rayon::prelude::*;
 
 /// Per-group constants the integrator needs, resolved for one time step.
@@ -31,7 +32,9 @@ pub struct MotionState<'a> {
     pub vel_y: &'a mut [f32],
     /// Orientation, radians in `[0, 2pi)`.
     pub orientation: &'a mut [f32],
-    /// Rotation, radians per second.
+    /// Rotation, radians per second; empty when every agent's is `+0.0` and no angular output
+    /// is given ([`SteeringBuffers::ang`] empty): it then stays `+0.0`, and is neither read nor
+    /// written.
     pub rotation: &'a mut [f32],
 }
 
@@ -106,8 +109,9 @@ pub fn wrap_orientation(a: f32) -> f32 {
 /// [`integrate_scalar`] for any thread count.
 ///
 /// # Panics
-/// When the slices' lengths differ (an empty `ang` aside) or a group index is outside `params`
-/// (with one entry, the indices are not read).
+/// When the slices' lengths differ (an empty `ang`, `max_speed` or, with an empty `ang`,
+/// `rotation` aside) or a group index is outside `params` (with one entry, the indices are not
+/// read).
 pub fn integrate(
     state: MotionState<'_>,
     steer: SteeringBuffers<'_>,
@@ -135,6 +139,8 @@ thread_local! {
 /// where the requests are a gather from another order, the gather and the integration then cost
 /// one pass through memory instead of a stored copy and a second pass.
 ///
+/// Returns whether some rotation it wrote is other than `+0.0`.
+///
 /// # Panics
 /// As [`integrate`].
 pub(crate) fn integrate_then(
@@ -144,22 +150,28 @@ pub(crate) fn integrate_then(
     dt: f32,
     then: &(dyn Fn(&mut MotionState<'_>) + Sync),
     linear: Option<LinearSource<'_>>,
-) {
+) -> bool {
     let n = state.pos_x.len();
     check_lengths(&state, &steer, n, linear.is_some());
     let chunk = chunk_len(n);
+    // Without rotations, each task gets an empty buffer.
+    let rotations = if state.rotation.is_empty() {
+        Either::Right(rayon::iter::repeat_n((), n.div_ceil(chunk)).map(|()| None))
+    } else {
+        Either::Left(state.rotation.par_chunks_mut(chunk).map(Some))
+    };
     (
         state.pos_x.par_chunks_mut(chunk),
         state.pos_y.par_chunks_mut(chunk),
         state.vel_x.par_chunks_mut(chunk),
         state.vel_y.par_chunks_mut(chunk),
         state.orientation.par_chunks_mut(chunk),
-        state.rotation.par_chunks_mut(chunk),
+        rotations,
         steer.group.par_chunks(chunk),
     )
         .into_par_iter()
         .enumerate()
-        .for_each(|(c, (px, py, vx, vy, or, rot, grp))| {
+        .map(|(c, (px, py, vx, vy, or, rot, grp))| {
             let range = c * chunk..c * chunk + px.len();
             let (ang, ms) = (part(steer.ang, &range), part(steer.max_speed, &range));
             let mut chunk_state = MotionState {
@@ -168,7 +180,7 @@ pub(crate) fn integrate_then(
                 vel_x: vx,
                 vel_y: vy,
                 orientation: or,
-                rotation: rot,
+                rotation: rot.unwrap_or_default(),
             };
             let task = |lin_x: &[f32], lin_y: &[f32], state: MotionState<'_>| {
                 let steer = SteeringBuffers {
@@ -178,29 +190,36 @@ pub(crate) fn integrate_then(
                     max_speed: ms,
                     group: grp,
                 };
-                integrate_chunk(state, steer, params, dt);
+                integrate_chunk(state, steer, params, dt)
             };
-            match linear {
+            let turning = match linear {
                 Some(fill) => LINEAR.with_borrow_mut(|(x, y)| {
                     x.resize(chunk, 0.0);
                     y.resize(chunk, 0.0);
                     let (x, y) = (&mut x[..range.len()], &mut y[..range.len()]);
                     fill(range.start, x, y);
-                    task(x, y, chunk_state.reborrow());
+                    task(x, y, chunk_state.reborrow())
                 }),
                 None => task(
                     &steer.lin_x[range.clone()],
                     &steer.lin_y[range],
                     chunk_state.reborrow(),
                 ),
-            }
+            };
             then(&mut chunk_state);
-        });
+            turning
+        })
+        .reduce(|| false, |a, b| a | b)
 }
 
 /// A task's `range` of an optional buffer: an empty one stays empty (nothing is read per agent).
 fn part<'s>(v: &'s [f32], range: &std::ops::Range<usize>) -> &'s [f32] {
     if v.is_empty() { v } else { &v[range.clone()] }
+}
+
+/// [`part`] of a mutable buffer.
+fn part_mut(v: &mut [f32], range: std::ops::Range<usize>) -> &mut [f32] {
+    if v.is_empty() { v } else { &mut v[range] }
 }
 
 /// The scalar reference integrator: one agent at a time, same operations as [`integrate`].
@@ -231,7 +250,11 @@ fn check_lengths(state: &MotionState<'_>, steer: &SteeringBuffers<'_>, n: usize,
         state.vel_x.len(),
         state.vel_y.len(),
         state.orientation.len(),
-        state.rotation.len(),
+        if state.rotation.is_empty() && steer.ang.is_empty() {
+            n
+        } else {
+            state.rotation.len()
+        },
         lin(steer.lin_x),
         lin(steer.lin_y),
         if steer.ang.is_empty() {
@@ -415,8 +438,10 @@ fn integrate_chunk(
     st: SteeringBuffers<'_>,
     params: &[IntegrationParams],
     dt: f32,
-) {
+) -> bool {
     let n = s.pos_x.len();
+    // Whether some rotation written is other than +0.
+    let mut turning = false;
     // A short first block up to the first cache line of the positions, so that the whole blocks
     // after it load and store whole lines (`crate::lines`).
     const _: () = assert!(LANES == crate::lines::LINE);
@@ -482,7 +507,12 @@ fn integrate_chunk(
                 std::array::from_fn(|k| params[st.group[i + k.min(lanes - 1)] as usize].max_speed)
             }
         };
-        let (orient, rot) = (load(s.orientation), load(s.rotation));
+        let orient = load(s.orientation);
+        let rot = if s.rotation.is_empty() {
+            [0.0; LANES]
+        } else {
+            load(s.rotation)
+        };
         let mut out = [[0.0_f32; LANES]; 6];
         for k in 0..LANES {
             let l = Lane {
@@ -507,15 +537,21 @@ fn integrate_chunk(
             }
         }
         let range = i..i + lanes;
+        if !s.rotation.is_empty() {
+            turning |= out[5][..lanes].iter().any(|r| r.to_bits() != 0);
+        }
         let dst = [
             &mut s.pos_x[range.clone()],
             &mut s.pos_y[range.clone()],
             &mut s.vel_x[range.clone()],
             &mut s.vel_y[range.clone()],
             &mut s.orientation[range.clone()],
-            &mut s.rotation[range],
+            part_mut(s.rotation, range),
         ];
         for (d, v) in dst.into_iter().zip(&out) {
+            if d.is_empty() {
+                continue;
+            }
             if lanes == LANES {
                 d.copy_from_slice(v);
             } else {
@@ -524,6 +560,7 @@ fn integrate_chunk(
         }
         i += lanes;
     }
+    turning
 }
 
 /// Agent `i`'s inputs.
@@ -553,7 +590,7 @@ fn lane(
         ang: st.ang.get(i).copied().unwrap_or(0.0),
         max_speed: st.max_speed.get(i).copied().unwrap_or(p.max_speed),
         orientation: s.orientation[i],
-        rotation: s.rotation[i],
+        rotation: s.rotation.get(i).copied().unwrap_or(0.0),
     }
 }
 
@@ -571,7 +608,9 @@ fn integrate_one(
     s.vel_x[i] = vx;
     s.vel_y[i] = vy;
     s.orientation[i] = orientation;
-    s.rotation[i] = rotation;
+    if let Some(r) = s.rotation.get_mut(i) {
+        *r = rotation;
+    }
 }
 
 #[cfg(test)]
@@ -731,6 +770,67 @@ mod tests {
         }
     }
 
+    /// With no angular output and every rotation `+0`, an empty rotation buffer (not read, not
+    /// written) gives the other columns' bits of a buffer of zeros, which stays zeros; a rotation
+    /// other than `+0` is reported.
+    #[test]
+    fn rotations_at_rest_need_no_buffer() {
+        let n = 1037;
+        let mut r = AgentRng::new(9, 0, 0, 0);
+        let mut f = |scale: f32| r.signed() * scale;
+        let cols: Vec<Vec<f32>> = (0..6)
+            .map(|c| match c {
+                4 => (0..n).map(|_| (f(1.0) + 1.0) * TAU * 0.5).collect(),
+                5 => vec![0.0; n],
+                _ => (0..n).map(|_| f(50.0)).collect(),
+            })
+            .collect();
+        let (lx, ly): (Vec<f32>, Vec<f32>) = (0..n).map(|_| (f(30.0), f(30.0))).unzip();
+        let grp: Vec<u32> = (0..n as u32).map(|i| i % 8).collect();
+        let steer = SteeringBuffers {
+            lin_x: &lx,
+            lin_y: &ly,
+            ang: &[],
+            max_speed: &[],
+            group: &grp,
+        };
+        let p = params();
+        let want = run_with(&cols, steer, &p, 0.05, false);
+        assert!(want[5].iter().all(|r| r.to_bits() == 0));
+        // One step of the lanes over `cols`, their rotations left out when `rotations` is false;
+        // whether a rotation written is other than +0.
+        let step = |cols: &mut [Vec<f32>], rotations: bool| {
+            integrate_then(motion(cols, rotations), steer, &p, 0.05, &|_| {}, None)
+        };
+        let mut got = cols.clone();
+        assert!(!step(&mut got, false));
+        assert_same_bits(&got, &want);
+        // One rotation other than +0 (a negative zero): agent 500 is of group 4, kinematic, and
+        // its rotation becomes the angular output, +0.
+        let mut spun = cols.clone();
+        spun[5][500] = -0.0;
+        assert!(!step(&mut spun, true));
+        // Agent 498 is of group 2, dynamic: its rotation stays (within the clamp, above the
+        // rest floor), and the lanes say so.
+        spun[5][498] = 0.25;
+        assert!(step(&mut spun, true));
+    }
+
+    /// The motion state over six columns, without the rotations unless `rotations`.
+    fn motion(cols: &mut [Vec<f32>], rotations: bool) -> MotionState<'_> {
+        let [px, py, vx, vy, or, rot] = cols else {
+            unreachable!()
+        };
+        MotionState {
+            pos_x: px,
+            pos_y: py,
+            vel_x: vx,
+            vel_y: vy,
+            orientation: or,
+            rotation: if rotations { rot } else { &mut [] },
+        }
+    }
+
     /// The six state columns after one step of either integrator.
     fn run_with(
         cols: &[Vec<f32>],
@@ -740,17 +840,7 @@ mod tests {
         simd: bool,
     ) -> Vec<Vec<f32>> {
         let mut c = cols.to_vec();
-        let [px, py, vx, vy, or, rot] = &mut c[..] else {
-            unreachable!()
-        };
-        let state = MotionState {
-            pos_x: px,
-            pos_y: py,
-            vel_x: vx,
-            vel_y: vy,
-            orientation: or,
-            rotation: rot,
-        };
+        let state = motion(&mut c, true);
         if simd {
             integrate(state, steer, p, dt)
         } else {

@@ -463,6 +463,9 @@ impl World {
         if params.iter().all(|p| Some(p) == params.first()) {
             params.truncate(1);
         }
+        let out = &self.scratch.out;
+        // With no angular output and every rotation +0, rotations stay +0: not read or written.
+        let still = !out.angular && self.agents.rotations_at_rest();
         let a = &mut self.agents;
         let state = MotionState {
             pos_x: &mut a.pos_x,
@@ -470,9 +473,8 @@ impl World {
             vel_x: &mut a.vel_x,
             vel_y: &mut a.vel_y,
             orientation: &mut a.orientation,
-            rotation: &mut a.rotation,
+            rotation: if still { &mut [] } else { &mut a.rotation },
         };
-        let out = &self.scratch.out;
         let steer = SteeringBuffers {
             lin_x: &out.lin_x,
             lin_y: &out.lin_y,
@@ -489,15 +491,19 @@ impl World {
         let (cells, index) = (&self.scratch.pass.cells, &self.index);
         let take = |base: usize, x: &mut [f32], y: &mut [f32]| cells.take_all(index, base, (x, y));
         // Requests still in the cell batch's outputs: each task gathers its own.
-        match exec {
+        let turning = match exec {
             Execution::Parallel => {
                 let linear = out.deferred.then_some(&take as _);
-                movement::integrate_then(state, steer, &self.scratch.params, dt, &edge, linear);
+                movement::integrate_then(state, steer, &self.scratch.params, dt, &edge, linear)
             }
             Execution::Sequential => {
                 debug_assert!(!out.deferred, "the sequential step writes every request");
                 movement::integrate_scalar(state, steer, &self.scratch.params, dt);
+                self.agents.rotation.iter().any(|r| r.to_bits() != 0)
             }
+        };
+        if !still {
+            self.agents.set_turning(turning);
         }
     }
 
