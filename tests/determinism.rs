@@ -1,6 +1,8 @@
 //! The same seed gives the same bits on 1, 2 and 4 threads, and the parallel SIMD step equals the
 //! sequential scalar reference bit for bit.
 
+use throng::orca::Orca;
+use throng::ped::{Model, Pedestrian};
 use throng::prelude::*;
 
 #[path = "support/flocks.rs"]
@@ -161,6 +163,51 @@ fn parallel_flock_step_equals_the_sequential_reference() {
         b.step_sequential(0.05).unwrap();
     }
     assert_eq!(snapshot(&a), snapshot(&b));
+}
+
+/// A flock whose requests the ORCA filter or a pedestrian model then replaces: the batch serves
+/// every agent, and the parallel step must still hand those passes the requests.
+#[test]
+fn a_flock_with_orca_or_a_pedestrian_model_steps_as_the_sequential_reference() {
+    let hood = Neighbourhood {
+        view_cos: -0.5,
+        ..Neighbourhood::radius(5.0)
+    };
+    let profile = SteeringProfile::default()
+        .with(Behaviour::Separation { hood }, 1.5)
+        .with(Behaviour::Alignment { hood }, 1.0)
+        .with(Behaviour::Cohesion { hood }, 0.8);
+    let orca = GroupParams {
+        orca: Some(Orca::default()),
+        ..GroupParams::dynamic(profile.clone())
+    };
+    let ped = GroupParams {
+        pedestrian: Some(Pedestrian::new(Model::SocialForce)),
+        ..GroupParams::dynamic(profile)
+    };
+    for (group, bounds) in [
+        (orca, Bounds::torus(60.0, 60.0).unwrap()),
+        (ped, Bounds::bounded(60.0, 60.0).unwrap()),
+    ] {
+        let world = || {
+            let mut b = World::builder().bounds(bounds).seed(4).group(group.clone());
+            for i in 0..600 {
+                let f = i as f32;
+                b = b.agent(AgentInit {
+                    position: Vec2::new((f * 7.31) % 59.0 + 0.5, (f * 3.17) % 59.0 + 0.5),
+                    velocity: Vec2::new((f * 0.37).sin(), (f * 0.91).cos()),
+                    ..AgentInit::at(Vec2::ZERO, 0)
+                });
+            }
+            b.build().unwrap()
+        };
+        let (mut a, mut b) = (world(), world());
+        for _ in 0..10 {
+            a.step(0.05).unwrap();
+            b.step_sequential(0.05).unwrap();
+        }
+        assert_eq!(snapshot(&a), snapshot(&b), "{bounds:?}");
+    }
 }
 
 #[test]

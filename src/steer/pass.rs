@@ -43,7 +43,8 @@ pub(crate) struct SteerOut {
     pub wandered: bool,
     /// Whether `lin_x` and `lin_y` were left unwritten because every agent's request waits in
     /// the cell batch's outputs, in the grid's order ([`cells::CellOut::take_all`] copies them
-    /// out, as the integrator does task by task).
+    /// out, as the integrator does task by task); never when a pedestrian model or the ORCA
+    /// filter reads and replaces the requests after the pass.
     pub deferred: bool,
 }
 
@@ -92,7 +93,9 @@ pub(crate) fn run(
         ) || (batched && cells::is_batched_group(view, g))
     });
     (out.angular, out.wandered) = (!still, !still);
-    out.deferred = all && defer;
+    // The pedestrian models and the ORCA filter read the requests in storage order and replace
+    // them: with either, the requests are written.
+    out.deferred = all && defer && !super::ped::any(view) && !super::orca::any(view);
     if out.deferred {
         return;
     }
