@@ -53,7 +53,7 @@ pub(crate) const SORTED_PAD: usize = 8;
 /// pool, when N or the cells are large; in one level otherwise (up to 1,048,576 points and
 /// 262,144 cells; on the calling thread up to 65,536 points):
 ///
-/// 1. Per chunk of points: copy the positions and compute each point's cell id.
+/// 1. Per chunk of points: compute each point's cell id.
 /// 2. Per chunk: a histogram of *buckets*, runs of `2^k` consecutive cells chosen so that there
 ///    are at most 1024 of them; prefix sums over (bucket, chunk) give every chunk its own slots in
 ///    every bucket.
@@ -76,8 +76,6 @@ pub struct GridIndex {
     cells_x: u32,
     cells_y: u32,
     scale: f32,
-    /// Positions by point index.
-    pts: Vec<Vec2>,
     /// Cell id of each point.
     cell: Vec<u32>,
     /// The points sorted by cell: `start` (`cells + 1` prefix sums), `order` and the sorted
@@ -95,7 +93,6 @@ impl Default for GridIndex {
             cells_x: 1,
             cells_y: 1,
             scale: 0.0,
-            pts: Vec::new(),
             cell: Vec::new(),
             sort: CountingSort::with_keys(1),
         }
@@ -130,7 +127,7 @@ fn axis_cell(x: f32, origin: f32, inv: f32, n: u32) -> u32 {
     if f >= 0.0 { (f as u32).min(n - 1) } else { 0 }
 }
 
-/// Pass 1 of a rebuild: the points copied into `pts`, each point's cell (row-major, as
+/// Pass 1 of a rebuild: each point's cell (row-major, as
 /// [`axis_cell`] computes it on each axis) into `cell`, and the largest magnitude of a
 /// coordinate. In vector lanes: the clamp is done in floating point before the conversion
 /// (`max(f, 0)` is 0 for a negative or NaN `f`, and truncating `min(f, n - 1)` equals clamping
@@ -144,7 +141,7 @@ fn axis_cell(x: f32, origin: f32, inv: f32, n: u32) -> u32 {
 ))]
 fn cell_keys(
     (xs, ys): (&[f32], &[f32]),
-    (pts, cell): (&mut [Vec2], &mut [u32]),
+    cell: &mut [u32],
     (origin, inv): (Vec2, Vec2),
     (cx, cy): (u32, u32),
 ) -> f32 {
@@ -156,11 +153,10 @@ fn cell_keys(
         let whole = ((v - o) * inv).max(0.0).min(top).trunc();
         (whole + 8_388_608.0).to_bits() - 0x4B00_0000
     };
-    let n = pts.len();
-    let (xs, ys, cell) = (&xs[..n], &ys[..n], &mut cell[..n]);
+    let n = cell.len();
+    let (xs, ys) = (&xs[..n], &ys[..n]);
     for k in 0..n {
         let (x, y) = (xs[k], ys[k]);
-        pts[k] = Vec2::new(x, y);
         cell[k] = axis(y, origin.y, inv.y, top_y) * cx + axis(x, origin.x, inv.x, top_x);
     }
     // The largest magnitude in lanes, as selects (a NaN is never greater, so it is passed
@@ -272,39 +268,38 @@ impl GridIndex {
     pub fn adopt_order(&mut self) {
         let sort = &mut self.sort;
         let n = sort.order.len();
-        let (start, sx, sy) = (&sort.start, &sort.sorted_x, &sort.sorted_y);
-        // Positions `base..base + len` of the new order: the sorted points, their cells (the
-        // cell holding `base` found by a search of the prefix sums, then walked), the identity.
+        let start = &sort.start;
+        // Positions `base..base + len` of the new order: their cells (the cell holding `base`
+        // found by a search of the prefix sums, then walked), the identity.
         let rank = &sort.rank.0[..n];
-        let adopt = |base: usize, pts: &mut [Vec2], cell: &mut [u32], order: &mut [u32]| {
+        let adopt = |base: usize, cell: &mut [u32], order: &mut [u32]| {
             let mut c = start.partition_point(|&s| s as usize <= base) - 1;
             let rank = &rank[base..base + order.len()];
-            for (j, ((p, ce), (o, r))) in pts
-                .iter_mut()
-                .zip(cell)
-                .zip(order.iter_mut().zip(rank))
-                .enumerate()
-            {
+            for (j, (ce, (o, r))) in cell.iter_mut().zip(order.iter_mut().zip(rank)).enumerate() {
                 let k = base + j;
                 while start[c + 1] as usize <= k {
                     c += 1;
                 }
-                *p = Vec2::new(sx[k], sy[k]);
                 *ce = c as u32;
                 *o = k as u32;
                 r.store(k as u32, Ordering::Relaxed);
             }
         };
-        let (pts, cell, order) = (&mut self.pts[..n], &mut self.cell[..n], &mut sort.order[..]);
+        let (cell, order) = (&mut self.cell[..n], &mut sort.order[..]);
         if n >= PARALLEL_MIN_POINTS {
-            pts.par_chunks_mut(CHUNK)
-                .zip(cell.par_chunks_mut(CHUNK))
+            cell.par_chunks_mut(CHUNK)
                 .zip(order.par_chunks_mut(CHUNK))
                 .enumerate()
-                .for_each(|(c, ((p, ce), o))| adopt(c * CHUNK, p, ce, o));
+                .for_each(|(c, (ce, o))| adopt(c * CHUNK, ce, o));
         } else if n > 0 {
-            adopt(0, pts, cell, order);
+            adopt(0, cell, order);
         }
+    }
+
+    /// Point `i`'s position at the last rebuild: its sorted copy, at its rank.
+    fn position(&self, i: usize) -> Vec2 {
+        let k = self.sort.rank.0[i].load(Ordering::Relaxed) as usize;
+        Vec2::new(self.sort.sorted_x[k], self.sort.sorted_y[k])
     }
 
     /// The world the grid was built for.
@@ -520,34 +515,28 @@ impl GridIndex {
         self.plan(bounds, max_radius, n, bbox);
         let cells = self.cells_x as usize * self.cells_y as usize;
 
-        // Pass 1: copy the positions, find each point's cell and the coordinates' magnitude.
-        self.pts.resize(n, Vec2::ZERO);
+        // Pass 1: find each point's cell and the coordinates' magnitude.
         self.cell.resize(n, 0);
         let (origin, inv, cx, cy) = (self.origin, self.inv_cell, self.cells_x, self.cells_y);
-        let fill = |pts: &mut [Vec2], cell: &mut [u32], xs: &[f32], ys: &[f32]| {
-            cell_keys((xs, ys), (pts, cell), (origin, inv), (cx, cy))
+        let fill = |cell: &mut [u32], xs: &[f32], ys: &[f32]| {
+            cell_keys((xs, ys), cell, (origin, inv), (cx, cy))
         };
         let max_abs = if parallel {
-            self.pts
+            self.cell
                 .par_chunks_mut(CHUNK)
-                .zip(self.cell.par_chunks_mut(CHUNK))
                 .zip(xs.par_chunks(CHUNK).zip(ys.par_chunks(CHUNK)))
-                .map(|((p, c), (x, y))| fill(p, c, x, y))
+                .map(|(c, (x, y))| fill(c, x, y))
                 .reduce(|| 0.0, f32::max)
         } else {
-            fill(&mut self.pts, &mut self.cell, xs, ys)
+            fill(&mut self.cell, xs, ys)
         };
         self.scale = bounds.size().map_or(max_abs, |s| max_abs.max(s.x).max(s.y));
 
         // Passes 2-4: the counting sort by cell.
-        let pts = &self.pts;
         self.sort.sort(
             &self.cell,
             cells,
-            |i| {
-                let p = pts[i];
-                (p.x, p.y)
-            },
+            |i| (xs[i], ys[i]),
             parts,
             (SORTED_PAD, 0.0),
         );
@@ -587,7 +576,7 @@ impl NeighbourIndex for GridIndex {
     }
 
     fn neighbours_of(&self, i: usize, r: f32, out: &mut Vec<Neighbour>) {
-        self.gather::<true>(self.pts[i], r, i, out);
+        self.gather::<true>(self.position(i), r, i, out);
     }
 
     fn neighbours_at(&self, p: Vec2, r: f32, out: &mut Vec<Neighbour>) {
@@ -609,7 +598,7 @@ impl NeighbourIndex for GridIndex {
     }
 
     fn len(&self) -> usize {
-        self.pts.len()
+        self.sort.order.len()
     }
 }
 
@@ -655,16 +644,14 @@ mod tests {
             (Vec2::ZERO, Vec2::splat(1.0), (1, 1)),
         ] {
             let n = xs.len();
-            let (mut pts, mut cell) = (vec![Vec2::ZERO; n], vec![0; n]);
-            let max_abs = cell_keys((&xs, &ys), (&mut pts, &mut cell), (origin, inv), cells);
+            let mut cell = vec![0; n];
+            let max_abs = cell_keys((&xs, &ys), &mut cell, (origin, inv), cells);
             let mut want_max = 0.0_f32;
             for k in 0..n {
                 let (x, y) = (xs[k], ys[k]);
                 let want = axis_cell(y, origin.y, inv.y, cells.1) * cells.0
                     + axis_cell(x, origin.x, inv.x, cells.0);
                 assert_eq!(cell[k], want, "({x}, {y}) with {origin} {inv} {cells:?}");
-                assert_eq!(pts[k].x.to_bits(), x.to_bits());
-                assert_eq!(pts[k].y.to_bits(), y.to_bits());
                 want_max = want_max.max(x.abs()).max(y.abs());
             }
             assert_eq!(max_abs.to_bits(), want_max.to_bits());
@@ -793,7 +780,9 @@ mod tests {
             let mut rebuilt = GridIndex::default();
             rebuilt.rebuild(&px, &py, bounds, 2.5);
             check_layout(&adopted, &px, &py);
-            assert_eq!(adopted.pts, rebuilt.pts, "{n} points");
+            for i in 0..n {
+                assert_eq!(adopted.position(i), rebuilt.position(i), "point {i} of {n}");
+            }
             assert_eq!(adopted.cell, rebuilt.cell, "{n} points");
             assert_eq!(adopted.sort.start, rebuilt.sort.start);
             assert_eq!(adopted.sort.order, rebuilt.sort.order);
