@@ -49,9 +49,10 @@ pub(crate) const SORTED_PAD: usize = 8;
 ///
 /// # Rebuild
 ///
-/// A counting sort, O(N + cells) (`super::sort`): in the two levels below, on the current rayon
-/// pool, when N or the cells are large; in one level otherwise (up to 1,048,576 points and
-/// 262,144 cells; on the calling thread up to 65,536 points):
+/// A counting sort, O(N + cells) (`super::sort`): in one level on the calling thread up to
+/// 65,536 points; above that, on the current rayon pool, in one level per range of cells when
+/// the points come nearly in cell order (agents reordered by this grid a few frames before), or
+/// else in one level (up to 1,048,576 points and 262,144 cells) or in the two levels below:
 ///
 /// 1. Per chunk of points: compute each point's cell id.
 /// 2. Per chunk: a histogram of *buckets*, runs of `2^k` consecutive cells chosen so that there

@@ -23,6 +23,12 @@
 //! [`DIRECT_MAX_KEYS`] keys) it is one level on the rayon pool, a row of counts per chunk of
 //! points ([`CountingSort::sort_rows`]).
 //!
+//! Before either of the parallel ways, a sort of more than [`DIRECT_MAX_POINTS`] points tries
+//! [`CountingSort::sort_ranges`]: when the points come nearly in their keys' order (agents
+//! between two reorders by cell), each task sorts the points of one range of keys in one level,
+//! as the direct way does, straight into its own range of the outputs; it declines, writing
+//! nothing, when the tasks would read many points more than once.
+//!
 //! # Invariants
 //!
 //! * `order` is the stable sort of `0..N` by key: the points of one key in ascending index order,
@@ -62,6 +68,15 @@ const ROWS_MAX_POINTS: usize = 1 << 20;
 /// Sorted positions per task of the last pass of [`CountingSort::sort_rows`].
 const ORDER_CHUNK: usize = 16 * 1024;
 
+/// Points per block whose least and greatest key [`CountingSort::sort_ranges`] records.
+const RANGE_BLOCK: usize = 4096;
+/// Tasks of [`CountingSort::sort_ranges`] per part: more than one, so that a thread on a
+/// slower core leaves some of its share to the other.
+const RANGE_TASKS_PER_PART: usize = 2;
+/// Sorts after [`CountingSort::sort_ranges`] found the points too far from their keys' order
+/// before it tries again.
+const RANGES_RETRY: u32 = 2;
+
 /// A counting sort by key with its outputs and reusable scratch.
 #[derive(Clone, Debug, Default)]
 pub(super) struct CountingSort {
@@ -83,6 +98,23 @@ pub(super) struct CountingSort {
     pairs: Pairs,
     /// Scratch: point indices in their slots ([`CountingSort::sort_rows`]).
     slots: Slots,
+    /// Scratch: each block's least and greatest key ([`CountingSort::sort_ranges`]).
+    blocks: Vec<(u32, u32)>,
+    /// Scratch: the tasks of [`CountingSort::sort_ranges`].
+    tasks: Vec<RangeTask>,
+    /// Sorts left before [`CountingSort::sort_ranges`] is tried again.
+    ranges_wait: u32,
+}
+
+/// A task of [`CountingSort::sort_ranges`]: a range of keys, its points and their positions.
+#[derive(Clone, Copy, Debug, Default)]
+struct RangeTask {
+    /// Its first key; its keys end at the next task's first key.
+    first_key: u32,
+    /// Its points.
+    points: u32,
+    /// The position of its first point in the order.
+    base: u32,
 }
 
 /// Scratch space for the bucket scatter; cloning gives an empty one.
@@ -156,15 +188,113 @@ impl CountingSort {
             parts,
             pad,
         };
-        if keys > DIRECT_MAX_KEYS {
-            self.sort_levels(input);
-        } else if n <= DIRECT_MAX_POINTS || parts == 1 {
+        let few = n <= DIRECT_MAX_POINTS || parts == 1;
+        if few && keys <= DIRECT_MAX_KEYS {
             self.sort_direct(input);
-        } else if n <= ROWS_MAX_POINTS {
+        } else if !few && self.sort_ranges(&input) {
+            // Sorted in ranges of keys.
+        } else if n <= ROWS_MAX_POINTS && keys <= DIRECT_MAX_KEYS {
             self.sort_rows(input);
         } else {
             self.sort_levels(input);
         }
+    }
+
+    /// The sort in one level on the current rayon pool, for points that come nearly in their
+    /// keys' order (the agents between two reorders by cell): the keys are cut into ranges of
+    /// about equal numbers of points (the keys of evenly spaced points), and a task per range
+    /// counts and places its own points, as [`CountingSort::sort_direct`] does, reading only
+    /// the blocks of points whose keys reach into its range. The tasks own disjoint ranges of
+    /// the outputs, so no point passes through scratch space. Returns false, having written
+    /// nothing, when the tasks would read more than a quarter of the points twice (then it is
+    /// not tried for the next [`RANGES_RETRY`] sorts).
+    fn sort_ranges<P>(&mut self, input: &Input<'_, P>) -> bool
+    where
+        P: Fn(usize) -> (f32, f32) + Sync,
+    {
+        if self.ranges_wait > 0 {
+            self.ranges_wait -= 1;
+            return false;
+        }
+        let Input {
+            key,
+            keys,
+            ref pos,
+            parts,
+            pad,
+        } = *input;
+        let n = key.len();
+        if n == 0 {
+            return false;
+        }
+        // Each block's least and greatest key.
+        self.blocks.resize(n.div_ceil(RANGE_BLOCK), (0, 0));
+        self.blocks
+            .par_iter_mut()
+            .zip(key.par_chunks(RANGE_BLOCK))
+            .with_min_len(16)
+            .for_each(|(b, key)| {
+                *b = key
+                    .iter()
+                    .fold((u32::MAX, 0), |(lo, hi), &k| (lo.min(k), hi.max(k)));
+            });
+        // The tasks' first keys, ascending, and the blocks they would read.
+        let count = parts * RANGE_TASKS_PER_PART;
+        self.tasks.clear();
+        let mut first = 0;
+        for t in 0..count {
+            if t > 0 {
+                first = key[t * n / count].max(first);
+            }
+            self.tasks.push(RangeTask {
+                first_key: first,
+                ..RangeTask::default()
+            });
+        }
+        let blocks = &self.blocks;
+        let read: usize = (0..count)
+            .map(|t| {
+                let range = key_range(&self.tasks, t, keys);
+                let len = |b: usize| RANGE_BLOCK.min(n - b * RANGE_BLOCK);
+                let within = blocks
+                    .iter()
+                    .enumerate()
+                    .filter(|(_, b)| overlaps(**b, &range));
+                within.map(|(b, _)| len(b)).sum::<usize>()
+            })
+            .sum();
+        if read > n + n / 4 {
+            self.ranges_wait = RANGES_RETRY;
+            return false;
+        }
+
+        self.resize_outputs(n, pad);
+        self.start.resize(keys + 1, 0);
+        self.start[0] = 0;
+        let sh = RangeShared {
+            key,
+            keys,
+            blocks: &self.blocks,
+            rank: &self.rank.0[..n],
+            pos,
+        };
+        // Each task's counts, then its keys' first slots counted from its first position.
+        count_ranges(&sh, &mut self.tasks, &mut self.start[1..]);
+        let mut run = 0;
+        for t in &mut self.tasks {
+            t.base = run;
+            run += t.points;
+        }
+        debug_assert_eq!(run as usize, n, "every point in one task");
+        // Each task places its points; its keys' ends become the starts of the next keys.
+        let out = Out {
+            key_end: &mut self.start[1..],
+            order: &mut self.order,
+            sorted_x: &mut self.sorted_x[..n],
+            sorted_y: &mut self.sorted_y[..n],
+        };
+        place_ranges(&sh, &self.tasks, out);
+        true
     }
 
     /// The sort in one level on the current rayon pool, for many points and few keys: each chunk
@@ -437,6 +567,119 @@ fn column_starts(histogram: &mut [u32], width: usize, chunks: usize, starts: &mu
     starts[width] = run;
 }
 
+/// Read-only inputs of [`count_ranges`] and [`place_ranges`].
+struct RangeShared<'a, P> {
+    key: &'a [u32],
+    keys: usize,
+    blocks: &'a [(u32, u32)],
+    rank: &'a [AtomicU32],
+    pos: &'a P,
+}
+
+/// The keys of task `t`: from its first key to the next task's (to `keys` for the last).
+fn key_range(tasks: &[RangeTask], t: usize, keys: usize) -> std::ops::Range<u32> {
+    let end = tasks.get(t + 1).map_or(keys as u32, |next| next.first_key);
+    tasks[t].first_key..end
+}
+
+/// Whether a block whose keys lie in `lo..=hi` holds a key of `range`.
+fn overlaps((lo, hi): (u32, u32), range: &std::ops::Range<u32>) -> bool {
+    hi >= range.start && lo < range.end
+}
+
+/// Calls `visit(i, k - range.start)` for each point `i` whose key `k` lies in `range`, in
+/// ascending order, reading only the blocks that reach into the range (and testing each
+/// key only in blocks that reach past it).
+#[inline(always)]
+fn for_each_in<P>(
+    sh: &RangeShared<'_, P>,
+    range: &std::ops::Range<u32>,
+    mut visit: impl FnMut(usize, usize),
+) {
+    for (b, (&block, key)) in sh.blocks.iter().zip(sh.key.chunks(RANGE_BLOCK)).enumerate() {
+        if !overlaps(block, range) {
+            continue;
+        }
+        let first = b * RANGE_BLOCK;
+        if range.contains(&block.0) && range.contains(&block.1) {
+            for (j, &k) in key.iter().enumerate() {
+                visit(first + j, (k - range.start) as usize);
+            }
+        } else {
+            for (j, &k) in key.iter().enumerate() {
+                if range.contains(&k) {
+                    visit(first + j, (k - range.start) as usize);
+                }
+            }
+        }
+    }
+}
+
+/// Counts each task's points per key into its keys' entries of `ends` (`start[1..]` from the
+/// first task's first key), which become the keys' first slots counted from the task's first
+/// position; records each task's points. In parallel halves of the tasks.
+fn count_ranges<P>(sh: &RangeShared<'_, P>, tasks: &mut [RangeTask], ends: &mut [u32])
+where
+    P: Sync,
+{
+    if tasks.len() > 1 {
+        let mid = tasks.len() / 2;
+        let (ta, tb) = tasks.split_at_mut(mid);
+        let (ea, eb) = ends.split_at_mut((tb[0].first_key - ta[0].first_key) as usize);
+        rayon::join(|| count_ranges(sh, ta, ea), || count_ranges(sh, tb, eb));
+        return;
+    }
+    let range = tasks[0].first_key..tasks[0].first_key + ends.len() as u32;
+    debug_assert!(range.end as usize <= sh.keys);
+    ends.fill(0);
+    for_each_in(sh, &range, |_, k| ends[k] += 1);
+    let mut run = 0u32;
+    for end in ends.iter_mut() {
+        (*end, run) = (run, run + *end);
+    }
+    tasks[0].points = run;
+}
+
+/// Places each task's points in `out` (from the first task's first key and position) at their
+/// keys' slots, writes their ranks, and leaves each key's entry of `ends` at its end, counted
+/// from the first position. In parallel halves of the tasks.
+fn place_ranges<P>(sh: &RangeShared<'_, P>, tasks: &[RangeTask], out: Out<'_>)
+where
+    P: Fn(usize) -> (f32, f32) + Sync,
+{
+    if tasks.len() > 1 {
+        let mid = tasks.len() / 2;
+        let (ta, tb) = tasks.split_at(mid);
+        let (a, b) = out.split_at(
+            (tb[0].first_key - ta[0].first_key) as usize,
+            (tb[0].base - ta[0].base) as usize,
+        );
+        rayon::join(|| place_ranges(sh, ta, a), || place_ranges(sh, tb, b));
+        return;
+    }
+    let Out {
+        key_end: ends,
+        order,
+        sorted_x,
+        sorted_y,
+    } = out;
+    let (first, base) = (tasks[0].first_key, tasks[0].base);
+    let range = first..first + ends.len() as u32;
+    for_each_in(sh, &range, |i, k| {
+        let slot = &mut ends[k];
+        let at = *slot as usize;
+        *slot += 1;
+        sh.rank[i].store(base + at as u32, Ordering::Relaxed);
+        let (x, y) = (sh.pos)(i);
+        order[at] = i as u32;
+        sorted_x[at] = x;
+        sorted_y[at] = y;
+    });
+    for end in ends.iter_mut() {
+        *end += base;
+    }
+}
+
 /// Read-only inputs of [`sort_buckets`].
 struct Shared<'a, P> {
     bucket_start: &'a [u32],
@@ -559,6 +802,8 @@ mod tests {
             s ^= s << 17;
             (s >> 32) as u32 % m
         };
+        // Sorts in ranges declined (points too far from their keys' order).
+        let mut declined = 0;
         // Sizes on both sides of the one-level sort's limits, in an order that makes each sort
         // reuse the buffers of a larger or smaller one.
         for (n, keys) in [
@@ -567,14 +812,30 @@ mod tests {
             (5, 3000),
             (40_000, 1),
             (70_000, 5000),
+            (70_001, 5000),
+            (300_001, 5000),
+            (300_001, (1 << 18) + 1),
+            (3_001, 300),
+            (40_001, (1 << 18) + 1),
             (3_000, 1 << 18),
             (90_000, 1 << 18),
             (60_000, 40_000),
             (65_536, (1 << 18) + 1),
         ] {
-            // Half the points share key 0, the rest scattered.
+            // Half the points share key 0, the rest scattered; or the points nearly in their
+            // keys' order (rising keys, each moved by up to one).
+            let nearly = n % 2 == 1;
             let key: Vec<u32> = (0..n)
-                .map(|i| if i % 2 == 0 { 0 } else { next(keys as u32) })
+                .map(|i| {
+                    if nearly {
+                        let k = (i * keys / n.max(1)) as u32 + next(3);
+                        k.saturating_sub(1).min(keys as u32 - 1)
+                    } else if i % 2 == 0 {
+                        0
+                    } else {
+                        next(keys as u32)
+                    }
+                })
                 .collect();
             let xs: Vec<f32> = (0..n).map(|i| i as f32).collect();
             let ys: Vec<f32> = (0..n).map(|i| -(i as f32)).collect();
@@ -587,11 +848,16 @@ mod tests {
                 .into_iter()
                 .chain([1, 2, 5].map(|p| (1, p)))
                 .chain([2, 3, 7].map(|p| (2, p)))
+                .chain([1, 2, 3].map(|p| (3, p)))
             {
-                // Ranks left from the way before would hide a way that writes none.
+                // Outputs left from the way before would hide a way that writes too few.
                 for r in &sort.rank.0 {
                     r.store(u32::MAX, Ordering::Relaxed);
                 }
+                sort.start.fill(u32::MAX);
+                sort.order.fill(u32::MAX);
+                sort.sorted_x.fill(f32::NAN);
+                sort.sorted_y.fill(f32::NAN);
                 let pos = |i: usize| (xs[i], ys[i]);
                 let input = Input {
                     key: &key,
@@ -603,7 +869,20 @@ mod tests {
                 match way {
                     0 => sort.sort(&key, keys, pos, parts, (3, f32::MAX)),
                     1 => sort.sort_levels(input),
-                    _ => sort.sort_rows(input),
+                    2 => sort.sort_rows(input),
+                    _ => {
+                        sort.ranges_wait = 0;
+                        let ranged = sort.sort_ranges(&input);
+                        // Nearly ordered points are sorted in ranges; the others (from a few
+                        // blocks on) are left to the other ways.
+                        if nearly && n >= 64 * RANGE_BLOCK {
+                            assert!(ranged, "{n} points in {parts} parts not in ranges");
+                        }
+                        declined += usize::from(!ranged);
+                        if !ranged {
+                            continue;
+                        }
+                    }
                 }
                 assert_eq!(sort.start, start, "{n} points, {parts} parts");
                 assert_eq!(sort.order, order, "{n} points, {parts} parts");
@@ -617,5 +896,6 @@ mod tests {
                 assert_eq!(sort.sorted_y[n..], [f32::MAX; 3]);
             }
         }
+        assert!(declined > 0, "every sort in ranges taken");
     }
 }
