@@ -804,21 +804,39 @@ mod tests {
         }
     }
 
+    /// Asserts that two grids sorted their points alike: cells, order, sorted positions, ranks.
+    fn assert_same_sort(par: &GridIndex, seq: &GridIndex, parts: usize) {
+        assert_eq!(par.sort.start, seq.sort.start, "{parts} parts");
+        assert_eq!(par.sort.order, seq.sort.order, "{parts} parts");
+        assert_eq!(par.sort.sorted_x, seq.sort.sorted_x, "{parts} parts");
+        assert_eq!(par.sort.sorted_y, seq.sort.sorted_y, "{parts} parts");
+        let ranks = |g: &GridIndex| {
+            let r = g.ranks().iter().map(|r| r.load(Ordering::Relaxed));
+            r.collect::<Vec<u32>>()
+        };
+        assert_eq!(ranks(par), ranks(seq), "{parts} parts");
+    }
+
+    /// The grid of the points rebuilt on one part and checked, each rebuild on 2, 3, 4 and 7
+    /// parts held to it; returns it and whether each of those sorted in ranges of cells.
+    fn rebuilt_every_way(xs: &[f32], ys: &[f32], bounds: Bounds) -> (GridIndex, Vec<bool>) {
+        let mut seq = GridIndex::default();
+        seq.rebuild_with(xs, ys, bounds, 2.0, 1);
+        check_layout(&seq, xs, ys);
+        let ranged = [2, 3, 4, 7].map(|parts| {
+            let mut par = GridIndex::default();
+            par.rebuild_with(xs, ys, bounds, 2.0, parts);
+            assert_same_sort(&par, &seq, parts);
+            par.sort.took_ranges()
+        });
+        (seq, ranged.to_vec())
+    }
+
     #[test]
     fn parallel_rebuild_equals_sequential() {
         let (xs, ys) = points(100_000, 300.0, 42);
         let bounds = Bounds::torus(300.0, 300.0).unwrap();
-        let mut seq = GridIndex::default();
-        seq.rebuild_with(&xs, &ys, bounds, 2.0, 1);
-        check_layout(&seq, &xs, &ys);
-        for parts in [2, 3, 4, 7] {
-            let mut par = GridIndex::default();
-            par.rebuild_with(&xs, &ys, bounds, 2.0, parts);
-            assert_eq!(par.sort.start, seq.sort.start, "{parts} parts");
-            assert_eq!(par.sort.order, seq.sort.order, "{parts} parts");
-            assert_eq!(par.sort.sorted_x, seq.sort.sorted_x);
-            assert_eq!(par.sort.sorted_y, seq.sort.sorted_y);
-        }
+        let (seq, _) = rebuilt_every_way(&xs, &ys, bounds);
         // Through the public entry point on a pool of 4 threads.
         let pool = rayon::ThreadPoolBuilder::new()
             .num_threads(4)
@@ -827,6 +845,26 @@ mod tests {
         let mut par = GridIndex::default();
         pool.install(|| par.rebuild(&xs, &ys, bounds, 2.0));
         assert_eq!(par.sort.order, seq.sort.order);
+
+        // Points nearly in cell order (put in it, then moved by up to a third of a cell, some
+        // across the torus's seams): the parallel rebuild sorts them per range of cells, or
+        // declines to and sorts them in rows.
+        let (xs, ys) = points(600_000, 700.0, 43);
+        let bounds = Bounds::torus(700.0, 700.0).unwrap();
+        let mut seq = GridIndex::default();
+        seq.rebuild_with(&xs, &ys, bounds, 2.0, 1);
+        let (mut nx, mut ny): (Vec<f32>, Vec<f32>) = seq
+            .order()
+            .iter()
+            .map(|&i| (xs[i as usize], ys[i as usize]))
+            .unzip();
+        let (jx, jy) = points(nx.len(), 1.4, 7);
+        for k in 0..nx.len() {
+            let p = bounds.wrap(Vec2::new(nx[k] + jx[k] - 0.7, ny[k] + jy[k] - 0.7));
+            (nx[k], ny[k]) = (p.x, p.y);
+        }
+        let (_, ranged) = rebuilt_every_way(&nx, &ny, bounds);
+        assert_eq!(ranged[..3], [true; 3], "on 2, 3 and 4 parts");
     }
 
     #[test]
