@@ -135,13 +135,66 @@ pub(crate) struct AgentColumns {
     pub(crate) ids: Vec<AgentId>,
 }
 
+/// Elements per parallel task of [`permute`] and [`uniform`]; shorter columns are gathered on
+/// the calling thread (a fork per column cost more than the gather at a few thousand agents).
+const PERMUTE_CHUNK: usize = 16 * 1024;
+
+/// The bits of a column's value, for [`uniform`]: `+0.0` and `-0.0` differ, as they do to a
+/// permutation.
+trait Bits: Copy + Send + Sync {
+    /// The value's bits.
+    fn bits(self) -> u32;
+}
+
+impl Bits for f32 {
+    fn bits(self) -> u32 {
+        self.to_bits()
+    }
+}
+
+impl Bits for u32 {
+    fn bits(self) -> u32 {
+        self
+    }
+}
+
+impl Bits for u8 {
+    fn bits(self) -> u32 {
+        u32::from(self)
+    }
+}
+
+/// Whether every value of `v` has the first one's bits (an empty column too): such a column is
+/// every permutation of itself. Chunks are compared without a branch per value, in parallel for
+/// long columns, and the first chunk that differs ends the scan.
+fn uniform<T: Bits>(v: &[T]) -> bool {
+    use rayon::prelude::*;
+    let Some(&first) = v.first() else {
+        return true;
+    };
+    let first = first.bits();
+    let same = |c: &[T]| c.iter().fold(0, |acc, x| acc | (x.bits() ^ first)) == 0;
+    if v.len() <= PERMUTE_CHUNK {
+        same(v)
+    } else {
+        v.par_chunks(PERMUTE_CHUNK).all(same)
+    }
+}
+
+/// [`permute`], unless the column is [`uniform`] (a column most worlds hold one value in: the
+/// rotations of agents that do not turn, a group's speed limit and radius, unused targets),
+/// which it leaves as it is: the same values, without the gather and the write of a column.
+fn permute_column<T: Bits>(v: &mut Vec<T>, perm: &[u32], scratch: &mut Vec<T>) {
+    if !uniform(v) {
+        permute(v, perm, scratch);
+    }
+}
+
 /// `v[k] = old v[perm[k]]`, gathered into `scratch` (in parallel chunks for long columns), which
 /// then becomes `v`; no allocation once `scratch` has grown to size.
 fn permute<T: Copy + Send + Sync>(v: &mut Vec<T>, perm: &[u32], scratch: &mut Vec<T>) {
     use rayon::prelude::*;
-    /// Elements per parallel task; shorter columns are gathered on this thread (a fork per
-    /// column cost more than the gather at a few thousand agents).
-    const CHUNK: usize = 16 * 1024;
+    const CHUNK: usize = PERMUTE_CHUNK;
     let src = &v[..];
     scratch.clear();
     if perm.len() <= CHUNK {
@@ -406,7 +459,8 @@ impl Agents {
         // Seven of the twelve float columns beside the groups and flags, five beside the ids
         // and their index (a scatter by id, which costs about two columns): two halves of about
         // equal work (at 1,000,000 agents the join took 11.2 to 13.0 ms with six and six, 10.3
-        // to 11.6 with seven and five).
+        // to 11.6 with seven and five). Uniform columns are left as they are (a scan instead of
+        // a gather and a write); the threads then share the rest of the gathers' chunks.
         let half = columns.len() / 2 + 1;
         let (first, second) = columns.split_at_mut(half);
         let (scratch, group, scratch_u32) = (
@@ -417,17 +471,17 @@ impl Agents {
         let (overrides, scratch_u8) = (&mut self.overrides, &mut self.scratch_u8);
         let one = move || {
             for v in first {
-                permute(v, perm, scratch);
+                permute_column(v, perm, scratch);
             }
-            permute(group, perm, scratch_u32);
-            permute(overrides, perm, scratch_u8);
+            permute_column(group, perm, scratch_u32);
+            permute_column(overrides, perm, scratch_u8);
         };
         let (scratch, ids, scratch_ids) =
             (&mut self.scratch_f32b, &mut self.ids, &mut self.scratch_ids);
         let index_of = &mut self.index_of;
         let other = move || {
             for v in second {
-                permute(v, perm, scratch);
+                permute_column(v, perm, scratch);
             }
             permute(ids, perm, scratch_ids);
             for (k, id) in ids.iter().enumerate() {
@@ -741,6 +795,78 @@ mod tests {
             assert!(a.to_columns() == want, "{n} agents");
             for (k, id) in want.ids.iter().enumerate() {
                 assert_eq!(a.index_of(*id), Some(k));
+            }
+        }
+    }
+
+    /// Columns of one value are left as they are, and a column that differs in one value
+    /// anywhere (the first chunk, the middle, the last; `-0.0` among `+0.0`) is still permuted:
+    /// every column's bits equal the plain gather's.
+    #[test]
+    fn reorder_moves_nearly_uniform_columns_and_keeps_uniform_ones() {
+        for n in [7usize, 5000, 40_000, 70_001] {
+            let f = |c: u32| {
+                (0..n)
+                    .map(|k| (k as u32 * 16 + c) as f32)
+                    .collect::<Vec<f32>>()
+            };
+            let one = |v: f32, odd: Option<(usize, f32)>| {
+                let mut c = vec![v; n];
+                if let Some((k, w)) = odd {
+                    c[k] = w;
+                }
+                c
+            };
+            let columns = AgentColumns {
+                pos_x: f(0),
+                pos_y: f(1),
+                vel_x: f(2),
+                vel_y: f(3),
+                orientation: one(1.5, None),
+                rotation: one(0.0, Some((n - 1, -0.0))),
+                wander: one(0.0, None),
+                group: vec![0; n],
+                max_speed: one(4.0, None),
+                radius: one(0.4, Some((n / 2, 0.5))),
+                desired_speed: one(1.34, Some((0, 1.2))),
+                overrides: (0..n).map(|k| u8::from(k == n - 2)).collect(),
+                target_x: one(f32::INFINITY, None),
+                target_y: one(-0.0, None),
+                ids: (0..n as u32).map(AgentId).collect(),
+            };
+            let mut a = Agents::from_columns(columns.clone(), n).unwrap();
+            let perm: Vec<u32> = (0..n).map(|k| ((k * 7919 + 13) % n) as u32).collect();
+            assert!(is_permutation(&perm));
+            a.reorder(&perm);
+            let got = a.to_columns();
+            let bits = |v: &[f32]| v.iter().map(|x| x.to_bits()).collect::<Vec<u32>>();
+            let gathered = |v: &[f32]| {
+                perm.iter()
+                    .map(|&k| v[k as usize].to_bits())
+                    .collect::<Vec<u32>>()
+            };
+            for (name, was, now) in [
+                ("pos_x", &columns.pos_x, &got.pos_x),
+                ("pos_y", &columns.pos_y, &got.pos_y),
+                ("vel_x", &columns.vel_x, &got.vel_x),
+                ("vel_y", &columns.vel_y, &got.vel_y),
+                ("orientation", &columns.orientation, &got.orientation),
+                ("rotation", &columns.rotation, &got.rotation),
+                ("wander", &columns.wander, &got.wander),
+                ("max_speed", &columns.max_speed, &got.max_speed),
+                ("radius", &columns.radius, &got.radius),
+                ("desired_speed", &columns.desired_speed, &got.desired_speed),
+                ("target_x", &columns.target_x, &got.target_x),
+                ("target_y", &columns.target_y, &got.target_y),
+            ] {
+                assert_eq!(bits(now), gathered(was), "{name}, {n} agents");
+            }
+            let moved = |v: &[u8]| perm.iter().map(|&k| v[k as usize]).collect::<Vec<u8>>();
+            assert_eq!(got.overrides, moved(&columns.overrides), "{n} agents");
+            assert_eq!(got.group, columns.group);
+            for (k, &p) in perm.iter().enumerate() {
+                assert_eq!(got.ids[k], AgentId(p));
+                assert_eq!(a.index_of(AgentId(p)), Some(k));
             }
         }
     }
