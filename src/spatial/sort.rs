@@ -194,12 +194,14 @@ impl CountingSort {
             "a key out of range"
         );
         let parts = parts.clamp(1, MAX_PARTS);
+        // Every way writes the same outputs; sized here once (a way that declines leaves their
+        // values to the next).
+        self.resize_outputs(n, pad);
         let input = Input {
             key,
             keys,
             pos,
             parts,
-            pad,
         };
         let few = n <= DIRECT_MAX_POINTS || parts == 1;
         if few && keys <= DIRECT_MAX_KEYS {
@@ -235,13 +237,7 @@ impl CountingSort {
             self.ranges_wait -= 1;
             return false;
         }
-        let Input {
-            key,
-            keys,
-            ref pos,
-            parts,
-            pad,
-        } = *input;
+        let (key, keys, parts, pos) = (input.key, input.keys, input.parts, &input.pos);
         let n = key.len();
         if n == 0 {
             return false;
@@ -317,7 +313,6 @@ impl CountingSort {
             return false;
         }
 
-        self.resize_outputs(n, pad);
         self.start.resize(keys + 1, 0);
         self.start[0] = 0;
         let sh = RangeShared {
@@ -357,15 +352,8 @@ impl CountingSort {
     where
         P: Fn(usize) -> (f32, f32) + Sync,
     {
-        let Input {
-            key,
-            keys,
-            pos,
-            parts,
-            pad,
-        } = input;
+        let (key, keys, parts, pos) = (input.key, input.keys, input.parts, &input.pos);
         let n = key.len();
-        self.resize_outputs(n, pad);
         let chunk_len = n.div_ceil(parts).max(1);
         let chunks = n.div_ceil(chunk_len);
         // Pass 1: per chunk, a count per key.
@@ -423,15 +411,8 @@ impl CountingSort {
     where
         P: Fn(usize) -> (f32, f32) + Sync,
     {
-        let Input {
-            key,
-            keys,
-            pos,
-            parts,
-            pad,
-        } = input;
+        let (key, keys, parts, pos) = (input.key, input.keys, input.parts, &input.pos);
         let n = key.len();
-        self.resize_outputs(n, pad);
         let parts = parts.clamp(1, MAX_PARTS);
         let parallel = parts > 1;
 
@@ -532,7 +513,6 @@ impl CountingSort {
         let n = key.len();
         self.start.clear();
         self.start.resize(keys + 1, 0);
-        self.resize_outputs(n, input.pad);
         // `start[k + 1]` counts key `k`, then holds its first slot, then (the scatter's cursor)
         // its end: the start of key `k + 1`.
         let (start, order) = (&mut self.start[..], &mut self.order[..n]);
@@ -560,13 +540,12 @@ impl CountingSort {
 }
 
 /// What [`CountingSort::sort`] hands each of its ways: the keys, their number, the positions,
-/// the parts to split the points into, and the padding.
+/// the parts to split the points into (the outputs are already sized, padding included).
 struct Input<'a, P> {
     key: &'a [u32],
     keys: usize,
     pos: P,
     parts: usize,
-    pad: (usize, f32),
 }
 
 /// Pass 1 of the sorts: a row of `width` counts per chunk of `chunk_len` points (`chunks` of
@@ -899,12 +878,15 @@ mod tests {
                 sort.sorted_x.fill(f32::NAN);
                 sort.sorted_y.fill(f32::NAN);
                 let pos = |i: usize| (xs[i], ys[i]);
+                if way != 0 {
+                    // What the dispatch does before it picks a way.
+                    sort.resize_outputs(n, (3, f32::MAX));
+                }
                 let input = Input {
                     key: &key,
                     keys,
                     pos,
                     parts,
-                    pad: (3, f32::MAX),
                 };
                 match way {
                     0 => sort.sort(&key, keys, pos, parts, (3, f32::MAX)),
