@@ -715,6 +715,13 @@ fn chunk(
     let end = base + lx.len();
     let groups = specs.iter().flatten().any(Query::needs_groups);
     let headings = specs.iter().flatten().any(|q| q.mode == VICSEK);
+    let gathers = Gather {
+        grid,
+        s: sorted,
+        bounds: view.bounds,
+        groups,
+        headings,
+    };
     runs.clear(lx.len());
     let mut out = Outputs {
         base,
@@ -751,7 +758,7 @@ fn chunk(
         // One batched group: every agent of a cell is its, in one kernel call that reads the
         // agents from the grid's columns and writes their sums in place.
         for (cell, range) in cell_pieces(starts, base..end) {
-            gather(grid, sorted, view.bounds, cell, groups, headings, buf);
+            gathers.cell(cell, buf);
             whole_cell(buf, q, cols, (range, base), out.runs);
         }
         out.settle_all(view, &order[base..end]);
@@ -777,7 +784,7 @@ fn chunk(
         let first = sorted.g[k];
         if sorted.g[range.clone()].iter().all(|&g| g == first) {
             if let Some(q) = &specs[first as usize] {
-                gather(grid, sorted, view.bounds, cell, groups, headings, buf);
+                gathers.cell(cell, buf);
                 whole_cell(buf, q, cols, (range.clone(), base), out.runs);
                 for (p, &i) in range.clone().zip(&order[range]) {
                     out.settle(view, first as usize, (p - base, i as usize));
@@ -792,7 +799,7 @@ fn chunk(
                 continue;
             }
             if !gathered {
-                gather(grid, sorted, view.bounds, cell, groups, headings, buf);
+                gathers.cell(cell, buf);
                 gathered = true;
             }
             if batch.len == CELL_BATCH || (batch.len > 0 && batch.group != g) {
@@ -1155,104 +1162,174 @@ fn term_run<const KINEMATIC: bool, const MEAN: bool>(
     }
 }
 
-/// Gathers the 3 x 3 block of cells around `cell` into `buf`, shifted across torus seams, and
-/// pads it to whole blocks of lanes with far-away points. The groups are gathered only when
-/// some kernel tells groups apart (`groups`); otherwise `buf.g` keeps stale values nobody reads.
-#[inline(always)]
-fn gather(
-    grid: &GridIndex,
-    s: &SortedCopies,
+/// What a task's gathers read: the grid and the copies in its order, the world's bounds, and
+/// whether the kernels read the groups and the unit headings.
+#[derive(Clone, Copy)]
+struct Gather<'a> {
+    grid: &'a GridIndex,
+    s: &'a SortedCopies,
     bounds: Bounds,
-    cell: usize,
     groups: bool,
     headings: bool,
-    buf: &mut CellBuf,
-) {
-    buf.len = 0;
-    let (nx, ny) = (grid.cells_x() as i64, grid.cells_y() as i64);
-    let (cx, cy) = (cell as i64 % nx, cell as i64 / nx);
-    let side = match bounds {
-        Bounds::Torus { size } => Some(size),
-        _ => None,
-    };
-    let starts = grid.cell_start();
-    for dy in -1..=1 {
-        let Some((row, shift_y)) = axis(cy + dy, ny, side.map(|s| s.y)) else {
-            continue;
+}
+
+impl Gather<'_> {
+    /// Gathers the 3 x 3 block of cells around `cell` into `buf`, shifted across torus seams,
+    /// and pads it to whole blocks of lanes with far-away points. The groups are gathered only
+    /// when some kernel tells groups apart (`groups`), the unit headings only for Vicsek sums
+    /// (`headings`); otherwise `buf.g` (or `buf.hx` and `buf.hy`) keep stale values nobody
+    /// reads.
+    ///
+    /// A cell away from the grid's edges (nearly all of them) takes a path of its own: its
+    /// three rows are one run each, unshifted, so their bounds are six loads of the cells'
+    /// starts, and the buffer's room is checked once. Its values are the general path's, bit
+    /// for bit (`+ 0.0` included); [`Gather::edge_cell`] serves the edges.
+    #[inline(always)]
+    fn cell(&self, cell: usize, buf: &mut CellBuf) {
+        let (grid, s) = (self.grid, self.s);
+        let (groups, headings) = (self.groups, self.headings);
+        let (nx, ny) = (grid.cells_x() as usize, grid.cells_y() as usize);
+        let (cx, cy) = (cell % nx, cell / nx);
+        if cx > 0 && cx + 1 < nx && cy > 0 && cy + 1 < ny {
+            let starts = grid.cell_start();
+            let run = |c: usize| (starts[c - 1] as usize, starts[c + 2] as usize);
+            let runs = [run(cell - nx), run(cell), run(cell + nx)];
+            let total: usize = runs.iter().map(|&(a, b)| b - a).sum();
+            buf.reserve(total + KLANES);
+            let mut len = 0;
+            for (a, b) in runs {
+                append_motion(buf, len, (grid.sorted_padded(), s), a, b, (0.0, 0.0));
+                append_columns(buf, len, s, (a, b), (groups, headings));
+                len += b - a;
+            }
+            buf.len = len;
+            pad(buf, groups, headings);
+            return;
+        }
+        self.edge_cell(cell, buf);
+    }
+
+    /// [`Gather::cell`] for any cell, at the grid's edges too: a row across a torus seam is two
+    /// runs, one of them shifted; outside a walled world a row or column is left out.
+    fn edge_cell(&self, cell: usize, buf: &mut CellBuf) {
+        let (grid, s, bounds) = (self.grid, self.s, self.bounds);
+        let (groups, headings) = (self.groups, self.headings);
+        buf.len = 0;
+        let (nx, ny) = (grid.cells_x() as i64, grid.cells_y() as i64);
+        let (cx, cy) = (cell as i64 % nx, cell as i64 / nx);
+        let side = match bounds {
+            Bounds::Torus { size } => Some(size),
+            _ => None,
         };
-        // The row's columns cx - 1 ..= cx + 1 as contiguous runs of cells: one run, or on a
-        // torus at a seam the far column (shifted) apart from the others.
-        let mut runs = [(0i64, 0i64, 0.0f32); 2];
-        let nr = match side.map(|s| s.x) {
-            Some(w) if cx == 0 => {
-                runs[0] = (nx - 1, nx - 1, -w);
-                runs[1] = (0, 1, 0.0);
-                2
-            }
-            Some(w) if cx == nx - 1 => {
-                runs[0] = (cx - 1, cx, 0.0);
-                runs[1] = (0, 0, w);
-                2
-            }
-            _ => {
-                runs[0] = ((cx - 1).max(0), (cx + 1).min(nx - 1), 0.0);
-                1
-            }
-        };
-        let runs = runs.map(|(c0, c1, shift)| {
-            (
-                starts[(row * nx + c0) as usize] as usize,
-                starts[(row * nx + c1) as usize + 1] as usize,
-                shift,
-            )
-        });
-        for &(a, b, shift_x) in &runs[..nr] {
-            let len = buf.len;
-            let need = len + (b - a) + KLANES;
-            if buf.x.len() < need {
-                for v in [
-                    &mut buf.x,
-                    &mut buf.y,
-                    &mut buf.vx,
-                    &mut buf.vy,
-                    &mut buf.g,
-                    &mut buf.hx,
-                    &mut buf.hy,
-                ] {
-                    // Room for dense cells from the start, so that a flock clumping after warm-up
-                    // rarely grows the buffers again.
-                    v.resize(need.max(MIN_CELL_BUF), 0.0);
+        let starts = grid.cell_start();
+        for dy in -1..=1 {
+            let Some((row, shift_y)) = axis(cy + dy, ny, side.map(|s| s.y)) else {
+                continue;
+            };
+            // The row's columns cx - 1 ..= cx + 1 as contiguous runs of cells: one run, or on a
+            // torus at a seam the far column (shifted) apart from the others.
+            let mut runs = [(0i64, 0i64, 0.0f32); 2];
+            let nr = match side.map(|s| s.x) {
+                Some(w) if cx == 0 => {
+                    runs[0] = (nx - 1, nx - 1, -w);
+                    runs[1] = (0, 1, 0.0);
+                    2
                 }
+                Some(w) if cx == nx - 1 => {
+                    runs[0] = (cx - 1, cx, 0.0);
+                    runs[1] = (0, 0, w);
+                    2
+                }
+                _ => {
+                    runs[0] = ((cx - 1).max(0), (cx + 1).min(nx - 1), 0.0);
+                    1
+                }
+            };
+            let runs = runs.map(|(c0, c1, shift)| {
+                (
+                    starts[(row * nx + c0) as usize] as usize,
+                    starts[(row * nx + c1) as usize + 1] as usize,
+                    shift,
+                )
+            });
+            for &(a, b, shift_x) in &runs[..nr] {
+                let len = buf.len;
+                buf.reserve(len + (b - a) + KLANES);
+                append_motion(
+                    buf,
+                    len,
+                    (grid.sorted_padded(), s),
+                    a,
+                    b,
+                    (shift_x, shift_y),
+                );
+                append_columns(buf, len, s, (a, b), (groups, headings));
+                buf.len += b - a;
             }
-            append_motion(
-                buf,
-                len,
-                (grid.sorted_padded(), s),
-                a,
-                b,
-                (shift_x, shift_y),
-            );
-            if groups {
-                append(&mut buf.g, len, &s.g, a, b);
+        }
+        pad(buf, groups, headings);
+    }
+}
+
+impl CellBuf {
+    /// Makes every column at least `need` values long.
+    #[inline(always)]
+    fn reserve(&mut self, need: usize) {
+        if self.x.len() < need {
+            for v in [
+                &mut self.x,
+                &mut self.y,
+                &mut self.vx,
+                &mut self.vy,
+                &mut self.g,
+                &mut self.hx,
+                &mut self.hy,
+            ] {
+                // Room for dense cells from the start, so that a flock clumping after warm-up
+                // rarely grows the buffers again.
+                v.resize(need.max(MIN_CELL_BUF), 0.0);
             }
-            if headings {
-                append(&mut buf.hx, len, &s.hx, a, b);
-                append(&mut buf.hy, len, &s.hy, a, b);
-            }
-            buf.len += b - a;
         }
     }
-    // Pad to whole blocks with far-away points that no mask admits: one whole block written
-    // past the last run (the last run made room for it), of which the used part is kept.
+}
+
+/// The groups (with `groups`) and the unit headings (with `headings`) of `s[a..b]` into the
+/// buffer at `len`, as [`append`] writes them.
+#[inline(always)]
+fn append_columns(
+    buf: &mut CellBuf,
+    len: usize,
+    s: &SortedCopies,
+    (a, b): (usize, usize),
+    (groups, headings): (bool, bool),
+) {
+    if groups {
+        append(&mut buf.g, len, &s.g, a, b);
+    }
+    if headings {
+        append(&mut buf.hx, len, &s.hx, a, b);
+        append(&mut buf.hy, len, &s.hy, a, b);
+    }
+}
+
+/// Pads the gathered `buf.len` values to whole blocks with far-away points that no mask admits:
+/// one whole block written past the last run (the gather made room for it), of which the used
+/// part is kept. The groups and headings are padded where they were gathered.
+#[inline(always)]
+fn pad(buf: &mut CellBuf, groups: bool, headings: bool) {
     let len = buf.len;
     let pad = |v: &mut Vec<f32>, value: f32| v[len..len + KLANES].copy_from_slice(&[value; KLANES]);
     pad(&mut buf.x, FAR);
     pad(&mut buf.y, FAR);
     pad(&mut buf.vx, 0.0);
     pad(&mut buf.vy, 0.0);
-    pad(&mut buf.g, -1.0);
-    pad(&mut buf.hx, 0.0);
-    pad(&mut buf.hy, 0.0);
+    if groups {
+        pad(&mut buf.g, -1.0);
+    }
+    if headings {
+        pad(&mut buf.hx, 0.0);
+        pad(&mut buf.hy, 0.0);
+    }
     buf.len = len.div_ceil(KLANES) * KLANES;
 }
 
