@@ -2057,4 +2057,96 @@ mod tests {
         }
         assert!(seen.iter().all(|&k| k > 500), "{seen:?}");
     }
+
+    /// A cell away from the grid's edges gathers what the general path gathers for it, bit for
+    /// bit, over the padded length: torus, walled and open worlds, tiny and large grids, empty
+    /// and crowded cells, each combination of the optional columns, and points at `-0.0` (which
+    /// both paths turn into `+0.0`). Every cell is gathered both ways into buffers that are
+    /// reused, as a task reuses its own.
+    #[test]
+    fn the_interior_gather_equals_the_general_one() {
+        use crate::spatial::NeighbourIndex;
+        let mut rng = ChaCha8Rng::seed_from_u64(7);
+        let mut interior = 0;
+        for case in 0..120 {
+            let n = [0usize, 1, 3, 10, 50, 300, 2000, 20_000][case % 8];
+            let (w, h) = (
+                rng.random_range(0.5f32..60.0),
+                rng.random_range(0.5f32..60.0),
+            );
+            let r = rng.random_range(0.2f32..8.0);
+            let bounds = match case % 3 {
+                0 => Bounds::Torus {
+                    size: Vec2::new(w, h),
+                },
+                1 => Bounds::Bounded {
+                    size: Vec2::new(w, h),
+                },
+                _ => Bounds::Open,
+            };
+            let mut at = |side: f32, k: usize| {
+                if k % 97 == 5 {
+                    -0.0
+                } else {
+                    rng.random_range(0.0..side)
+                }
+            };
+            let xs: Vec<f32> = (0..n).map(|k| at(w, k)).collect();
+            let ys: Vec<f32> = (0..n).map(|k| at(h, k + 11)).collect();
+            let mut grid = GridIndex::default();
+            grid.rebuild(&xs, &ys, bounds, r);
+            let (nx, ny) = (grid.cells_x() as usize, grid.cells_y() as usize);
+            if bounds.is_torus() && (nx < 3 || ny < 3) {
+                // The batch does not serve such a torus (a cell would be its own neighbour).
+                continue;
+            }
+            let mut column = |lo: f32, hi: f32| {
+                let mut v: Vec<f32> = (0..n).map(|_| rng.random_range(lo..hi)).collect();
+                v.extend([0.0; LANES]);
+                v
+            };
+            let mut s = SortedCopies::default();
+            s.vx = column(-2.0, 2.0);
+            s.vy = column(-2.0, 2.0);
+            s.g = column(0.0, 4.0).iter().map(|g| g.floor()).collect();
+            s.hx = column(-1.0, 1.0);
+            s.hy = column(-1.0, 1.0);
+            let (mut a, mut b) = (CellBuf::default(), CellBuf::default());
+            for (groups, headings) in [(false, false), (true, false), (false, true), (true, true)] {
+                let gathers = Gather {
+                    grid: &grid,
+                    s: &s,
+                    bounds,
+                    groups,
+                    headings,
+                };
+                for cell in 0..nx * ny {
+                    gathers.cell(cell, &mut a);
+                    gathers.edge_cell(cell, &mut b);
+                    let m = b.len;
+                    assert_eq!(a.len, m, "case {case}, cell {cell} of {nx} x {ny}");
+                    let bits = |v: &[f32]| v[..m].iter().map(|x| x.to_bits()).collect::<Vec<_>>();
+                    let mut columns =
+                        vec![(&a.x, &b.x), (&a.y, &b.y), (&a.vx, &b.vx), (&a.vy, &b.vy)];
+                    if groups {
+                        columns.push((&a.g, &b.g));
+                    }
+                    if headings {
+                        columns.extend([(&a.hx, &b.hx), (&a.hy, &b.hy)]);
+                    }
+                    for (k, (got, want)) in columns.into_iter().enumerate() {
+                        assert_eq!(
+                            bits(got),
+                            bits(want),
+                            "case {case}, cell {cell}, column {k}"
+                        );
+                    }
+                    let (cx, cy) = (cell % nx, cell / nx);
+                    interior += usize::from(cx > 0 && cx + 1 < nx && cy > 0 && cy + 1 < ny);
+                }
+            }
+        }
+        // The fast path ran (on many cells), not only the general one.
+        assert!(interior > 10_000, "{interior} interior cells");
+    }
 }
