@@ -181,9 +181,10 @@ fn uniform<T: Bits>(v: &[T]) -> bool {
     }
 }
 
-/// [`permute`], unless the column is [`uniform`] (a column most worlds hold one value in: the
-/// rotations of agents that do not turn, a group's speed limit and radius, unused targets),
-/// which it leaves as it is: the same values, without the gather and the write of a column.
+/// [`permute`], unless the column is [`uniform`] (a column many worlds hold one value in: the
+/// rotations of agents that do not turn, the groups and the flags of a world of one group, a
+/// group's speed limit and radius), which it leaves as it is: the same values, without the
+/// gather and the write of a column.
 fn permute_column<T: Bits>(v: &mut Vec<T>, perm: &[u32], scratch: &mut Vec<T>) {
     if !uniform(v) {
         permute(v, perm, scratch);
