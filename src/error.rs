@@ -153,6 +153,16 @@ pub enum Error {
         /// How much was needed against what is available, in words.
         reason: String,
     },
+    /// A copy of the agents' data in storage order (the neighbour index, the grid kernel's
+    /// copies, a nearest-agent index) was about to be read for another arrangement of the
+    /// agents than the one it was built for ([`crate::agents::AgentOrder`]). A defect of
+    /// throng, never of the input: the step stops before it reads the stale copy, and the world
+    /// is left as the prepare phases made it.
+    #[error("internal error: the {copy} was built for another order of the agents")]
+    StaleOrder {
+        /// Which copy was stale.
+        copy: &'static str,
+    },
     /// A checkpoint could not be read: not a checkpoint, another format version, damaged, or
     /// holding a value that fails the world's validation.
     #[error("checkpoint: {0}")]

@@ -5,7 +5,9 @@
 
 use glam::Vec2;
 use proptest::prelude::*;
-use throng::measure::{MeasurementArea, MeasurementLine, MeasurementSpec, Measurements};
+use throng::measure::{
+    LineReport, MeasurementArea, MeasurementLine, MeasurementSpec, Measurements,
+};
 use throng::prelude::*;
 use throng::scenario::Scenario;
 use throng::world::Exit;
@@ -67,6 +69,54 @@ fn a_crossing_counts_once_per_direction() {
     let l = &r.lines[0];
     assert_eq!((l.positive, l.negative, l.net, l.total), (2, 1, 1, 3));
     assert_eq!(rec.line_counts().collect::<Vec<_>>(), [(2, 1)]);
+    // The N-t diagram counts the agent once, at its first crossing.
+    assert_eq!((l.nt_count, l.nt_flow), (1, None));
+}
+
+/// A stream through a line where every third agent steps back over it and crosses again: the
+/// crossings' flow counts the returns (three crossings for each such agent), the N-t flow counts
+/// each agent once, at its first crossing, and equals the stream's rate.
+#[test]
+fn the_n_t_flow_counts_each_agent_once() {
+    let n = 9;
+    // Agents 0, 3, 6 go 0.4 m back over the line once they are 0.3 to 0.5 m past it.
+    let l = stream_across_a_line(n, |k, x| {
+        if k % 3 == 0 && (0.3..0.5).contains(&x) {
+            x - 0.4
+        } else {
+            x
+        }
+    });
+    assert_eq!((l.positive, l.negative), (n + 3, 3), "{l:?}");
+    assert_eq!(l.nt_count, n, "{l:?}");
+    // First crossings every 0.5 s: 8 gaps over 4 s.
+    assert!((l.nt_flow.unwrap() - 2.0).abs() < 1e-4, "{l:?}");
+    assert!(
+        l.flow.unwrap() > 2.5,
+        "the crossings' flow counts the returns: {l:?}"
+    );
+}
+
+/// `n` agents a metre apart walking at 2 m/s towards a 2 m line at x = 0 (one every 0.5 s),
+/// observed every 0.1 s, agent `k` drawn at `x(k, x)` instead of `x`; the line's report.
+fn stream_across_a_line(n: u64, x: impl Fn(usize, f32) -> f32) -> LineReport {
+    let start: Vec<Vec2> = (0..n).map(|k| Vec2::new(-0.25 - k as f32, 1.0)).collect();
+    let mut w = still_world(Bounds::Open, &start);
+    let mut rec =
+        Measurements::new(&spec(vec![line("l", [0.0, 0.0], [0.0, 2.0])], vec![])).unwrap();
+    let dt = 0.1f32;
+    let frames: Vec<Vec<Vec2>> = (0..80)
+        .map(|f| {
+            let t = f as f32 * dt;
+            start
+                .iter()
+                .enumerate()
+                .map(|(k, p)| Vec2::new(x(k, p.x + 2.0 * t), p.y))
+                .collect()
+        })
+        .collect();
+    walk(&mut w, &mut rec, &frames, dt);
+    rec.report().lines[0].clone()
 }
 
 #[test]
@@ -92,19 +142,7 @@ fn a_move_along_the_line_is_not_counted() {
 fn a_constant_stream_gives_its_flow_and_time_gaps() {
     // Ten agents a metre apart walk at 2 m/s across a 2 m line: one every 0.5 s.
     let n = 10;
-    let start: Vec<Vec2> = (0..n).map(|k| Vec2::new(-0.25 - k as f32, 1.0)).collect();
-    let mut w = still_world(Bounds::Open, &start);
-    let mut rec =
-        Measurements::new(&spec(vec![line("l", [0.0, 0.0], [0.0, 2.0])], vec![])).unwrap();
-    let dt = 0.1f32;
-    let frames: Vec<Vec<Vec2>> = (0..80)
-        .map(|f| {
-            let t = f as f32 * dt;
-            start.iter().map(|p| *p + Vec2::new(2.0 * t, 0.0)).collect()
-        })
-        .collect();
-    walk(&mut w, &mut rec, &frames, dt);
-    let l = &rec.report().lines[0];
+    let l = &stream_across_a_line(n, |_, x| x);
     assert_eq!(l.total, n);
     assert!((l.first_time.unwrap() - 0.125).abs() < 1e-5, "{l:?}");
     assert!((l.last_time.unwrap() - 4.625).abs() < 1e-5, "{l:?}");

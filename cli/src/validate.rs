@@ -33,6 +33,37 @@ pub struct ValidateArgs {
     /// Added to every scenario's seed (default 0: the files' seeds).
     #[arg(long, default_value_t = 0)]
     pub seed_offset: u64,
+    /// A pedestrian parameter for every pedestrian group, as a dotted key inside the
+    /// `pedestrian` table and a TOML value: `cfsm.time_gap=0.8`, `social_force.tau=0.4`
+    /// (repeatable; applied after `--pedestrian-model`).
+    #[arg(long = "param", value_name = "KEY=VALUE")]
+    pub params: Vec<String>,
+}
+
+/// `key=value` as a key and a TOML value (a number, a boolean or a quoted string; a bare word
+/// is taken as a string).
+fn parse_param(text: &str) -> Result<(String, toml::Value)> {
+    let bad = |reason: &str| Error::Invalid {
+        name: "--param".into(),
+        reason: format!("{reason} in `{text}` (expected KEY=VALUE, e.g. cfsm.time_gap=0.8)"),
+    };
+    let (key, value) = text.split_once('=').ok_or_else(|| bad("no `=`"))?;
+    let key = key.trim();
+    if key.is_empty() {
+        return Err(bad("an empty key"));
+    }
+    let value = value.trim();
+    let parsed = format!("v = {value}")
+        .parse::<toml::Table>()
+        .ok()
+        .and_then(|mut t| t.remove("v"))
+        .unwrap_or_else(|| toml::Value::String(value.to_string()));
+    if let toml::Value::Float(f) = parsed
+        && !f.is_finite()
+    {
+        return Err(bad("a value that is not finite"));
+    }
+    Ok((key.to_string(), parsed))
 }
 
 /// Runs the cases and reports; an error when a check failed.
@@ -67,6 +98,11 @@ pub fn run(args: &ValidateArgs, pool: &rayon::ThreadPool) -> Result<()> {
         size: if args.quick { Size::Quick } else { Size::Full },
         model,
         seed_offset: args.seed_offset,
+        params: args
+            .params
+            .iter()
+            .map(|p| parse_param(p))
+            .collect::<Result<_>>()?,
     };
     let start = Instant::now();
     let mut reports = Vec::new();

@@ -45,7 +45,8 @@ class MsPerStep(TypedDict):
 
 @type_check_only
 class LineReport(TypedDict):
-    """A counting line's summary: crossings each way, flow J, specific flow J/b, time gaps."""
+    """A counting line's summary: crossings each way, flow J, specific flow J/b, time gaps, and
+    the N-t diagram's count and flow (each agent once, at its first crossing, as PedPy)."""
 
     name: str
     positive: int
@@ -55,6 +56,8 @@ class LineReport(TypedDict):
     first_time: Optional[float]
     last_time: Optional[float]
     flow: Optional[float]
+    nt_count: int
+    nt_flow: Optional[float]
     specific_flow: Optional[float]
     length: float
     time_gap_mean: Optional[float]

@@ -9,7 +9,10 @@
 //! Invariant: every number in the buffers is finite. The only ways in are validated
 //! (the world's validated constructors and mutators).
 
+mod order;
 mod store;
+
+pub use order::AgentOrder;
 
 pub(crate) use store::{AgentColumns, any_both, largest};
 pub use store::{AgentId, AgentInit, Agents};

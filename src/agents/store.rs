@@ -1,5 +1,6 @@
 use std::fmt;
 
+use super::order::AgentOrder;
 use glam::Vec2;
 use serde::{Deserialize, Serialize};
 
@@ -111,6 +112,8 @@ pub struct Agents {
     scratch_u32: Vec<u32>,
     scratch_u8: Vec<u8>,
     scratch_ids: Vec<AgentId>,
+    /// The arrangement of the buffers, new after every change of order ([`AgentOrder`]).
+    order: AgentOrder,
 }
 
 /// The state buffers of [`Agents`] as plain columns (a checkpoint's agents), in storage order.
@@ -321,6 +324,7 @@ impl Agents {
         self.target_x.push(init.position.x);
         self.target_y.push(init.position.y);
         self.ids.push(id);
+        self.order = AgentOrder::fresh();
         id
     }
 
@@ -342,6 +346,7 @@ impl Agents {
             let moved = self.ids[index];
             self.index_of[moved.0 as usize] = index as u32;
         }
+        self.order = AgentOrder::fresh();
         id
     }
 
@@ -456,6 +461,7 @@ impl Agents {
     /// When `perm.len() != len()` (a debug assertion also checks it is a permutation).
     pub fn reorder(&mut self, perm: &[u32]) {
         assert_eq!(perm.len(), self.len(), "permutation length");
+        self.order = AgentOrder::fresh();
         let mut columns = f32_columns!(self);
         // Seven of the twelve float columns beside the groups and flags, five beside the ids
         // and their index (a scatter by id, which costs about two columns): two halves of about
@@ -560,6 +566,7 @@ impl Agents {
             target_y,
             ids,
             index_of,
+            order: AgentOrder::fresh(),
             ..Agents::default()
         })
     }
@@ -609,6 +616,14 @@ impl Agents {
             target_y: self.target_y.clone(),
             ids: self.ids.clone(),
         }
+    }
+
+    /// The arrangement of the agents in storage: a new value after every reorder, addition or
+    /// removal. A copy of the agents' data in storage order is valid while it was made for the
+    /// current order.
+    #[must_use]
+    pub fn order(&self) -> AgentOrder {
+        self.order
     }
 
     /// Total number of ids ever handed out (live or removed).

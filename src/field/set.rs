@@ -500,18 +500,25 @@ impl FieldSet {
         }
     }
 
-    /// The prepare hook, before steering: due goal shuffles, rebuilds of dirty channels
-    /// (resetting the arrival flags of their followers), and reordering agents by field cell when
-    /// due (every `reorder_every` frames, only when no group queries neighbours, `flocking`: the
-    /// neighbour index reorders them otherwise).
-    pub(crate) fn prepare(
-        &mut self,
-        agents: &mut Agents,
-        flocking: bool,
-        seed: u64,
-        frame: u64,
-        reorder_every: u32,
-    ) {
+    /// Orders the agents by the row-major cell of the first field they stand in (agents outside
+    /// last; stable within a cell), so that field lookups walk memory in order. Called by the
+    /// world's owner of the agent order ([`crate::world::World`]'s prepare phase) on the frames
+    /// it chooses this order; never by the fields themselves.
+    pub(crate) fn order_by_cell(&mut self, agents: &mut Agents) {
+        if let Some(f) = self.fields.first() {
+            reorder_by_cell(
+                agents,
+                f.channels.grid(),
+                &mut self.sort_keys,
+                &mut self.perm,
+            );
+        }
+    }
+
+    /// The prepare hook, before steering: due goal shuffles and rebuilds of dirty channels
+    /// (resetting the arrival flags of their followers). It reads the agents and never reorders
+    /// them: the world decides their order before any index is built.
+    pub(crate) fn prepare(&mut self, agents: &Agents, seed: u64, frame: u64) {
         if self.fields.is_empty() {
             return;
         }
@@ -523,15 +530,6 @@ impl FieldSet {
         if self.chosen.len() < issued {
             self.chosen.resize(issued, UNCHOSEN);
         }
-        if !flocking
-            && !agents.is_empty()
-            && reorder_every > 0
-            && frame.is_multiple_of(u64::from(reorder_every))
-        {
-            let grid = self.fields[0].channels.grid();
-            reorder_by_cell(agents, grid, &mut self.sort_keys, &mut self.perm);
-        }
-        let agents = &*agents;
         self.rebuilt.clear();
         for (fi, f) in self.fields.iter_mut().enumerate() {
             if f.shuffle_every > 0 && frame > 0 && frame.is_multiple_of(f.shuffle_every) {

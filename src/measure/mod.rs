@@ -15,6 +15,11 @@
 //!   keeps only each pedestrian's first one; with one-way traffic the two agree).
 //! - **Flow** `J = (N - 1) / (t_N - t_1)` over the `N` crossings (both directions) in the time
 //!   window: the number of time gaps over their total duration, i.e. one over the mean time gap.
+//!   An agent that crosses back and forth counts each time, so with counterflow or oscillation
+//!   at the line it is not the flow a researcher reports: that is the **N-t flow**.
+//! - **N-t diagram** (PedPy's `compute_n_t`): each agent counts once, at its first crossing in
+//!   either direction; `nt_count` is the number of first crossings in the window and the **N-t
+//!   flow** `(N - 1) / (t_N - t_1)` is taken over their times.
 //!   PedPy's `compute_flow` divides the crossings of each interval by the time from the previous
 //!   interval's last crossing, the same estimator, except that its first interval counts the first
 //!   pedestrian too (`N / (t_N - t_1)`). The **specific flow** is `J / b`, `b` the line's length.

@@ -61,6 +61,14 @@ pub struct LineReport {
     pub net: i64,
     /// Crossings in the positive direction.
     pub positive: u64,
+    /// Agents whose first crossing of the line (either way) fell in the window: the count of
+    /// the N-t diagram at the window's end, as PedPy's `compute_n_t` counts (each pedestrian
+    /// once, at its first crossing).
+    pub nt_count: u64,
+    /// The flow of the N-t diagram, `(N - 1) / (t_N - t_1)` over those first crossings, agents
+    /// per second (`null` for fewer than two or no time between them). Unlike `flow`, an agent
+    /// that crosses back and again counts once: it is the flow researchers measure.
+    pub nt_flow: Option<f64>,
     /// Specific flow `J / b`, agents per second and unit of length (`null` with `flow`).
     pub specific_flow: Option<f64>,
     /// Mean time gap between consecutive crossings (`null` for fewer than two crossings).
@@ -73,10 +81,11 @@ pub struct LineReport {
 
 impl LineReport {
     /// The keys whose value may be `null` (formats without a null value drop them).
-    pub const OPTIONAL_KEYS: [&'static str; 6] = [
+    pub const OPTIONAL_KEYS: [&'static str; 7] = [
         "first_time",
         "flow",
         "last_time",
+        "nt_flow",
         "specific_flow",
         "time_gap_mean",
         "time_gap_sd",
@@ -153,6 +162,11 @@ struct LineTally {
     first: Option<f64>,
     last: f64,
     gaps: Spread,
+    /// The N-t diagram in the window: first crossings counted, the first and last of their
+    /// times.
+    nt_count: u64,
+    nt_first: Option<f64>,
+    nt_last: f64,
 }
 
 /// An area's running sums over the window's frames.
@@ -182,6 +196,9 @@ pub struct Measurements {
     /// Frame and time of the latest observation.
     last: Option<(u64, f64)>,
     crossings: Vec<Crossing>,
+    /// Per line, by agent id: whether the agent has crossed it (the N-t diagram's first
+    /// crossings).
+    crossed: Vec<Vec<bool>>,
     left: u64,
     last_exit_time: Option<f64>,
     has_exits: bool,
@@ -215,6 +232,7 @@ impl Measurements {
             observations: 0,
             last: None,
             crossings: Vec::new(),
+            crossed: vec![Vec::new(); spec.lines.len()],
             left: 0,
             last_exit_time: None,
             has_exits: false,
@@ -297,8 +315,20 @@ impl Measurements {
             } else {
                 tally.negative += 1;
             }
+            let crossed = &mut self.crossed[c.line];
+            let k = c.id.0 as usize;
+            if crossed.len() <= k {
+                crossed.resize(ids.max(k + 1), false);
+            }
+            let first = !crossed[k];
+            crossed[k] = true;
             if !in_window(c.time) {
                 continue;
+            }
+            if first {
+                tally.nt_count += 1;
+                tally.nt_first.get_or_insert(c.time);
+                tally.nt_last = c.time;
             }
             if c.sign > 0 {
                 tally.window_positive += 1;
@@ -436,9 +466,16 @@ impl Measurements {
                 let flow = span
                     .filter(|&s| total > 1 && s > 0.0)
                     .map(|s| (total - 1) as f64 / s);
+                let nt_flow = t
+                    .nt_first
+                    .map(|first| t.nt_last - first)
+                    .filter(|&s| t.nt_count > 1 && s > 0.0)
+                    .map(|s| (t.nt_count - 1) as f64 / s);
                 LineReport {
                     first_time: t.first,
                     flow,
+                    nt_count: t.nt_count,
+                    nt_flow,
                     last_time: t.first.map(|_| t.last),
                     length,
                     name: l.name.clone(),
@@ -488,7 +525,7 @@ impl Measurements {
         let mut out = Vec::new();
         for l in &r.lines {
             out.push(format!(
-                "line {}: {} crossings (+{} / -{}, net {}) | first {} s, last {} s | J {} 1/s | J/b {} 1/(m s) | time gap mean {} s, sd {} s",
+                "line {}: {} crossings (+{} / -{}, net {}) | first {} s, last {} s | J {} 1/s | N-t: {} agents, J {} 1/s | J/b {} 1/(m s) | time gap mean {} s, sd {} s",
                 l.name,
                 l.total,
                 l.positive,
@@ -497,6 +534,8 @@ impl Measurements {
                 opt(l.first_time, 3),
                 opt(l.last_time, 3),
                 opt(l.flow, 3),
+                l.nt_count,
+                opt(l.nt_flow, 3),
                 opt(l.specific_flow, 3),
                 opt(l.time_gap_mean, 3),
                 opt(l.time_gap_sd, 3),

@@ -54,7 +54,7 @@ pub struct Cfsm {
     pub time_gap: f32,
     /// The time gap `T_p` under full pressure from behind, s (in `(0, time_gap]`; equal to
     /// `time_gap` for no pressure term, as in JuPedSim). Keep `dt <= pressed_time_gap` for the
-    /// model's freedom from collisions. Default: 0.1.
+    /// model's freedom from collisions. Default: 0.35.
     pub pressed_time_gap: f32,
     /// The imbalance of neighbours behind over ahead at which the pressure starts (in `[0,
     /// 1)`). Default: 0.15.
@@ -134,7 +134,7 @@ impl Default for Cfsm {
     fn default() -> Self {
         Cfsm {
             time_gap: 0.6,
-            pressed_time_gap: 0.1,
+            pressed_time_gap: 0.35,
             pressure_onset: 0.15,
             pressure_span: 0.15,
             strength_neighbour: 8.0,
@@ -389,7 +389,7 @@ mod tests {
         assert_eq!(m.time_gap_at(0.0), 0.6);
         // 13 of 20 behind: imbalance 0.3, (0.3 - 0.15) / 0.15 = 1, the time gap T_p.
         assert!((m.pressure(13.0, 20.0) - 1.0).abs() < 1e-6);
-        assert!((m.time_gap_at(1.0) - 0.1).abs() < 1e-7);
+        assert!((m.time_gap_at(1.0) - 0.35).abs() < 1e-7);
         // 45 of 80: imbalance 0.125, below the onset.
         assert_eq!(m.pressure(45.0, 80.0), 0.0);
         // 9 of 40: imbalance -0.55 (the back of a queue): none.
@@ -397,7 +397,8 @@ mod tests {
         // 22 of 40: imbalance 0.1; 23 of 40: 0.15, the onset; 24.5 of 40: 0.225, half-way.
         assert_eq!(m.pressure(23.0, 40.0), 0.0);
         assert!((m.pressure(24.5, 40.0) - 0.5).abs() < 1e-6);
-        assert!((m.time_gap_at(0.5) - 0.35).abs() < 1e-6);
+        // Half-way between T = 0.6 s and T_p = 0.35 s.
+        assert!((m.time_gap_at(0.5) - 0.475).abs() < 1e-6);
         // One agent behind, none ahead: imbalance 1 / 4 (the minimum count), q = 2 / 3.
         assert!((m.pressure(1.0, 1.0) - (0.25 - 0.15) / 0.15).abs() < 1e-6);
         // Nobody near: no pressure, and no division by zero.

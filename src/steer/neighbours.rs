@@ -17,7 +17,7 @@ use multiversion::multiversion;
 use rayon::prelude::*;
 
 use super::plan::{ALI, COH, NeighbourSpec, SEP};
-use crate::agents::Agents;
+use crate::agents::{AgentOrder, Agents};
 use crate::bounds::Bounds;
 use crate::spatial::{GridIndex, Neighbour, NeighbourIndex, SORTED_PAD, SpatialIndex};
 use crate::steering::NeighbourSums;
@@ -52,6 +52,8 @@ pub(crate) struct SortedCopies {
     pub headings: bool,
     /// Whether `g` holds zeros alone (the last fill had one group).
     g_zero: bool,
+    /// The agents' order the copies were filled for.
+    order: AgentOrder,
 }
 
 /// `dst[k] = f(order[k])` for every `k`, in parallel chunks, with `LANES` zeros of padding.
@@ -108,9 +110,15 @@ fn gather_pair_into(
 }
 
 impl SortedCopies {
+    /// The agents' order the copies were last filled for ([`AgentOrder::NONE`] before the first).
+    pub(crate) fn order(&self) -> AgentOrder {
+        self.order
+    }
+
     /// Fills the copies in the grid's order from the agents' buffers (the unit headings only
-    /// when `headings`). With `one_group` (every agent in group 0) the groups are zeros, which
-    /// stay from the previous fill when it had them too and the number of agents is the same.
+    /// when `headings`), for the agents' current order. With `one_group` (every agent in group
+    /// 0) the groups are zeros, which stay from the previous fill when it had them too and the
+    /// number of agents is the same.
     pub(crate) fn fill(
         &mut self,
         grid: &GridIndex,
@@ -119,6 +127,7 @@ impl SortedCopies {
         one_group: bool,
     ) {
         let order = grid.order();
+        self.order = agents.order();
         let (vel_x, vel_y, group) = (&agents.vel_x, &agents.vel_y, &agents.group);
         let SortedCopies {
             vx,
@@ -128,6 +137,7 @@ impl SortedCopies {
             hx,
             hy,
             headings: filled,
+            order: _,
         } = self;
         rayon::join(
             || {

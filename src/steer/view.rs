@@ -12,7 +12,7 @@ use glam::Vec2;
 
 use super::neighbours::{self, Querier, SortedCopies};
 use super::plan::Plan;
-use crate::agents::Agents;
+use crate::agents::{AgentOrder, Agents};
 use crate::bounds::Bounds;
 use crate::field::FieldSet;
 use crate::gravity::GravityField;
@@ -45,6 +45,8 @@ pub(crate) struct NearestIndex {
     ys: Vec<f32>,
     /// The first search radius (the cell width asked of the grid).
     start: f32,
+    /// The agents' order `agents` indexes into.
+    order: AgentOrder,
 }
 
 /// Rebuilds, per group, the index some plan's nearest-agent target looks into (reusing the
@@ -82,10 +84,16 @@ pub(crate) fn prepare_nearest(
             }
         }
         ni.rebuild(bounds, r);
+        ni.order = agents.order();
     }
 }
 
 impl NearestIndex {
+    /// The agents' order the index was built for.
+    pub(crate) fn order(&self) -> AgentOrder {
+        self.order
+    }
+
     /// Rebuilds the grid over the gathered points for searches up to `r`: cells of about two
     /// mean spacings of the points (in a world with a size), never wider than `r`.
     fn rebuild(&mut self, bounds: Bounds, r: f32) {

@@ -22,7 +22,7 @@ use serde::Serialize;
 
 use crate::error::{Error, Result};
 use crate::measure::{MeasurementReport, Measurements};
-use crate::ped::Model;
+use crate::ped::{Model, Pedestrian};
 use crate::scenario::Scenario;
 use crate::world::World;
 
@@ -40,7 +40,7 @@ pub enum Size {
 }
 
 /// What every case runs with.
-#[derive(Clone, Copy, Debug, Default, PartialEq)]
+#[derive(Clone, Debug, Default, PartialEq)]
 pub struct Options {
     /// The crowds' size.
     pub size: Size,
@@ -48,6 +48,11 @@ pub struct Options {
     pub model: Option<Model>,
     /// Added to every scenario's seed (0: the files' seeds).
     pub seed_offset: u64,
+    /// Pedestrian parameters set in every pedestrian group of every scenario, after the model:
+    /// dotted keys inside the group's `pedestrian` table (`cfsm.time_gap`,
+    /// `social_force.tau`, `desired_speed.mean`) with their values. Default: none (each
+    /// model's defaults). A sweep calibrates through them.
+    pub params: Vec<(String, toml::Value)>,
 }
 
 /// One judged quantity of a case.
@@ -258,7 +263,7 @@ impl<'a> Run<'a> {
     pub fn new(runs: &'a mut Runs, options: &Options) -> Run<'a> {
         Run {
             runs,
-            options: *options,
+            options: options.clone(),
         }
     }
 
@@ -279,6 +284,13 @@ impl<'a> Run<'a> {
             for g in &mut s.groups {
                 if let Some(p) = &mut g.params.pedestrian {
                     p.model = model;
+                }
+            }
+        }
+        if !self.options.params.is_empty() {
+            for g in &mut s.groups {
+                if let Some(p) = &mut g.params.pedestrian {
+                    *p = with_params(p, &self.options.params)?;
                 }
             }
         }
@@ -331,6 +343,35 @@ impl<'a> Run<'a> {
             world,
         })
     }
+}
+
+/// `p` with the dotted `params` set (keys inside the `pedestrian` table), validated.
+///
+/// # Errors
+/// [`Error::Invalid`] naming a key that leads nowhere or a value of the wrong kind; the
+/// parameters' own checks ([`Pedestrian::validate`]).
+pub fn with_params(p: &Pedestrian, params: &[(String, toml::Value)]) -> Result<Pedestrian> {
+    let invalid = |key: &str, reason: String| Error::Invalid {
+        name: format!("pedestrian.{key}"),
+        reason,
+    };
+    let mut table = match toml::Value::try_from(p) {
+        Ok(toml::Value::Table(t)) => t,
+        Ok(_) | Err(_) => {
+            return Err(invalid("", "the parameters do not form a table".into()));
+        }
+    };
+    for (key, value) in params {
+        crate::scenario::set_path(&mut table, key, value.clone())?;
+    }
+    let out: Pedestrian = toml::Value::Table(table)
+        .try_into()
+        .map_err(|e: toml::de::Error| {
+            let keys: Vec<&str> = params.iter().map(|(k, _)| k.as_str()).collect();
+            invalid(&keys.join(", "), e.message().to_string())
+        })?;
+    out.validate()?;
+    Ok(out)
 }
 
 /// Each agent's position by id.

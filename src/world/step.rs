@@ -31,6 +31,8 @@ pub(crate) struct Scratch {
     sorted: SortedCopies,
     /// Per group: an index over that group's agents, when some behaviour looks for its nearest.
     nearest: Vec<Option<NearestIndex>>,
+    /// The agents' order the neighbour index was last built for.
+    index_order: crate::agents::AgentOrder,
     /// Per group: the largest `nearest` search radius that targets it.
     within: Vec<f32>,
     /// The frame-start positions (kept when obstacles or fields check moves).
@@ -140,6 +142,7 @@ impl World {
 
         // Everything steering reads besides the agents (index, fields, formations).
         let use_kernel = self.prepare(dt, &mut phases);
+        self.check_order(use_kernel)?;
 
         // steer
         let t = Instant::now();
@@ -234,10 +237,7 @@ impl World {
         phases.index = t.elapsed();
 
         let t = Instant::now();
-        let flocking = self.plans.iter().any(|p| p.spec.active);
-        let (seed, frame, every) = (self.seed, self.frame, self.reorder_every);
-        self.fields
-            .prepare(&mut self.agents, flocking, seed, frame, every);
+        self.fields.prepare(&self.agents, self.seed, self.frame);
         phases.fields = t.elapsed();
 
         let t = Instant::now();
@@ -523,6 +523,7 @@ impl World {
         self.scratch.out.resize(self.agents.len());
         let mut phases = PhaseTimes::default();
         let use_kernel = self.prepare(dt, &mut phases);
+        self.check_order(use_kernel)?;
         self.steer_phase(dt, Execution::Parallel, use_kernel, false);
         let o = &self.scratch.out;
         Ok((0..self.agents.len())
@@ -584,10 +585,21 @@ impl World {
         }
     }
 
-    /// Rebuilds the neighbour index when some group needs neighbours (ORCA in open and walled
-    /// worlds reads its own hashed grid instead), reorders the agents by grid cell when due
-    /// (by a grid of ORCA's neighbour distance when nothing else needs the world's index), and
-    /// fills the grid kernel's cell-ordered copies. Returns whether the grid kernel is ready.
+    /// The one owner of the agents' order in a frame: decides the frame's order once, before
+    /// any index or copy is built from it, then builds the neighbour index and the grid kernel's
+    /// copies for that order (recording it in each, [`World::check_order`]). Returns whether
+    /// the grid kernel's copies are ready.
+    ///
+    /// On the frames a reorder is due (every `reorder_every`), the agents are ordered by the
+    /// first of these that the world has:
+    /// 1. the neighbour index's grid, when some group queries neighbours (flocking, Vicsek,
+    ///    pedestrian models, ORCA on a torus): neighbours then sit together in memory;
+    /// 2. the cells of the first field, when fields are followed and nothing queries neighbours:
+    ///    field lookups then walk memory in order;
+    /// 3. a hashed grid of ORCA's neighbour distance, when ORCA is the only reader of
+    ///    neighbours: its pass then shares a cell's candidates.
+    ///
+    /// Nothing else reorders the agents during a step.
     fn prepare_index(&mut self) -> bool {
         // ORCA reads its own hashed grid in open and walled worlds, the world's index on a torus.
         let torus = self.bounds.is_torus();
@@ -602,51 +614,24 @@ impl World {
                     .max(p.pedestrian.map_or(0.0, |m| m.cutoff()))
             })
             .fold(0.0_f32, f32::max);
-        let reorder_due =
-            self.reorder_every > 0 && self.frame.is_multiple_of(u64::from(self.reorder_every));
+        let reorder_due = self.reorder_every > 0
+            && self.frame.is_multiple_of(u64::from(self.reorder_every))
+            && !self.agents.is_empty();
         if query_r > 0.0 || !self.fields.fields.is_empty() {
             // Agents are not in the order of ORCA's grid: its cells stay narrow.
             self.scratch.orca.wide = false;
         }
         if query_r <= 0.0 || self.agents.is_empty() {
-            // With fields, their prepare hook reorders the agents by field cell in this frame
-            // (nothing here queries neighbours), which would undo this order.
-            let orca_r = if reorder_due && !self.agents.is_empty() && self.fields.fields.is_empty()
-            {
-                steer::orca::reach(&self.plans)
-            } else {
-                0.0
-            };
-            if orca_r > 0.0 {
-                // Nothing else sorts the agents: the order of a hashed grid of ORCA's neighbour
-                // distance (the agents of a cell together, in their previous order; the cells of
-                // a row one after another) keeps ORCA's neighbours close in memory and lets the
-                // agents of a cell share their gathered candidates. That grid is the step's own,
-                // built for this alone every few frames; the world's index is left as it is.
-                // Cells twice the distance where agents are sparse (`steer::orca::wide_cells`;
-                // decided here, from this frame's positions alone, so that the order does not
-                // depend on earlier frames), and the ORCA pass uses the same cells until the
-                // next reorder.
-                let a = &self.agents;
-                let grid = &mut self.scratch.order_grid;
-                grid.rebuild(&a.pos_x, &a.pos_y, 2.0 * orca_r);
-                let wide = steer::orca::wide_cells(grid.crowding());
-                if !wide {
-                    grid.rebuild(&a.pos_x, &a.pos_y, orca_r);
-                }
-                self.scratch.orca.wide = wide;
-                self.scratch.perm.clear();
-                self.scratch.perm.extend_from_slice(grid.order());
-                self.agents.reorder(&self.scratch.perm);
-                // The grid of the reordered agents serves the ORCA pass of this frame.
-                grid.adopt_order();
-                let a = &self.agents;
-                self.scratch.orca.adopt(grid, &a.ids, (&a.pos_x, &a.pos_y));
+            if reorder_due && !self.fields.fields.is_empty() {
+                self.fields.order_by_cell(&mut self.agents);
+            } else if reorder_due {
+                self.order_by_orca_grid();
             }
             return false;
         }
         let a = &self.agents;
         self.index.rebuild(&a.pos_x, &a.pos_y, self.bounds, query_r);
+        self.scratch.index_order = self.agents.order();
         let SpatialIndex::Grid(grid) = &mut self.index else {
             return false;
         };
@@ -656,6 +641,7 @@ impl World {
             self.agents.reorder(&self.scratch.perm);
             // The grid of the reordered agents: the same cells, the identity order.
             grid.adopt_order();
+            self.scratch.index_order = self.agents.order();
         }
         let SpatialIndex::Grid(grid) = &self.index else {
             return false;
@@ -668,6 +654,69 @@ impl World {
             .sorted
             .fill(grid, &self.agents, headings, one_group);
         true
+    }
+
+    /// Orders the agents by a hashed grid of ORCA's neighbour distance, when some group uses
+    /// ORCA (nothing else sorts the agents then): the agents of a cell together, in their
+    /// previous order, the cells of a row one after another. That keeps ORCA's neighbours close
+    /// in memory and lets the agents of a cell share their gathered candidates. The grid is the
+    /// step's own, built for this alone on reorder frames; the world's index is left as it is.
+    /// Cells are twice the distance where agents are sparse (`steer::orca::wide_cells`,
+    /// decided from this frame's positions alone, so that the order does not depend on earlier
+    /// frames), and the ORCA pass uses the same cells until the next reorder.
+    fn order_by_orca_grid(&mut self) {
+        let orca_r = steer::orca::reach(&self.plans);
+        if orca_r <= 0.0 {
+            return;
+        }
+        let a = &self.agents;
+        let grid = &mut self.scratch.order_grid;
+        grid.rebuild(&a.pos_x, &a.pos_y, 2.0 * orca_r);
+        let wide = steer::orca::wide_cells(grid.crowding());
+        if !wide {
+            grid.rebuild(&a.pos_x, &a.pos_y, orca_r);
+        }
+        self.scratch.orca.wide = wide;
+        self.scratch.perm.clear();
+        self.scratch.perm.extend_from_slice(grid.order());
+        self.agents.reorder(&self.scratch.perm);
+        // The grid of the reordered agents serves the ORCA pass of this frame.
+        grid.adopt_order();
+        let a = &self.agents;
+        self.scratch.orca.adopt(grid, &a.ids, (&a.pos_x, &a.pos_y));
+    }
+
+    /// Whether every copy of the agents' data that steering reads this frame was built for the
+    /// agents' current order: the neighbour index (when it covers the agents), the grid
+    /// kernel's cell-ordered copies (when `use_kernel`), and the nearest-agent indices.
+    ///
+    /// # Errors
+    /// [`Error::StaleOrder`] naming the first stale copy.
+    pub(crate) fn check_order(&self, use_kernel: bool) -> Result<()> {
+        let now = self.agents.order();
+        let index_read = self.index.len() == self.agents.len() && !self.agents.is_empty();
+        if index_read && self.scratch.index_order != now {
+            return Err(Error::StaleOrder {
+                copy: "neighbour index",
+            });
+        }
+        if use_kernel && self.scratch.sorted.order() != now {
+            return Err(Error::StaleOrder {
+                copy: "grid kernel's cell-ordered copies",
+            });
+        }
+        if self
+            .scratch
+            .nearest
+            .iter()
+            .flatten()
+            .any(|n| n.order() != now)
+        {
+            return Err(Error::StaleOrder {
+                copy: "nearest-agent index",
+            });
+        }
+        Ok(())
     }
 }
 
@@ -814,6 +863,34 @@ fn clamp_axis(pos: &mut [f32], vel: &mut [f32], side: f32) {
 #[cfg(test)]
 mod tests {
     use super::*;
+
+    /// A reorder after the prepare phases (what the fields' prepare hook once did) leaves the
+    /// neighbour index, the grid kernel's copies and the nearest-agent indices built for the
+    /// previous order: the step's check names the stale copy instead of reading it, and after
+    /// the next prepare (which builds every copy for the current order) it passes again.
+    #[test]
+    fn a_copy_built_for_another_order_is_refused() {
+        for name in ["bottleneck", "flock", "pursuit"] {
+            let mut w = crate::scenario::builtin(name)
+                .unwrap()
+                .with_agents(300)
+                .unwrap()
+                .build()
+                .unwrap();
+            let mut phases = PhaseTimes::default();
+            w.ensure_plans().unwrap();
+            let use_kernel = w.prepare(0.01, &mut phases);
+            assert!(w.check_order(use_kernel).is_ok(), "{name}: fresh copies");
+            let n = w.agents.len() as u32;
+            let reversed: Vec<u32> = (0..n).rev().collect();
+            w.agents.reorder(&reversed);
+            assert!(
+                matches!(w.check_order(use_kernel), Err(Error::StaleOrder { .. })),
+                "{name}: a stale copy was not caught"
+            );
+            assert!(w.step(0.01).is_ok(), "{name}: the step rebuilds its copies");
+        }
+    }
 
     /// The near-contact flags (each agent's nearest hit against the reach of a step) of an open
     /// world, whose ORCA pass takes its hits from its hashed grid (in the order found when they
