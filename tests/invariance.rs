@@ -216,7 +216,9 @@ fn bottleneck_in_layout(model: Model, every: u32, seed: u64) -> (Option<f64>, us
         ..Default::default()
     };
     let mut runs = throng::validate::Runs::default();
-    let o = throng::validate::Run::new(&mut runs, &options).run(s).unwrap();
+    let o = throng::validate::Run::new(&mut runs, &options)
+        .run(s)
+        .unwrap();
     (
         o.evacuation_time,
         o.inside,

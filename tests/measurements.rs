@@ -33,6 +33,7 @@ fn spec(lines: Vec<MeasurementLine>, areas: Vec<MeasurementArea>) -> Measurement
         lines,
         areas,
         window: None,
+        voronoi: false,
     }
 }
 

@@ -98,3 +98,131 @@ fn unknown_cases_are_errors_naming_the_known_ones() {
     let e = validate::case("rimea-99").unwrap_err().to_string();
     assert!(e.contains("rimea-99") && e.contains("rimea-01"), "{e}");
 }
+
+#[test]
+fn bottleneck_flow_per_width_is_within_15_percent_of_the_experiments() {
+    passes("exp-bottleneck-width");
+}
+
+/// Every `exp-*` case reports, per bin of the experiment, the experiment's value beside the
+/// simulation's and the relative error (the JSON's `errors`), and judges the bins that have
+/// samples on both sides.
+#[test]
+fn experiment_cases_report_their_errors_per_bin() {
+    for id in ["exp-single-file", "exp-bidirectional"] {
+        let r = report(id);
+        assert!(!r.errors.is_empty(), "{id}");
+        for e in &r.errors {
+            if let (Some(m), Some(err)) = (e.measured, e.relative_error) {
+                assert!(
+                    (err - (m - e.reference) / e.reference).abs() < 1e-12,
+                    "{e:?}"
+                );
+                assert!(e.samples >= validate::MIN_SAMPLES, "{e:?}");
+            }
+        }
+        assert!(
+            r.errors.iter().any(|e| e.relative_error.is_some()),
+            "{id}: {r:#?}"
+        );
+    }
+}
+
+/// The experiments' figures embedded in the crate are those of the data files in
+/// `../shared/experiments/` (when that folder is present): per bin, the mean speed and the row
+/// count; per bottleneck width, the mean flow of the three series.
+#[test]
+fn embedded_experiment_figures_match_the_data_files() {
+    let root = std::path::Path::new(concat!(
+        env!("CARGO_MANIFEST_DIR"),
+        "/../shared/experiments"
+    ));
+    if !root.is_dir() {
+        eprintln!("skipped: {} is not present", root.display());
+        return;
+    }
+    let rows = |pattern: &dyn Fn(&str) -> bool, folder: &str| -> Vec<(f64, f64)> {
+        let mut files: Vec<_> = std::fs::read_dir(root.join(folder))
+            .unwrap()
+            .map(|e| e.unwrap().path())
+            .filter(|p| pattern(&p.file_name().unwrap().to_string_lossy()))
+            .collect();
+        files.sort();
+        let mut out = Vec::new();
+        for f in files {
+            let text = String::from_utf8_lossy(&std::fs::read(&f).unwrap()).into_owned();
+            for line in text.lines() {
+                let v: Vec<f64> = line
+                    .split(|c: char| c.is_whitespace() || c == ',')
+                    .filter(|s| !s.is_empty())
+                    .map_while(|s| s.parse().ok())
+                    .collect();
+                if v.len() >= 2 && !line.trim_start().starts_with('#') {
+                    out.push((v[0], v[1]));
+                }
+            }
+        }
+        out
+    };
+    let check = |name: &str, data: Vec<(f64, f64)>, bins: &[validate::RefBin]| {
+        for &(lo, hi, mean, n) in bins {
+            let inside: Vec<f64> = data
+                .iter()
+                .filter(|r| r.0 >= lo && r.0 < hi)
+                .map(|r| r.1)
+                .collect();
+            assert_eq!(inside.len(), n, "{name} {lo}..{hi}");
+            let m = inside.iter().sum::<f64>() / n as f64;
+            assert!(
+                (m - mean).abs() < 6e-5,
+                "{name} {lo}..{hi}: {m} against {mean}"
+            );
+        }
+    };
+    check(
+        "unidirectional",
+        rows(&|_| true, "unidirectional"),
+        validate::UNIDIRECTIONAL,
+    );
+    check(
+        "single file",
+        rows(&|_| true, "single-file"),
+        validate::SINGLE_FILE,
+    );
+    check(
+        "bidirectional",
+        rows(&|_| true, "bidirectional"),
+        validate::BIDIRECTIONAL,
+    );
+    check(
+        "T-junction front",
+        rows(
+            &|n| n.starts_with("ko-") && n.ends_with("_id_1.dat"),
+            "t-junction",
+        ),
+        validate::T_JUNCTION_FRONT,
+    );
+    check(
+        "T-junction arms",
+        rows(
+            &|n| n.starts_with("ko-") && (n.ends_with("_id_2.dat") || n.ends_with("_id_3.dat")),
+            "t-junction",
+        ),
+        validate::T_JUNCTION_ARMS,
+    );
+    let mut widths: Vec<(f64, f64)> = rows(&|_| true, "bottleneck-kretz");
+    widths.extend(rows(
+        &|n| n == "2009Seyfried.txt" || n == "2006EG.txt",
+        "bottleneck-other",
+    ));
+    for &(b, j, n) in validate::BOTTLENECK {
+        let at: Vec<f64> = widths
+            .iter()
+            .filter(|r| (r.0 - b).abs() < 1e-9)
+            .map(|r| r.1)
+            .collect();
+        assert_eq!(at.len(), n, "bottleneck {b}");
+        let m = at.iter().sum::<f64>() / n as f64;
+        assert!((m - j).abs() < 6e-5, "bottleneck {b}: {m} against {j}");
+    }
+}

@@ -126,3 +126,94 @@ def test_the_walkable_area_is_the_corridor(loaded):
     with sqlite3.connect(loaded["db"]) as con:
         (version,) = con.execute("SELECT value FROM metadata WHERE key = 'version'").fetchone()
     assert version == "2"
+
+
+# A crowd spread at random over a 30 x 6 m corridor walking east through a line at x = 15,
+# with the Voronoi density measured in a 4 x 6 m area: throng's measurements of the same
+# trajectories against PedPy's.
+CROWD = f"""
+name = "crowd-east"
+description = "Sixty pedestrians spread at random walk east through a line and an area."
+seed = 5
+dt = {DT}
+steps = {STEPS}
+
+[world]
+kind = "bounded"
+size = [30, 6]
+
+[measurements]
+voronoi = true
+lines = [{{ name = "gate", from = [15, 0], to = [15, 6] }}]
+areas = [{{ name = "area", polygon = [[8, 0], [12, 0], [12, 6], [8, 6]] }}]
+
+[[groups]]
+name = "walkers"
+count = 60
+spawn = {{ kind = "spread", min = [0.5, 0.5], max = [12, 5.5], distance = 0.5 }}
+goal = {{ kind = "offset", by = [40, 0] }}
+model = "kinematic"
+max_speed = {SPEED}
+radius = 0.2
+steering = {{ behaviours = [{{ kind = "seek", target = "own" }}] }}
+pedestrian = {{}}
+"""
+
+
+@pytest.fixture(scope="module")
+def crowd(throng_bin, tmp_path_factory):
+    tmp = tmp_path_factory.mktemp("crowd")
+    scenario = tmp / "crowd.toml"
+    scenario.write_text(CROWD)
+    txt, csv = tmp / "crowd.txt", tmp / "crowd.csv"
+    done = subprocess.run(
+        [str(throng_bin), "run", str(scenario), "--every", "1", "--quiet",
+         "--trajectories", str(txt), "--measurements", str(csv)],
+        capture_output=True, text=True,
+    )
+    assert done.returncode == 0, done.stderr
+    bench = subprocess.run(
+        [str(throng_bin), "bench", str(scenario), "--steps", str(STEPS), "--warmup", "0",
+         "--json"],
+        capture_output=True, text=True,
+    )
+    assert bench.returncode == 0, bench.stderr
+    import json
+    report = json.loads(bench.stdout.strip().splitlines()[-1])
+    return {
+        "traj": pedpy.load_trajectory_from_txt(trajectory_file=txt),
+        "csv": np.genfromtxt(csv, delimiter=",", names=True),
+        "report": report,
+    }
+
+
+def test_voronoi_density_equals_pedpys(crowd):
+    traj, rows = crowd["traj"], crowd["csv"]
+    walkable = pedpy.WalkableArea([(0, 0), (30, 0), (30, 6), (0, 6)])
+    area = pedpy.MeasurementArea([(8, 0), (12, 0), (12, 6), (8, 6)])
+    cells = pedpy.compute_individual_voronoi_polygons(traj_data=traj, walkable_area=walkable)
+    density, _ = pedpy.compute_voronoi_density(
+        individual_voronoi_data=cells, measurement_area=area
+    )
+    theirs = density.density.reindex(rows["frame"].astype(int), fill_value=0.0).to_numpy()
+    ours = rows["area_voronoi_density"]
+    assert np.isfinite(ours).all()
+    assert ours.max() > 0.5
+    np.testing.assert_allclose(ours, theirs, rtol=1e-4, atol=1e-6)
+
+
+def test_the_n_t_flow_equals_pedpys(crowd):
+    traj = crowd["traj"]
+    gate = pedpy.MeasurementLine([(15, 0), (15, 6)])
+    nt, crossing = pedpy.compute_n_t(traj_data=traj, measurement_line=gate)
+    line = next(l for l in crowd["report"]["measurements"]["lines"] if l["name"] == "gate")
+    n = int(nt.cumulative_pedestrians.max())
+    assert n > 20
+    assert line["nt_count"] == n
+    # PedPy counts whole frames; throng interpolates the crossing inside its frame: the first
+    # and last crossings move by at most one frame each.
+    first = nt[nt.cumulative_pedestrians > 0].time.min()
+    last = nt[nt.cumulative_pedestrians == n].time.min()
+    theirs = (n - 1) / (last - first)
+    frame = 1 / traj.frame_rate
+    assert line["nt_flow"] == pytest.approx(theirs, rel=2 * frame / (last - first) + 1e-9)

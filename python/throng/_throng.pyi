@@ -73,6 +73,8 @@ class AreaReport(TypedDict):
     mean_count: Optional[float]
     mean_density: Optional[float]
     mean_speed: Optional[float]
+    mean_voronoi_density: Optional[float]
+    mean_voronoi_speed: Optional[float]
 
 @type_check_only
 class MeasurementReport(TypedDict):

@@ -28,6 +28,11 @@
 //! - **Classic density** of an area in a frame: agents inside over the polygon's area (PedPy's
 //!   `compute_classic_density`); its **mean speed**: the mean of the speeds `|v|` of the agents
 //!   inside (frames with nobody inside have none). Over a window, both are means over frames.
+//! - **Voronoi density and speed** of an area in a frame (with `voronoi = true`; PedPy's
+//!   `compute_voronoi_density` and `compute_voronoi_speed`): each agent owns the part of the
+//!   walkable area nearer to it than to any other; the density is the sum over agents of the
+//!   share of their cell inside the area, over the area's size, the speed the sum of `|v|`
+//!   times the cell's part inside, over the size ([`voronoi`]).
 //! - **Evacuation time**: the world time of the step in which the last agent left through an
 //!   exit, when the world has exits and is empty.
 //!
@@ -40,6 +45,7 @@
 
 mod geometry;
 mod recorder;
+pub mod voronoi;
 
 pub use geometry::{MeasurementArea, MeasurementLine};
 pub use recorder::{AreaFrame, AreaReport, Crossing, LineReport, MeasurementReport, Measurements};
@@ -61,6 +67,10 @@ pub struct MeasurementSpec {
     /// The summary's time window `[t0, t1]`, seconds of world time (both ends included).
     /// Default: the whole run.
     pub window: Option<[f64; 2]>,
+    /// Whether areas also measure the Voronoi density and speed (PedPy's definitions,
+    /// [`voronoi`]); the cells need the world's walkable area (`[geometry]`) or its walled
+    /// bounds, and cost about `N` cell clippings per observed frame. Default: false.
+    pub voronoi: bool,
 }
 
 /// The unchecked fields of a [`MeasurementSpec`].
@@ -73,6 +83,8 @@ struct SpecFields {
     areas: Vec<MeasurementArea>,
     #[serde(default)]
     window: Option<[f64; 2]>,
+    #[serde(default)]
+    voronoi: bool,
 }
 
 impl TryFrom<SpecFields> for MeasurementSpec {
@@ -82,6 +94,7 @@ impl TryFrom<SpecFields> for MeasurementSpec {
             lines: f.lines,
             areas: f.areas,
             window: f.window,
+            voronoi: f.voronoi,
         };
         spec.validate()?;
         Ok(spec)

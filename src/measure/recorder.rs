@@ -39,6 +39,9 @@ pub struct AreaFrame {
     pub density: f64,
     /// Mean speed of the agents inside (`None` when nobody is inside).
     pub mean_speed: Option<f64>,
+    /// The Voronoi density and speed ([`super::voronoi`]; `None` unless the spec asks for
+    /// them and the world has a walkable area or walled bounds).
+    pub voronoi: Option<super::voronoi::VoronoiFrame>,
 }
 
 /// A line's summary over the time window (the `lines` entries of `throng bench --json`).
@@ -105,13 +108,23 @@ pub struct AreaReport {
     pub mean_density: Option<f64>,
     /// Mean over the frames with somebody inside of the mean speed (`null` when nobody was).
     pub mean_speed: Option<f64>,
+    /// Mean over the frames of the Voronoi density (`null` unless measured).
+    pub mean_voronoi_density: Option<f64>,
+    /// Mean over the frames of the Voronoi speed (`null` unless measured).
+    pub mean_voronoi_speed: Option<f64>,
     /// The area's name.
     pub name: String,
 }
 
 impl AreaReport {
     /// The keys whose value may be `null` (formats without a null value drop them).
-    pub const OPTIONAL_KEYS: [&'static str; 3] = ["mean_count", "mean_density", "mean_speed"];
+    pub const OPTIONAL_KEYS: [&'static str; 5] = [
+        "mean_count",
+        "mean_density",
+        "mean_speed",
+        "mean_voronoi_density",
+        "mean_voronoi_speed",
+    ];
 }
 
 /// What a run's measurements found (the `measurements` object of `throng bench --json`).
@@ -177,6 +190,9 @@ struct AreaTally {
     sum_density: f64,
     speed_frames: u64,
     sum_speed: f64,
+    voronoi_frames: u64,
+    sum_voronoi_density: f64,
+    sum_voronoi_speed: f64,
 }
 
 /// The recorder of a run's measurements (see the [module docs](super)).
@@ -373,6 +389,7 @@ impl Measurements {
     /// sums when `counted`.
     fn observe_areas(&mut self, world: &World, counted: bool) {
         let agents = world.agents();
+        let cells = self.voronoi_input(world);
         for (k, area) in self.spec.areas.iter().enumerate() {
             let (lo, hi) = self.boxes[k];
             let (mut count, mut speed) = (0usize, 0.0f64);
@@ -385,10 +402,15 @@ impl Measurements {
                 speed +=
                     DVec2::new(f64::from(agents.vel_x()[i]), f64::from(agents.vel_y()[i])).length();
             }
+            let voronoi = cells.as_ref().map(|(points, speeds, region)| {
+                let ring: Vec<DVec2> = area.polygon.iter().map(|p| p.as_dvec2()).collect();
+                super::voronoi::voronoi_frame(points, speeds, region, &ring)
+            });
             let frame = AreaFrame {
                 count,
                 density: count as f64 / self.sizes[k],
                 mean_speed: (count > 0).then(|| speed / count as f64),
+                voronoi,
             };
             self.frame_areas[k] = frame;
             if counted {
@@ -400,8 +422,37 @@ impl Measurements {
                     t.speed_frames += 1;
                     t.sum_speed += v;
                 }
+                if let Some(v) = frame.voronoi {
+                    t.voronoi_frames += 1;
+                    t.sum_voronoi_density += v.density;
+                    t.sum_voronoi_speed += v.speed;
+                }
             }
         }
+    }
+
+    /// The positions, speeds and walkable region for the Voronoi cells, when the spec asks for
+    /// them and the world has a walkable area or walled bounds.
+    fn voronoi_input(
+        &self,
+        world: &World,
+    ) -> Option<(Vec<DVec2>, Vec<f64>, super::voronoi::Region)> {
+        if !self.spec.voronoi || self.spec.areas.is_empty() {
+            return None;
+        }
+        let region = match (world.walkable(), world.bounds()) {
+            (Some(w), _) => super::voronoi::Region::of(w),
+            (None, Bounds::Bounded { size }) => {
+                super::voronoi::Region::rectangle(DVec2::ZERO, size.as_dvec2())
+            }
+            _ => return None,
+        };
+        let a = world.agents();
+        let points = (0..a.len()).map(|i| a.position(i).as_dvec2()).collect();
+        let speeds = (0..a.len())
+            .map(|i| DVec2::new(f64::from(a.vel_x()[i]), f64::from(a.vel_y()[i])).length())
+            .collect();
+        Some((points, speeds, region))
     }
 
     /// The crossings found by the latest observation, sorted by time, then agent id, then
@@ -503,6 +554,10 @@ impl Measurements {
                     mean_count: frames.map(|n| t.sum_count / n),
                     mean_density: frames.map(|n| t.sum_density / n),
                     mean_speed: (t.speed_frames > 0).then(|| t.sum_speed / t.speed_frames as f64),
+                    mean_voronoi_density: (t.voronoi_frames > 0)
+                        .then(|| t.sum_voronoi_density / t.voronoi_frames as f64),
+                    mean_voronoi_speed: (t.voronoi_frames > 0)
+                        .then(|| t.sum_voronoi_speed / t.voronoi_frames as f64),
                     name: a.name.clone(),
                 }
             })
@@ -543,13 +598,22 @@ impl Measurements {
         }
         for a in &r.areas {
             out.push(format!(
-                "area {}: {:.3} m^2 | {} frames | mean count {} | mean density {} 1/m^2 | mean speed {} m/s",
+                "area {}: {:.3} m^2 | {} frames | mean count {} | mean density {} 1/m^2 | mean speed {} m/s{}",
                 a.name,
                 a.area,
                 a.frames,
                 opt(a.mean_count, 2),
                 opt(a.mean_density, 3),
                 opt(a.mean_speed, 3),
+                if self.spec.voronoi {
+                    format!(
+                        " | Voronoi density {} 1/m^2, speed {} m/s",
+                        opt(a.mean_voronoi_density, 3),
+                        opt(a.mean_voronoi_speed, 3)
+                    )
+                } else {
+                    String::new()
+                },
             ));
         }
         if let Some([t0, t1]) = self.spec.window {

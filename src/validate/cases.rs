@@ -1,12 +1,10 @@
 //! The cases of the validation suite and their scenarios.
 
-use glam::Vec2;
-
 use super::{
     Case, Check, Options, Outcome, Run, Runs, Series, Size, middle_flow, scenario, weidmann,
 };
 use crate::error::Result;
-use crate::scenario::{Scenario, Spawn};
+use crate::scenario::Scenario;
 
 /// The validation scenarios: `(file stem, TOML text)`.
 pub(super) const SCENARIOS: &[(&str, &str)] = &[
@@ -65,6 +63,22 @@ pub(super) const SCENARIOS: &[(&str, &str)] = &[
     (
         "bottleneck",
         include_str!("../../scenarios/validation/bottleneck.toml"),
+    ),
+    (
+        "exp-unidirectional",
+        include_str!("../../scenarios/validation/exp-unidirectional.toml"),
+    ),
+    (
+        "exp-single-file",
+        include_str!("../../scenarios/validation/exp-single-file.toml"),
+    ),
+    (
+        "exp-bidirectional",
+        include_str!("../../scenarios/validation/exp-bidirectional.toml"),
+    ),
+    (
+        "exp-t-junction",
+        include_str!("../../scenarios/validation/exp-t-junction.toml"),
     ),
 ];
 
@@ -173,6 +187,57 @@ pub const CASES: &[Case] = &[
                 2.0 m.",
         run: bottleneck,
     },
+    Case {
+        id: "exp-unidirectional",
+        title: "Juelich unidirectional corridor: speed against Voronoi density",
+        about: "A corridor 1.8 m wide whose first 90 m hold the crowd at 0.3 to 4 persons/m^2, \
+                all at 1.34 m/s; Voronoi density and speed (PedPy's) in 6 x 1.8 m over t 10 \
+                to 30 s, binned by 0.5 persons/m^2, against the UNI_CORR runs ug-180-*. \
+                Criterion: each bin's mean speed within 15% of the experiment's, at least 60% \
+                of its bins judged. Quick: 0.6, 1.5, 2.5, 3.5 persons/m^2.",
+        run: super::experiments::exp_unidirectional,
+    },
+    Case {
+        id: "exp-single-file",
+        title: "Juelich single file: speed against line density",
+        about: "Pedestrians (0.3 m across) in one line in a corridor 0.6 m wide, the first 90 m \
+                at 0.5 to 2.5 persons/m, all at 1.34 m/s; one-dimensional Voronoi density and \
+                speed in 2 m over t 10 to 30 s, binned by 0.25 persons/m, against runs n14 to \
+                n70. Criterion: each bin within 15%, at least 60% judged. Quick: 0.75, 1.5, \
+                2.25 persons/m.",
+        run: super::experiments::exp_single_file,
+    },
+    Case {
+        id: "exp-bidirectional",
+        title: "Juelich bidirectional corridor: speed against Voronoi density",
+        about: "A corridor 3.6 m wide, x 20 to 80 m filled at 0.5 to 3 persons/m^2 on a lattice \
+                whose columns walk alternately right and left at 1.34 m/s; Voronoi density and \
+                speed in 6 x 3.6 m over t 5 to 20 s, binned by 0.5, against the BI_CORR runs \
+                bot-360-*. Criterion: each bin within 15%, at least 60% judged. Quick: 1 and 2 \
+                persons/m^2.",
+        run: super::experiments::exp_bidirectional,
+    },
+    Case {
+        id: "exp-t-junction",
+        title: "Juelich T-junction: speed against Voronoi density before and after the merge",
+        about: "Corridors 2.4 m wide: two crowds at 1 to 3 persons/m^2 in the arms of the main \
+                corridor walk to the junction and merge into the branch at 1.34 m/s; Voronoi \
+                density and speed in the experiment's three 2 x 2.4 m areas (left and right arm \
+                pooled, and after the merge) over t 10 to 50 s, binned by 0.5, against the runs \
+                ko-240-*. Criterion: each bin within 15%, at least 60% judged. Quick: 2 \
+                persons/m^2.",
+        run: super::experiments::exp_t_junction,
+    },
+    Case {
+        id: "exp-bottleneck-width",
+        title: "Bottleneck flow against its width, per width against the experiments",
+        about: "The bottleneck case's room (10 x 10 m, 200 pedestrians, corridor 4 m long) at \
+                b = 0.8 to 2.5 m; J over the middle 60% of the first crossings of the \
+                entrance, against the mean of Kretz et al. 2006, Seyfried et al. 2009 and the \
+                2006 EG runs at that width. Criterion: J within 15% per width. Quick: b = 1.0 \
+                and 1.6 m.",
+        run: super::experiments::exp_bottleneck_width,
+    },
 ];
 
 /// The check that all `n` pedestrians left through the exits.
@@ -208,39 +273,9 @@ fn rimea_01(opt: &Options, runs: &mut Runs) -> Result<Vec<Check>> {
     )])
 }
 
-/// The fundamental-diagram corridor at density `rho`: random placement up to 3 persons/m^2,
-/// a triangular lattice (rows along the corridor, every other one shifted by half a step)
-/// above, as JuPedSim's peer places them.
+/// The fundamental-diagram corridor at density `rho` (4 m wide, the crowd in its first 90 m).
 fn fd_scenario(rho: f64) -> Result<Scenario> {
-    let mut s = scenario("fundamental-diagram")?;
-    let (length, width) = (90.0_f32, 4.0_f32);
-    let n = (rho * f64::from(length * width)).round() as usize;
-    if rho <= 3.0 {
-        s.groups[0].count = n;
-        return Ok(s);
-    }
-    let rows = 9_usize;
-    let dy = (width - 0.42) / (rows - 1) as f32;
-    let per_row = n.div_ceil(rows);
-    let dx = length / per_row as f32;
-    let mut odd = s.groups[0].clone();
-    let even = &mut s.groups[0];
-    even.count = per_row * rows.div_ceil(2);
-    even.spawn = Spawn::Grid {
-        origin: Vec2::new(0.25, 0.21),
-        spacing: Vec2::new(dx, 2.0 * dy),
-        columns: per_row,
-        transpose: false,
-    };
-    odd.count = per_row * (rows / 2);
-    odd.spawn = Spawn::Grid {
-        origin: Vec2::new(0.25 + dx / 2.0, 0.21 + dy),
-        spacing: Vec2::new(dx, 2.0 * dy),
-        columns: per_row,
-        transpose: false,
-    };
-    s.groups.push(odd);
-    Ok(s)
+    super::experiments::corridor("fundamental-diagram", rho, 90.0, 4.0)
 }
 
 fn rimea_04(opt: &Options, runs: &mut Runs) -> Result<Vec<Check>> {
@@ -634,11 +669,7 @@ fn bottleneck(opt: &Options, runs: &mut Runs) -> Result<Vec<Check>> {
     let mut checks = Vec::new();
     let mut points = Vec::new();
     for &b in widths {
-        let mut s = scenario("bottleneck")?;
-        if let Some(layout) = &mut s.layout {
-            layout.set_width(b as f32);
-        }
-        let o = Run::new(runs, opt).run(s)?;
+        let o = super::experiments::bottleneck_of_width(b, opt, runs)?;
         let j = middle_flow(&o.crossings, 0);
         if let Some(j) = j {
             points.push([b, j / b]);

@@ -16,6 +16,7 @@
 //! the crowd's size, and says so in each case's description.
 
 mod cases;
+mod experiments;
 
 use glam::Vec2;
 use serde::Serialize;
@@ -27,6 +28,10 @@ use crate::scenario::Scenario;
 use crate::world::World;
 
 pub use cases::CASES;
+pub use experiments::{
+    BIDIRECTIONAL, BOTTLENECK, MIN_COVERAGE, MIN_SAMPLES, RefBin, SINGLE_FILE, T_JUNCTION_ARMS,
+    T_JUNCTION_FRONT, TOLERANCE, UNIDIRECTIONAL,
+};
 
 /// How large the crowds are.
 #[derive(Clone, Copy, Debug, Default, PartialEq, Eq, Serialize)]
@@ -136,6 +141,30 @@ pub struct CaseReport {
     pub agent_steps: u64,
     /// Measured curves (the fundamental diagram, J/b against b, ...), for plots.
     pub series: Vec<Series>,
+    /// Against measured crowds (the `exp-*` cases): per density bin or width, the measured
+    /// value beside the experiment's and the relative error.
+    pub errors: Vec<BinError>,
+}
+
+/// One bin of a comparison with an experiment: the measured value against the experiment's.
+#[derive(Clone, Debug, PartialEq, Serialize)]
+pub struct BinError {
+    /// What is compared, e.g. `"speed (m/s) by Voronoi density (1/m^2)"`.
+    pub quantity: String,
+    /// The bin's lower end (inclusive), or the width for a bottleneck.
+    pub lo: f64,
+    /// The bin's upper end (exclusive), or the width for a bottleneck.
+    pub hi: f64,
+    /// The experiment's value (the mean of its samples in the bin).
+    pub reference: f64,
+    /// The experiment's samples in the bin.
+    pub reference_samples: usize,
+    /// The simulation's value (`None` without samples).
+    pub measured: Option<f64>,
+    /// The simulation's samples in the bin.
+    pub samples: usize,
+    /// `(measured - reference) / reference`.
+    pub relative_error: Option<f64>,
 }
 
 /// A measured curve of a case.
@@ -191,6 +220,7 @@ pub fn run_case(case: &Case, options: &Options) -> Result<CaseReport> {
         steps: runs.steps,
         agent_steps: runs.agent_steps,
         series: runs.series,
+        errors: runs.errors,
     })
 }
 
@@ -201,6 +231,7 @@ pub struct Runs {
     steps: u64,
     agent_steps: u64,
     series: Vec<Series>,
+    errors: Vec<BinError>,
 }
 
 /// A validation scenario by file name (without `.toml`) from `scenarios/validation/`.
@@ -240,6 +271,9 @@ pub struct Outcome {
     pub inside: usize,
     /// Agents that left through exits.
     pub left: u64,
+    /// Per observed frame in the measurement window, when the scenario measures Voronoi
+    /// densities: the time and each area's values (the samples of a fundamental diagram).
+    pub area_frames: Vec<(f64, Vec<crate::measure::AreaFrame>)>,
     /// Per agent id: the time at which it first stood more than [`MOVED`] from where it
     /// started (`None`: it never did, or it was added later).
     pub moved: Vec<Option<f64>>,
@@ -304,6 +338,10 @@ impl<'a> Run<'a> {
         remember(&world, &mut last);
         let start = last.clone();
         let mut moved: Vec<Option<f64>> = vec![None; start.len()];
+        let mut area_frames = Vec::new();
+        let sampled = |t: f64| {
+            s.measurements.voronoi && s.measurements.window.is_none_or(|[a, b]| a <= t && t <= b)
+        };
         for _ in 0..s.steps {
             if world.is_empty() {
                 break;
@@ -313,6 +351,9 @@ impl<'a> Run<'a> {
             self.runs.steps += 1;
             self.runs.agent_steps += n;
             measure.observe(&world);
+            if sampled(world.time()) {
+                area_frames.push((world.time(), measure.area_frames().to_vec()));
+            }
             crossings.extend(
                 measure
                     .crossings()
@@ -339,6 +380,7 @@ impl<'a> Run<'a> {
             evacuation_time: measure.evacuation_time(),
             inside: world.len(),
             left: measure.left(),
+            area_frames,
             moved,
             world,
         })

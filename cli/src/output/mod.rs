@@ -205,6 +205,9 @@ impl MeasureOutput {
                 }
                 for a in &spec.areas {
                     header += &format!(",{0}_count,{0}_density,{0}_speed", a.name);
+                    if spec.voronoi {
+                        header += &format!(",{0}_voronoi_density,{0}_voronoi_speed", a.name);
+                    }
                 }
                 writeln!(w, "{header}").map_err(|e| file.io(e))?;
                 Some((w, file))
@@ -234,6 +237,12 @@ impl MeasureOutput {
         for a in r.area_frames() {
             let speed = a.mean_speed.map(|v| format!("{v:.6}")).unwrap_or_default();
             row += &format!(",{},{:.6},{speed}", a.count, a.density);
+            if r.spec().voronoi {
+                match a.voronoi {
+                    Some(v) => row += &format!(",{:.6},{:.6}", v.density, v.speed),
+                    None => row += ",,",
+                }
+            }
         }
         writeln!(w, "{row}").map_err(|e| file.io(e))
     }
