@@ -389,45 +389,29 @@ fn quickest_routing_sends_part_of_a_jam_to_the_far_door() {
     );
 }
 
-/// The longest wait between two pedestrians leaving the built-in bottleneck at `width` m with
-/// `seed`, and how many are left after 300 s, with the speed model's sidestep on or off.
-fn longest_wait(width: f32, seed: u64, sidestep: bool) -> (f32, usize) {
-    let mut s = builtin("bottleneck").unwrap();
-    s.seed = seed;
-    s.layout.as_mut().unwrap().set_width(width);
-    for g in &mut s.groups {
-        g.params.pedestrian.as_mut().unwrap().cfsm.sidestep = sidestep;
-    }
-    let mut w = s.build().unwrap();
-    let (mut inside, mut last, mut longest) = (w.len(), 0u32, 0u32);
-    for step in 1..=30_000u32 {
-        w.step(s.dt).unwrap();
-        if w.len() < inside {
-            (inside, longest, last) = (w.len(), longest.max(step - last), step);
-        }
-        if w.is_empty() {
-            break;
-        }
-    }
-    (longest as f32 * s.dt, w.len())
-}
-
+/// The speed model at a door two bodies wide (the bottleneck at 0.8 m) should empty the room at
+/// every seed, as real crowds pass 0.8 m at about 1.4 persons/s. It does not: an arch of four
+/// bodies across the door's mouth, each pushed into the next by the repulsion of the crowd
+/// behind it, holds most of the room for good at five of these six seeds (docs/VALIDATION.md,
+/// "The narrow door").
 #[test]
-#[ignore = "open: at a door two bodies wide the speed model locks with or without the sidestep \
-            (docs/VALIDATION.md, \"The narrow door\")"]
-fn a_sidestep_breaks_the_arch_that_clogs_a_narrow_door() {
-    // At 0.8 m (two bodies' width) and this seed the speed model clogs the door: an arch of
-    // pedestrians at its mouth, each at contact in another's way, that holds for good (or for
-    // more than half a minute at other seeds). Blocked pedestrians that step sideways break it
-    // up within seconds.
-    let (off, left_off) = longest_wait(0.8, 21, false);
-    let (on, left_on) = longest_wait(0.8, 21, true);
-    assert!(
-        left_off > 0 || off > 30.0,
-        "without the sidestep the longest wait is {off} s and {left_off} are left"
-    );
-    assert_eq!(left_on, 0, "with the sidestep {left_on} are left");
-    assert!(on < 10.0, "with the sidestep the longest wait is {on} s");
+#[ignore = "open: the speed model's arch at a door two bodies wide (docs/VALIDATION.md)"]
+fn a_door_two_bodies_wide_empties_at_every_seed() {
+    let left = |seed: u64| {
+        let mut s = builtin("bottleneck").unwrap();
+        s.seed = seed;
+        s.layout.as_mut().unwrap().set_width(0.8);
+        let mut w = s.build().unwrap();
+        for _ in 0..20_000 {
+            w.step(s.dt).unwrap();
+            if w.is_empty() {
+                break;
+            }
+        }
+        w.len()
+    };
+    let stuck: Vec<(u64, usize)> = (1..=6).map(|s| (s, left(s))).filter(|p| p.1 > 0).collect();
+    assert!(stuck.is_empty(), "(seed, left inside): {stuck:?}");
 }
 
 #[test]

@@ -3,6 +3,7 @@
 //!
 //! - [`world`]: `throng.World`, stepped with the GIL released and read out as numpy arrays;
 //! - [`bench`]: `throng.bench`, the CLI's benchmark object as a dict;
+//! - [`validate`]: `throng.validate`, one validation case's report as a dict;
 //! - [`scenario`]: built-in names, files and TOML text, with keyword overrides;
 //! - [`arrays`]: fresh arrays and `out=` arrays, never views of the world's buffers;
 //! - [`convert`]: Python values to and from the TOML values of scenario files;
@@ -15,6 +16,7 @@ mod bench;
 mod convert;
 mod error;
 mod scenario;
+mod validate;
 mod world;
 
 use pyo3::prelude::*;
@@ -40,6 +42,7 @@ fn _throng(m: &Bound<'_, PyModule>) -> PyResult<()> {
     m.add("ThrongError", throng_error)?;
     m.add_class::<world::PyWorld>()?;
     m.add_function(wrap_pyfunction!(bench::bench, m)?)?;
+    m.add_function(wrap_pyfunction!(validate::validate, m)?)?;
     m.add_function(wrap_pyfunction!(scenarios, m)?)?;
     m.add("__version__", env!("CARGO_PKG_VERSION"))?;
     Ok(())

@@ -116,3 +116,46 @@ def test_threads_per_task():
     assert throng.threads_per_task(16, 4) == 4
     assert throng.threads_per_task(2, 8) == 1
     assert throng.threads_per_task(8, 0) == 8
+
+
+def test_validate_runs_report_the_case_and_its_errors_per_bin():
+    # The bottleneck against the experiments per width, with and without the speed model's
+    # pressure from behind: the rows say by how much each width misses.
+    gap = {"cfsm.time_gap": 0.6, "cfsm.pressed_time_gap": 0.35}
+    report = throng.validate("exp-bottleneck-width", quick=True, params=gap)
+    assert report["id"] == "exp-bottleneck-width"
+    errors = report["errors"]
+    assert [e["lo"] for e in errors] == [1.0, 1.6]
+    for e in errors:
+        assert e["relative_error"] == pytest.approx((e["measured"] - e["reference"]) / e["reference"])
+    df = throng.sweep(
+        [
+            {
+                "validate": "exp-bottleneck-width",
+                "quick": True,
+                "pedestrian.cfsm.time_gap": 0.6,
+                "pedestrian.cfsm.pressed_time_gap": g,
+            }
+            for g in (0.35, 0.6)
+        ]
+    )
+    assert list(df.columns[-6:]) == list(throng.VALIDATE_METRICS)
+    assert list(df["bins_judged"]) == [2, 2]
+    assert df["mean_abs_error"].iloc[0] == pytest.approx(
+        sum(abs(e["relative_error"]) for e in errors) / 2
+    )
+    # Without the pressure from behind the flow falls well below the experiments'.
+    assert df["mean_abs_error"].iloc[1] > df["mean_abs_error"].iloc[0]
+
+
+@pytest.mark.parametrize(
+    "run, match",
+    [
+        ({"validate": "nope"}, "no case"),
+        ({"validate": "exp-bottleneck-width", "quick": True, "pedestrian.cfsm.time_gap": -1}, "time_gap"),
+        ({"validate": "exp-bottleneck-width", "agents": 3}, "agents"),
+    ],
+)
+def test_bad_validate_runs_raise(run, match):
+    with pytest.raises(throng.ThrongError, match=match):
+        throng.run(run)

@@ -21,8 +21,8 @@ Every bad argument raises ``ThrongError`` (a ``ValueError``) with the Rust libra
 (500, 2)
 """
 
-from ._throng import ThrongError, World, __version__, bench, scenarios
-from ._sweep import METRICS, run, sweep, threads_per_task
+from ._throng import ThrongError, World, __version__, bench, scenarios, validate
+from ._sweep import METRICS, VALIDATE_METRICS, run, sweep, threads_per_task
 
 __all__ = [
     "METRICS",
@@ -34,4 +34,6 @@ __all__ = [
     "scenarios",
     "sweep",
     "threads_per_task",
+    "VALIDATE_METRICS",
+    "validate",
 ]

@@ -6,7 +6,14 @@ own); every other key is an override, as the keywords of ``World.from_scenario``
 into the scenario's TOML: ``"groups.boids.steering.behaviours.alignment.weight"``).
 
 Each row holds the run's own keys, then the metrics of the final state (``METRICS``), then,
-for worlds with grid fields, the arrivals. Metrics come from Rust in float64 over the agents
+for worlds with grid fields, the arrivals.
+
+A run with ``"validate"`` (a case of ``throng validate``) instead runs that case, with
+``"quick"``, ``"model"`` and ``"seed_offset"`` as ``throng.validate`` takes them and every key
+that starts with ``"pedestrian."`` set in every pedestrian group (``"pedestrian.cfsm.time_gap"``);
+its row holds ``VALIDATE_METRICS``: whether the case passed, its checks passed of all, and
+over the bins compared with an experiment the count, the mean and the largest absolute relative
+error. A calibration is a sweep of such runs over parameter values. Metrics come from Rust in float64 over the agents
 in storage order and the simulation is bit-identical on any number of threads, so a sweep
 gives the same DataFrame wherever it runs; only the ``time_`` columns (``timings=True``)
 differ.
@@ -30,7 +37,17 @@ FIELD_METRICS = ("arrived", "arrived_fraction", "evacuated_at")
 #: The columns of ``timings=True`` (wall-clock, so they differ between runs).
 TIME_METRICS = ("time_build_s", "time_run_s", "time_ms_per_step", "time_threads")
 
-_RESERVED = frozenset(METRICS + FIELD_METRICS)
+#: The columns of a ``"validate"`` run.
+VALIDATE_METRICS = (
+    "pass",
+    "checks_passed",
+    "checks",
+    "bins_judged",
+    "mean_abs_error",
+    "max_abs_error",
+)
+
+_RESERVED = frozenset(METRICS + FIELD_METRICS + VALIDATE_METRICS)
 
 
 def _bad_run(where: str, reason: str) -> ThrongError:
@@ -48,6 +65,8 @@ def run(spec: Mapping[str, Any], *, timings: bool = False, threads: Optional[int
     """
     if not isinstance(spec, Mapping):
         raise _bad_run("run", f"expected a dict, got {type(spec).__name__}")
+    if "validate" in spec:
+        return _validate_run(spec, timings=timings, threads=threads)
     params = dict(spec)
     scenario = params.pop("scenario", None)
     toml = params.pop("toml", None)
@@ -107,6 +126,39 @@ def run(spec: Mapping[str, Any], *, timings: bool = False, threads: Optional[int
             time_ms_per_step=(end - built) * 1e3 / steps if steps else math.nan,
             time_threads=world.threads,
         )
+    return row
+
+
+def _validate_run(spec: Mapping[str, Any], *, timings: bool, threads: Optional[int]) -> dict:
+    """The row of a ``"validate"`` run (see the module docs)."""
+    from ._throng import validate
+
+    rest = dict(spec)
+    case = rest.pop("validate")
+    options = {k: rest.pop(k) for k in ("quick", "model", "seed_offset") if k in rest}
+    params = {}
+    for key in list(rest):
+        if key.startswith("pedestrian."):
+            params[key[len("pedestrian."):]] = rest.pop(key)
+    if rest:
+        raise _bad_run(next(iter(rest)), 'a "validate" run takes quick, model, seed_offset and pedestrian.* keys')
+    start = time.perf_counter()
+    report = validate(case, threads=threads, params=params, **options)
+    end = time.perf_counter()
+    errors = [abs(e["relative_error"]) for e in report.get("errors", []) if "relative_error" in e]
+    row = dict(spec)
+    row.update(
+        {
+            "pass": report["pass"],
+            "checks_passed": sum(1 for c in report["checks"] if c["pass"]),
+            "checks": len(report["checks"]),
+            "bins_judged": len(errors),
+            "mean_abs_error": sum(errors) / len(errors) if errors else math.nan,
+            "max_abs_error": max(errors) if errors else math.nan,
+        }
+    )
+    if timings:
+        row.update(time_build_s=0.0, time_run_s=end - start, time_ms_per_step=math.nan, time_threads=threads)
     return row
 
 

@@ -1,7 +1,7 @@
 """Type stubs of the native module ``throng._throng`` (re-exported by ``throng``)."""
 
 from os import PathLike
-from typing import Any, Dict, List, Literal, Optional, Tuple, TypedDict, Union, final, type_check_only
+from typing import Any, Dict, List, Literal, Mapping, Optional, Tuple, TypedDict, Union, final, type_check_only
 
 import numpy as np
 import numpy.typing as npt
@@ -224,3 +224,12 @@ def bench(
     **overrides: Any,
 ) -> BenchReport: ...
 def scenarios() -> Dict[str, str]: ...
+def validate(
+    case: str,
+    *,
+    quick: bool = False,
+    model: Optional[str] = None,
+    seed_offset: int = 0,
+    threads: Optional[int] = None,
+    params: Optional[Mapping[str, Any]] = None,
+) -> Dict[str, Any]: ...

@@ -18,7 +18,8 @@ What is compared
 ----------------
 For each case the script simulates a set of runs, measures them the way the experiments were
 measured (Voronoi method), and bins the measured samples by Voronoi density. The experiment data
-are the files in /work/shared/experiments/ (copied from JuPedSim's old validation suite; see its
+are the files in ../shared/experiments/ beside the repository (EXPERIMENTS_DIR moves it;
+copied from JuPedSim's old validation suite; see its
 README). `reference_bins(case)` bins the experiment rows the same way. Every bin [lo, hi) carries
 the experiment's mean speed and row count, the simulation's mean Voronoi speed and sample count,
 and the relative error (sim - exp) / exp, which is null when either side has fewer than 5 samples.
@@ -27,7 +28,8 @@ Samples outside the bin range are not counted (the number left out is reported).
 Common settings (all cases)
 ---------------------------
 * time step dt = 0.01 s; random seed 1 (for the random placements).
-* Every agent has desired speed v0 = 1.34 m/s (fixed, no spread) and radius 0.2 m (0.15 m in
+* Every agent has the case's desired speed (FREE_SPEED: the experiment's mean speed in its lowest
+  density bin; 1.34 m/s in the bottleneck), fixed, no spread, and radius 0.2 m (0.18 m in
   single-file).
 * Models: `cfsm` = jps.CollisionFreeSpeedModel() with its defaults (neighbour repulsion strength 8,
   range 0.1 m; wall repulsion strength 5, range 0.02 m) and agent time_gap 1 s (its default);
@@ -75,9 +77,9 @@ Common settings (all cases)
    0.5 /m^2 wide from 0 to 5. Reference: all files in unidirectional/ pooled (density, speed).
 
 2. single-file (experiment: single-file movement, n14 ... n70)
-   Corridor x 0..200 m, y 0..0.6 m, radius 0.15 m. Agents on the line y = 0.3 at
-   x = 0.2 + k / RHO (k = 0, 1, ... while x <= 90), RHO in {0.5, 0.75, 1.0, 1.25, 1.5, 1.75, 2.0,
-   2.25, 2.5} /m (quick: 0.75, 1.5, 2.25). All walk to an exit stage x 199..200.
+   Corridor x 0..200 m, y 0..0.6 m, radius 0.18 m. Agents on the line y = 0.3 at
+   x = 0.2 + k / RHO (k = 0, 1, ... while x <= 90), RHO at the centre of each bin from 0.375 to
+   2.625 /m, quick or full. All walk to an exit stage x 199..200.
    One-dimensional Voronoi measurement in x 45..47 (2 m), window t 10..30 s, computed by this
    script from the trajectories: in each frame the agents are sorted by x; an agent's 1D cell
    runs from the midpoint to the agent behind to the midpoint to the agent ahead; the rearmost and
@@ -140,9 +142,24 @@ import sys
 import time
 import traceback
 
-EXP_DIR = pathlib.Path(os.environ.get("EXPERIMENTS_DIR", "/work/shared/experiments"))
+EXP_DIR = pathlib.Path(
+    os.environ.get(
+        "EXPERIMENTS_DIR",
+        pathlib.Path(__file__).resolve().parents[3] / "shared" / "experiments",
+    )
+)
 DT = 0.01
 V0 = 1.34
+# Desired speed per case: the experiment's mean speed in its lowest density bin (the
+# participants' free speed), as throng's exp-* cases set it; Weidmann's 1.34 m/s for the
+# bottleneck.
+FREE_SPEED = {
+    "unidirectional": 1.11,
+    "single-file": 1.13,
+    "bidirectional": 1.5,
+    "t-junction": 1.23,
+    "bottleneck-width": 1.34,
+}
 SEED = 1
 EVERY = 10  # trajectory frames: every 10th step -> 10 fps
 MIN_N = 5  # fewer samples than this on either side -> relative error null
@@ -504,6 +521,8 @@ def run_summary(samples):
 def fd_case(case, model, quick, out):
     """unidirectional, single-file, bidirectional, t-junction."""
     import shapely
+    global V0
+    V0 = FREE_SPEED[case]
     edges = make_edges(*BIN_SPEC[case])
     runs = []
     pooled = {}  # reference group -> samples
@@ -514,8 +533,9 @@ def fd_case(case, model, quick, out):
         areas = {"main": shapely.box(45, 0, 51, 1.8)}
         groups = {"main": "main"}
     elif case == "single-file":
-        rhos = [0.75, 1.5, 2.25] if quick else [0.5, 0.75, 1.0, 1.25, 1.5, 1.75, 2.0, 2.25, 2.5]
-        geo, radius, (t0, t1) = shapely.box(0, 0, 200, 0.6), 0.15, (10.0, 30.0)
+        # A line keeps its spacing: the runs sit at the bins' centres; bodies 0.36 m long.
+        rhos = [0.375, 0.625, 0.875, 1.125, 1.375, 1.625, 1.875, 2.125, 2.375, 2.625]
+        geo, radius, (t0, t1) = shapely.box(0, 0, 200, 0.6), 0.18, (10.0, 30.0)
         exits = [shapely.box(199, 0, 200, 0.6)]
         groups = {"main": "main"}
     elif case == "bidirectional":
@@ -612,6 +632,8 @@ def fd_case(case, model, quick, out):
 def bottleneck_case(model, quick, out):
     import shapely
     import jupedsim as jps
+    global V0
+    V0 = FREE_SPEED["bottleneck-width"]
     widths = [1.0, 1.6] if quick else [0.8, 0.9, 1.0, 1.1, 1.2, 1.6, 2.0, 2.5]
     ref = bottleneck_reference()
     rows = []

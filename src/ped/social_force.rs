@@ -41,7 +41,8 @@ pub struct SocialForce {
     pub tau: f32,
     /// Strength of the repulsion between agents, N (>= 0). Default: 2000.
     pub a: f32,
-    /// Range of the repulsion between agents, m (> 0). Default: 0.08.
+    /// Range of the repulsion between agents, m (> 0). Default: 0.2 (the 2000 paper: 0.08),
+    /// from the calibration against the Juelich experiments (docs/VALIDATION.md).
     pub b: f32,
     /// Strength of the repulsion of walls, N (>= 0). Default: 2000.
     pub a_wall: f32,
@@ -52,7 +53,7 @@ pub struct SocialForce {
     /// Sliding friction constant, kg/(m s) (>= 0). Default: 2.4e5.
     pub kappa: f32,
     /// Anisotropy: the weight of the repulsion of an agent straight behind, in [0, 1]
-    /// (1: isotropic, as in the 2000 paper). Default: 1.
+    /// (1: isotropic, as in the 2000 paper). Default: 0.3, from the same calibration.
     pub lambda: f32,
     /// Agents and walls farther than this from an agent's centre are ignored, m (> 0).
     /// Default: 2.
@@ -65,12 +66,12 @@ impl Default for SocialForce {
             mass: 80.0,
             tau: 0.5,
             a: 2000.0,
-            b: 0.08,
+            b: 0.2,
             a_wall: 2000.0,
             b_wall: 0.08,
             k: 1.2e5,
             kappa: 2.4e5,
-            lambda: 1.0,
+            lambda: 0.3,
             cutoff: 2.0,
         }
     }
@@ -191,7 +192,12 @@ mod tests {
 
     #[test]
     fn pair_force_by_hand_apart_and_in_contact() {
-        let p = SocialForce::default();
+        // The 2000 paper's parameters (isotropic, B = 0.08 m).
+        let p = SocialForce {
+            b: 0.08,
+            lambda: 1.0,
+            ..SocialForce::default()
+        };
         // Apart: d = 1 m, r_ij = 0.6 m: 2000 exp(-0.4 / 0.08) = 2000 e^-5 = 13.4759 N along +x.
         let f = p.pair(
             Vec2::X,
@@ -232,7 +238,11 @@ mod tests {
 
     #[test]
     fn pair_forces_are_equal_and_opposite() {
-        let p = SocialForce::default();
+        // Isotropic (with anisotropy each agent weighs the other by its own direction).
+        let p = SocialForce {
+            lambda: 1.0,
+            ..SocialForce::default()
+        };
         let (xi, xj) = (Vec2::new(0.1, 0.2), Vec2::new(0.35, -0.1));
         let (vi, vj) = (Vec2::new(1.0, 0.3), Vec2::new(-0.4, 0.9));
         for r in [0.1, 0.4, 0.8] {

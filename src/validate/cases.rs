@@ -191,27 +191,27 @@ pub const CASES: &[Case] = &[
         id: "exp-unidirectional",
         title: "Juelich unidirectional corridor: speed against Voronoi density",
         about: "A corridor 1.8 m wide whose first 90 m hold the crowd at 0.3 to 4 persons/m^2, \
-                all at 1.34 m/s; Voronoi density and speed (PedPy's) in 6 x 1.8 m over t 10 \
-                to 30 s, binned by 0.5 persons/m^2, against the UNI_CORR runs ug-180-*. \
-                Criterion: each bin's mean speed within 15% of the experiment's, at least 60% \
+                all at 1.11 m/s (the experiment's speed below 0.5 persons/m^2); Voronoi \
+                density and speed (PedPy's) in 6 x 1.8 m over t 10 to 30 s, binned by 0.5 \
+                persons/m^2, against the UNI_CORR runs ug-180-*. Criterion: each bin's mean speed within 15% of the experiment's, at least 60% \
                 of its bins judged. Quick: 0.6, 1.5, 2.5, 3.5 persons/m^2.",
         run: super::experiments::exp_unidirectional,
     },
     Case {
         id: "exp-single-file",
         title: "Juelich single file: speed against line density",
-        about: "Pedestrians (0.3 m across) in one line in a corridor 0.6 m wide, the first 90 m \
-                at 0.5 to 2.5 persons/m, all at 1.34 m/s; one-dimensional Voronoi density and \
-                speed in 2 m over t 10 to 30 s, binned by 0.25 persons/m, against runs n14 to \
-                n70. Criterion: each bin within 15%, at least 60% judged. Quick: 0.75, 1.5, \
-                2.25 persons/m.",
+        about: "Pedestrians (0.36 m long) in one line in a corridor 0.6 m wide, the first 90 m \
+                at the centre of each bin from 0.375 to 2.625 persons/m, all at 1.13 m/s; \
+                one-dimensional Voronoi density and speed in 2 m over t 10 to 30 s, binned by \
+                0.25 persons/m, against runs n14 to n70. Criterion: each bin within 15%, at \
+                least 60% judged. Quick: as full (the runs are short).",
         run: super::experiments::exp_single_file,
     },
     Case {
         id: "exp-bidirectional",
         title: "Juelich bidirectional corridor: speed against Voronoi density",
         about: "A corridor 3.6 m wide, x 20 to 80 m filled at 0.5 to 3 persons/m^2 on a lattice \
-                whose columns walk alternately right and left at 1.34 m/s; Voronoi density and \
+                whose columns walk alternately right and left at 1.5 m/s; Voronoi density and \
                 speed in 6 x 3.6 m over t 5 to 20 s, binned by 0.5, against the BI_CORR runs \
                 bot-360-*. Criterion: each bin within 15%, at least 60% judged. Quick: 1 and 2 \
                 persons/m^2.",
@@ -221,7 +221,7 @@ pub const CASES: &[Case] = &[
         id: "exp-t-junction",
         title: "Juelich T-junction: speed against Voronoi density before and after the merge",
         about: "Corridors 2.4 m wide: two crowds at 1 to 3 persons/m^2 in the arms of the main \
-                corridor walk to the junction and merge into the branch at 1.34 m/s; Voronoi \
+                corridor walk to the junction and merge into the branch at 1.23 m/s; Voronoi \
                 density and speed in the experiment's three 2 x 2.4 m areas (left and right arm \
                 pooled, and after the merge) over t 10 to 50 s, binned by 0.5, against the runs \
                 ko-240-*. Criterion: each bin within 15%, at least 60% judged. Quick: 2 \
