@@ -7,7 +7,7 @@ import numpy as np
 import numpy.typing as npt
 import pandas as pd
 
-__all__ = ["ThrongError", "World", "bench", "scenarios", "__version__"]
+__all__ = ["ThrongError", "World", "bench", "scenarios", "validate", "__version__"]
 __version__: str
 
 _Order = Literal["storage", "id"]
