@@ -447,6 +447,14 @@ impl Agents {
         Vec2::new(self.pos_x[i], self.pos_y[i])
     }
 
+    /// The own target point of the agent at storage index `i` (its position when it was added,
+    /// until [`crate::World::set_target`] or a scenario's goal sets another).
+    #[inline]
+    #[must_use]
+    pub fn target(&self, i: usize) -> Vec2 {
+        Vec2::new(self.target_x[i], self.target_y[i])
+    }
+
     /// Velocity of the agent at storage index `i`.
     #[inline]
     #[must_use]
