@@ -11,7 +11,7 @@
 //! [`LineBlock`] computes eight lines at once in lanes, bit for bit [`agent_line`]'s. The
 //! steering layer's filter calls [`agent_line`] per neighbour: its inputs arrive one neighbour at
 //! a time, and written a lane at a time then read back as vectors they cost more than the
-//! lanes save (docs/PERFORMANCE.md).
+//! lanes save (docs/notes/performance-history.md).
 //!
 //! Invariant: the returned line's direction is a unit vector and every value is finite for
 //! finite inputs (coincident agents get a deterministic direction, see [`agent_line`]).

@@ -55,7 +55,7 @@ mod avx512;
 /// another process) share the tasks by speed rather than in rayon's default runs of several
 /// chunks, which one thread then finishes alone. The flock at 100,000 agents on 2 threads: the
 /// idle time of the batch's loop, median per step, 135 µs in runs of 2,048-agent chunks, 35 µs
-/// in single tasks of 1,024 (docs/PERFORMANCE.md).
+/// in single tasks of 1,024 (docs/notes/performance-history.md).
 const CELL_CHUNK: usize = 1024;
 /// Lanes of the neighbour kernel: two vectors per operation, for instruction-level parallelism
 /// over the short candidate lists of a cell.

@@ -12,7 +12,7 @@
 //! multiply-add).
 
 // The loads and stores of the AVX2 path take pointers. Measured on the pedestrian corridor
-// (docs/PERFORMANCE.md): the branch per kept lane cost more than the model's own pair terms.
+// (docs/notes/performance-history.md): the branch per kept lane cost more than the model's own pair terms.
 #![expect(
     unsafe_code,
     reason = "AVX2 loads and stores of whole blocks, bounds asserted"
