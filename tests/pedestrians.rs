@@ -279,6 +279,8 @@ fn bad_pedestrian_values_are_errors_naming_the_key() {
             "pedestrian = { cfsm = { pressure_span = 0 } }",
             "pressure_span",
         ),
+        ("pedestrian = { cfsm = { anisotropy = 1.5 } }", "anisotropy"),
+        ("pedestrian = { cfsm = { anisotropy = nan } }", "anisotropy"),
     ];
     for (line, key) in cases {
         let text = format!(

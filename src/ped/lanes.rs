@@ -105,8 +105,9 @@ fn distance_and_away(rx: f32, ry: f32, side: f32) -> (f32, f32, f32) {
 }
 
 impl Cfsm {
-    /// [`Cfsm::repulsion`] of every neighbour into `fx`, `fy` (zero beyond the count) and the
-    /// pair distances into `dist`; all as long as the neighbours' slices.
+    /// [`Cfsm::repulsion`] of every neighbour on an agent with the preferred direction
+    /// `(ex, ey)` into `fx`, `fy` (zero beyond the count) and the pair distances into `dist`;
+    /// all as long as the neighbours' slices.
     #[inline(always)]
     pub(crate) fn repulsion_lanes(
         &self,
@@ -114,13 +115,16 @@ impl Cfsm {
         fx: &mut [f32],
         fy: &mut [f32],
         dist: &mut [f32],
+        (ex, ey): (f32, f32),
     ) {
         let (s, range) = (self.strength_neighbour, self.range_neighbour);
+        let lambda = self.anisotropy;
         let ins = nb.rx.iter().zip(nb.ry).zip(nb.reach.iter().zip(nb.side));
         let outs = dist.iter_mut().zip(fx.iter_mut().zip(fy.iter_mut()));
         for (k, (((&rx, &ry), (&reach, &side)), (dist, (fx, fy)))) in ins.zip(outs).enumerate() {
             let (d, nx, ny) = distance_and_away(rx, ry, side);
-            let m = s * exp_poly((reach - d) / range);
+            let w = lambda + (1.0 - lambda) * (0.5 - 0.5 * (ex * nx + ey * ny));
+            let m = s * exp_poly((reach - d) / range) * w;
             let valid = k < nb.count;
             *dist = d;
             *fx = if valid { nx * m } else { 0.0 };
@@ -395,16 +399,22 @@ mod tests {
             let nb = as_neighbours(count, &rx, &ry, &reach, &side);
             let n = rx.len();
             let (mut fx, mut fy, mut dist) = (vec![0.0; n], vec![0.0; n], vec![0.0; n]);
-            cf.repulsion_lanes(&nb, &mut fx, &mut fy, &mut dist);
-            for k in 0..n {
-                let rel = Vec2::new(rx[k], ry[k]);
-                assert_eq!(dist[k], rel.length());
-                let got = Vec2::new(fx[k], fy[k]);
-                if k < count {
-                    let want = cf.repulsion(-rel, reach[k], ids(side[k]));
-                    assert!(close(got, want), "{got} {want} at {rel}");
-                } else {
-                    assert_eq!(got, Vec2::ZERO);
+            let isotropic_and_not = [1.0, 0.8].map(|anisotropy| Cfsm { anisotropy, ..cf });
+            for (e0, cf) in [Vec2::ZERO, Vec2::X, Vec2::new(-0.6, 0.8)]
+                .into_iter()
+                .flat_map(|e0| isotropic_and_not.map(|cf| (e0, cf)))
+            {
+                cf.repulsion_lanes(&nb, &mut fx, &mut fy, &mut dist, (e0.x, e0.y));
+                for k in 0..n {
+                    let rel = Vec2::new(rx[k], ry[k]);
+                    assert_eq!(dist[k], rel.length());
+                    let got = Vec2::new(fx[k], fy[k]);
+                    if k < count {
+                        let want = cf.repulsion(-rel, reach[k], ids(side[k]), e0);
+                        assert!(close(got, want), "{got} {want} at {rel}");
+                    } else {
+                        assert_eq!(got, Vec2::ZERO);
+                    }
                 }
             }
             // The spacing is exactly the scalar minimum, whatever the direction.

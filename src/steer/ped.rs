@@ -397,21 +397,27 @@ fn social_force_sum(
     sum
 }
 
-/// The speed model's repulsion of the `count` filled neighbours (`n` with the padding); keeps
-/// their distances in `b.dist` for the spacing.
+/// The speed model's repulsion of the `count` filled neighbours (`n` with the padding) on an
+/// agent with the preferred direction `e0`; keeps their distances in `b.dist` for the spacing.
 #[multiversion(targets(
     "x86_64+avx2+fma+avx512f+avx512vl+avx512bw+avx512dq",
     "x86_64+avx2+fma",
     "x86_64+avx"
 ))]
-fn speed_model_sum(cf: &Cfsm, b: &mut Buffers, count: usize, n: usize) -> Vec2 {
+fn speed_model_sum(cf: &Cfsm, b: &mut Buffers, count: usize, n: usize, e0: Vec2) -> Vec2 {
     let (mut fx, mut fy) = (std::mem::take(&mut b.fx), std::mem::take(&mut b.fy));
     let mut dist = std::mem::take(&mut b.dist);
     at_least(&mut fx, n);
     at_least(&mut fy, n);
     at_least(&mut dist, n);
     let (sx, sy) = (&mut fx[..n], &mut fy[..n]);
-    cf.repulsion_lanes(&neighbours(b, count, n), sx, sy, &mut dist[..n]);
+    cf.repulsion_lanes(
+        &neighbours(b, count, n),
+        sx,
+        sy,
+        &mut dist[..n],
+        (e0.x, e0.y),
+    );
     let sum = Vec2::new(lane_sum(sx), lane_sum(sy));
     (b.fx, b.fy, b.dist) = (fx, fy, dist);
     sum
@@ -505,7 +511,7 @@ fn agent(
         Model::Cfsm => {
             let cf = &ped.cfsm;
             fill(a, radii, i, b, (count, n), false);
-            let mut dir = e0 + speed_model_sum(cf, b, count, n);
+            let mut dir = e0 + speed_model_sum(cf, b, count, n, e0);
             // The obstacles touching the body or nearly: the sidestep does not turn into them.
             let mut near = [Vec2::ZERO; NEAR_WALLS];
             let mut near_count = 0;
@@ -640,8 +646,8 @@ mod tests {
                     bits(want),
                     "social force, agent {i}, seed {seed}"
                 );
-                let want = speed_model_sum(&cf, &mut full, count, n);
-                let got = speed_model_sum(&cf, &mut lazy, count, n);
+                let want = speed_model_sum(&cf, &mut full, count, n, e);
+                let got = speed_model_sum(&cf, &mut lazy, count, n, e);
                 assert_eq!(bits(got), bits(want), "speed model, agent {i}, seed {seed}");
                 let want = speed_model_spacing(&cf, &full, count, n, e);
                 let got = speed_model_spacing(&cf, &lazy, count, n, e);
