@@ -1,10 +1,13 @@
-//! The crate's one error type.
+//! The crate's error types: [`Error`], and [`CheckpointError`] which it wraps.
 //!
 //! Every builder, mutator, loader and parser validates its input at the boundary and returns a
 //! [`Error`] that names the offending parameter and its value. The hot path (`World::step`) never
 //! fails on data that passed validation, so nothing invalid ever enters the agent buffers.
+//!
+//! The bottom of the crate's module graph: it names only [`AgentId`] (a leaf), so every other
+//! module may return its errors (`tests/module_cycles.rs` holds the graph acyclic).
 
-use crate::agents::AgentId;
+use crate::id::AgentId;
 
 /// Errors returned by throng's builders, mutators and loaders.
 #[non_exhaustive]
@@ -166,7 +169,7 @@ pub enum Error {
     /// A checkpoint could not be read: not a checkpoint, another format version, damaged, or
     /// holding a value that fails the world's validation.
     #[error("checkpoint: {0}")]
-    Checkpoint(#[from] crate::checkpoint::CheckpointError),
+    Checkpoint(#[from] CheckpointError),
     /// An input or output operation failed.
     #[error("{}: {source}", escaped(path))]
     Io {
@@ -306,4 +309,66 @@ pub fn in_range(
     } else {
         Ok(value)
     }
+}
+
+/// What is wrong with a checkpoint.
+#[non_exhaustive]
+#[derive(Debug, thiserror::Error)]
+pub enum CheckpointError {
+    /// The data does not start with [`MAGIC`](crate::checkpoint::MAGIC).
+    #[error("not a throng checkpoint (the file does not start with \"THRONGCK\")")]
+    NotACheckpoint,
+    /// The file was written in another format version.
+    #[error("format version {found} is not supported (this build reads version {supported})")]
+    UnsupportedVersion {
+        /// The version in the file.
+        found: u32,
+        /// The version this build reads.
+        supported: u32,
+    },
+    /// The data ends early.
+    #[error("truncated: {what} needs {expected} bytes, only {found} present")]
+    Truncated {
+        /// The part that is cut short (`header` or `payload`).
+        what: &'static str,
+        /// Bytes it needs.
+        expected: u64,
+        /// Bytes present.
+        found: u64,
+    },
+    /// The header declares a payload larger than [`MAX_PAYLOAD`](crate::checkpoint::MAX_PAYLOAD).
+    #[error("the header declares a payload of {length} bytes, more than the {limit} allowed")]
+    TooLarge {
+        /// The declared length.
+        length: u64,
+        /// The largest allowed.
+        limit: u64,
+    },
+    /// Bytes follow the payload.
+    #[error("{extra} unexpected bytes after the payload")]
+    TrailingBytes {
+        /// How many (at least).
+        extra: u64,
+    },
+    /// The checksum does not match: the file is damaged.
+    #[error(
+        "checksum mismatch (stored {stored:#010x}, computed {computed:#010x}): the file is damaged"
+    )]
+    ChecksumMismatch {
+        /// The checksum in the header.
+        stored: u32,
+        /// The checksum of the data read.
+        computed: u32,
+    },
+    /// The payload is not the state this version writes.
+    #[error("payload cannot be decoded: {0}")]
+    Decode(String),
+    /// A decoded value fails the world's validation, or parts refer to each other wrongly.
+    #[error("{part}: {reason}")]
+    Invalid {
+        /// Where in the state (`agents`, `groups[2]`, `fields[0].walkers[1]`, ...).
+        part: String,
+        /// What is wrong.
+        reason: String,
+    },
 }

@@ -72,6 +72,7 @@ pub mod field;
 pub mod geometry;
 pub mod gravity;
 pub mod group;
+mod id;
 pub mod limits;
 mod lines;
 pub mod measure;
@@ -91,6 +92,7 @@ pub mod steering;
 pub mod targets;
 pub mod timing;
 pub mod validate;
+mod vector;
 pub mod world;
 
 pub use agents::{AgentId, AgentInit, Agents};

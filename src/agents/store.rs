@@ -1,19 +1,7 @@
-use std::fmt;
-
 use super::order::AgentOrder;
+pub use crate::id::AgentId;
 use glam::Vec2;
 use serde::{Deserialize, Serialize};
-
-/// A stable name for one agent: assigned on insertion, never reused, unchanged by removals of
-/// other agents and by reordering.
-#[derive(Clone, Copy, Debug, PartialEq, Eq, PartialOrd, Ord, Hash, Serialize, Deserialize)]
-pub struct AgentId(pub u32);
-
-impl fmt::Display for AgentId {
-    fn fmt(&self, f: &mut fmt::Formatter<'_>) -> fmt::Result {
-        write!(f, "#{}", self.0)
-    }
-}
 
 /// The initial state of an agent to add.
 #[derive(Clone, Copy, Debug, PartialEq, Serialize, Deserialize)]

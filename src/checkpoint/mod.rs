@@ -62,67 +62,7 @@ pub const MAX_PAYLOAD: u64 = 1 << 36;
 /// per id, as the running world holds one, so a damaged count must not reach the allocator.
 pub const MAX_IDS_ISSUED: usize = crate::error::MAX_AGENTS;
 
-/// What is wrong with a checkpoint.
-#[non_exhaustive]
-#[derive(Debug, thiserror::Error)]
-pub enum CheckpointError {
-    /// The data does not start with [`MAGIC`].
-    #[error("not a throng checkpoint (the file does not start with \"THRONGCK\")")]
-    NotACheckpoint,
-    /// The file was written in another format version.
-    #[error("format version {found} is not supported (this build reads version {supported})")]
-    UnsupportedVersion {
-        /// The version in the file.
-        found: u32,
-        /// The version this build reads.
-        supported: u32,
-    },
-    /// The data ends early.
-    #[error("truncated: {what} needs {expected} bytes, only {found} present")]
-    Truncated {
-        /// The part that is cut short (`header` or `payload`).
-        what: &'static str,
-        /// Bytes it needs.
-        expected: u64,
-        /// Bytes present.
-        found: u64,
-    },
-    /// The header declares a payload larger than [`MAX_PAYLOAD`].
-    #[error("the header declares a payload of {length} bytes, more than the {limit} allowed")]
-    TooLarge {
-        /// The declared length.
-        length: u64,
-        /// The largest allowed.
-        limit: u64,
-    },
-    /// Bytes follow the payload.
-    #[error("{extra} unexpected bytes after the payload")]
-    TrailingBytes {
-        /// How many (at least).
-        extra: u64,
-    },
-    /// The checksum does not match: the file is damaged.
-    #[error(
-        "checksum mismatch (stored {stored:#010x}, computed {computed:#010x}): the file is damaged"
-    )]
-    ChecksumMismatch {
-        /// The checksum in the header.
-        stored: u32,
-        /// The checksum of the data read.
-        computed: u32,
-    },
-    /// The payload is not the state this version writes.
-    #[error("payload cannot be decoded: {0}")]
-    Decode(String),
-    /// A decoded value fails the world's validation, or parts refer to each other wrongly.
-    #[error("{part}: {reason}")]
-    Invalid {
-        /// Where in the state (`agents`, `groups[2]`, `fields[0].walkers[1]`, ...).
-        part: String,
-        /// What is wrong.
-        reason: String,
-    },
-}
+pub use crate::error::CheckpointError;
 
 /// How a run that wrote a checkpoint was set up, so that `throng resume` can go on with it.
 #[derive(Clone, Debug, PartialEq, Serialize, Deserialize)]

@@ -369,3 +369,69 @@ impl GoalChannels {
         }
     }
 }
+
+/// A set of goal channels of one field (channels 0 to 63, as a field has at most 64), written
+/// in a scenario as a list of channel numbers; the empty set stands for every channel.
+#[derive(Clone, Copy, Debug, Default, PartialEq, Eq, Hash)]
+pub struct ChannelSet(u64);
+
+impl ChannelSet {
+    /// Every channel of the field.
+    pub const ALL: ChannelSet = ChannelSet(0);
+
+    /// The channels listed.
+    ///
+    /// # Errors
+    /// [`Error::OutOfRange`] for a channel above 63.
+    pub fn of(channels: &[usize]) -> Result<Self> {
+        let mut bits = 0u64;
+        for &c in channels {
+            if c >= 64 {
+                return Err(Error::OutOfRange {
+                    name: "choose_exit.channels",
+                    value: c as f64,
+                    range: "[0, 63]",
+                });
+            }
+            bits |= 1 << c;
+        }
+        Ok(ChannelSet(bits))
+    }
+
+    /// Whether this is the set of every channel.
+    #[must_use]
+    pub fn is_all(&self) -> bool {
+        self.0 == 0
+    }
+
+    /// The channels below `count` (a field's channel count) in the set, ascending.
+    pub fn iter(self, count: usize) -> impl Iterator<Item = usize> {
+        (0..count.min(64)).filter(move |&c| self.0 == 0 || self.0 & (1 << c) != 0)
+    }
+
+    /// Whether `channel` is in the set.
+    #[must_use]
+    pub fn contains(self, channel: usize) -> bool {
+        channel < 64 && (self.0 == 0 || self.0 & (1 << channel) != 0)
+    }
+
+    /// The largest channel listed, if the set lists any.
+    #[must_use]
+    pub fn max(self) -> Option<usize> {
+        (self.0 != 0).then(|| 63 - self.0.leading_zeros() as usize)
+    }
+}
+
+impl serde::Serialize for ChannelSet {
+    fn serialize<S: serde::Serializer>(&self, s: S) -> std::result::Result<S::Ok, S::Error> {
+        let list: Vec<usize> = (0..64).filter(|&c| self.0 & (1 << c) != 0).collect();
+        serde::Serialize::serialize(&list, s)
+    }
+}
+
+impl<'de> serde::Deserialize<'de> for ChannelSet {
+    fn deserialize<D: serde::Deserializer<'de>>(d: D) -> std::result::Result<Self, D::Error> {
+        let list = <Vec<usize> as serde::Deserialize>::deserialize(d)?;
+        ChannelSet::of(&list).map_err(serde::de::Error::custom)
+    }
+}

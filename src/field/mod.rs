@@ -32,7 +32,7 @@ mod potential;
 mod set;
 mod walker;
 
-pub use channels::{FlowMetric, GoalChannels};
+pub use channels::{ChannelSet, FlowMetric, GoalChannels};
 pub use congestion::{DEFAULT_DENSITY_RADIUS, DEFAULT_REROUTE_EVERY};
 pub use distance::{DistanceField, MAX_CELL_COST};
 pub use flow::FlowField;

@@ -30,12 +30,12 @@
 use glam::Vec2;
 use rayon::prelude::*;
 
+use super::channels::ChannelSet;
 use super::congestion::Congestion;
 use crate::agents::{AgentId, Agents};
 use crate::bounds::Bounds;
 use crate::error::{Error, Result};
 use crate::field::{GoalChannels, GridWalkers, OccupancyGrid, WalkPolicy};
-use crate::steering::ChannelSet;
 
 /// Agents per parallel task of the wall check.
 const WALL_CHUNK: usize = 4096;

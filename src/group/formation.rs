@@ -11,7 +11,7 @@ use glam::Vec2;
 use serde::{Deserialize, Serialize};
 
 use crate::error::{Error, Result, finite_vec, non_negative, positive};
-use crate::steering::{predict_position, truncate};
+use crate::vector::{predict_position, truncate};
 
 /// The index of a formation added to a world with `World::add_formation`.
 #[derive(Clone, Copy, Debug, PartialEq, Eq, PartialOrd, Ord, Hash, Serialize, Deserialize)]

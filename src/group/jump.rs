@@ -183,7 +183,7 @@ pub fn jump_phase(
     {
         // Remove the sideways offset over about a quarter of the run-up time.
         let gain = 4.0 * speed / run_up.max(tolerance);
-        return JumpPhase::RunUp(crate::steering::truncate(
+        return JumpPhase::RunUp(crate::vector::truncate(
             plan.velocity - side * gain,
             max_speed,
         ));

@@ -10,7 +10,7 @@ use serde::{Deserialize, Serialize};
 
 use super::formation::{SlotParams, slot_velocity};
 use crate::error::{Result, finite_vec, non_negative, positive};
-use crate::steering::Basis;
+use crate::vector::Basis;
 
 /// Parameters of leader following.
 #[derive(Clone, Copy, Debug, PartialEq, Serialize, Deserialize)]

@@ -12,7 +12,7 @@ use glam::Vec2;
 use crate::agents::{AgentId, Agents};
 use crate::bounds::Bounds;
 use crate::group::{self, FormationParams, Path};
-use crate::steering::Basis;
+use crate::vector::Basis;
 
 /// `slot_of` entry of an agent in no formation.
 pub(crate) const NO_FORMATION: u32 = u32::MAX;

@@ -14,7 +14,7 @@ use serde::{Deserialize, Serialize};
 pub use broadphase::ObstacleGrid;
 
 use crate::error::{Error, Result, finite_vec, positive};
-use crate::steering::Basis;
+use crate::vector::Basis;
 
 /// A circular obstacle.
 #[derive(Clone, Copy, Debug, PartialEq, Serialize, Deserialize)]

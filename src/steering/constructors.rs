@@ -256,7 +256,7 @@ impl Behaviour {
     pub fn choose_exit(field: usize) -> Self {
         Behaviour::ChooseExit {
             field,
-            channels: super::behaviour::ChannelSet::ALL,
+            channels: crate::field::ChannelSet::ALL,
             switch_gain: super::behaviour::DEFAULT_SWITCH_GAIN,
         }
     }

@@ -17,7 +17,6 @@
 //! Angles are radians, counter-clockwise from +x; `dt` is seconds; squared quantities end in `_sq`.
 
 mod align;
-mod basis;
 mod behaviour;
 mod combine;
 mod constructors;
@@ -27,19 +26,20 @@ mod seek;
 pub(crate) mod trig;
 mod wander;
 
+pub use crate::field::ChannelSet;
+pub use crate::vector::{Basis, predict_position, truncate, truncate_robust};
 pub use align::{
     AlignParams, align, face, kinematic_face, look_where_you_are_going, velocity_match, wrap_angle,
 };
-pub use basis::Basis;
 pub use behaviour::{
-    ArriveParams, Behaviour, ChannelSet, Combine, DEFAULT_SWITCH_GAIN, Neighbourhood,
-    SteeringProfile, Target, WanderParams, Weighted,
+    ArriveParams, Behaviour, Combine, DEFAULT_SWITCH_GAIN, Neighbourhood, SteeringProfile, Target,
+    WanderParams, Weighted,
 };
 pub use combine::{PrioritySum, priority_sum, weighted_sum};
 pub use flocking::{
     NeighbourSums, alignment, cohesion, desired, polarisation, separation, vicsek_heading,
 };
-pub use pursuit::{evade, predict_position, pursue};
+pub use pursuit::{evade, pursue};
 pub use seek::{arrive, flee, kinematic_arrive, kinematic_flee, kinematic_seek, seek};
 pub use wander::{kinematic_wander, wander};
 
@@ -106,48 +106,5 @@ impl std::ops::AddAssign for Steering {
     fn add_assign(&mut self, o: Steering) {
         self.linear += o.linear;
         self.angular += o.angular;
-    }
-}
-
-/// [`truncate`] for requests that may have overflowed: infinite components keep their direction
-/// at length `max`, a square length that overflows is rescaled first, and NaN components (an
-/// undefined request) give zero.
-#[must_use]
-pub fn truncate_robust(v: Vec2, max: f32) -> Vec2 {
-    if v.is_nan() {
-        return Vec2::ZERO;
-    }
-    if !v.is_finite() {
-        let dir = Vec2::new(
-            if v.x.is_infinite() { v.x.signum() } else { 0.0 },
-            if v.y.is_infinite() { v.y.signum() } else { 0.0 },
-        );
-        return dir.normalize_or_zero() * max;
-    }
-    let len_sq = v.length_squared();
-    if len_sq.is_finite() {
-        return if len_sq > max * max {
-            v * (max / len_sq.sqrt())
-        } else {
-            v
-        };
-    }
-    // Finite components whose square overflows: rescale before measuring.
-    (v / v.abs().max_element()).normalize_or_zero() * max
-}
-
-/// Returns `v` shortened to at most `max` (unchanged when already shorter).
-#[inline]
-#[must_use]
-pub fn truncate(v: Vec2, max: f32) -> Vec2 {
-    let len_sq = v.length_squared();
-    if len_sq > max * max {
-        if len_sq.is_finite() {
-            v * (max / len_sq.sqrt())
-        } else {
-            truncate_robust(v, max)
-        }
-    } else {
-        v
     }
 }

@@ -2,26 +2,7 @@
 
 use glam::Vec2;
 
-/// Where a target moving at `target_velocity` will be when an agent at `position` moving at
-/// `speed` could reach it: the prediction time is `distance / speed`, capped at `max_prediction`
-/// seconds (Millington's pursue).
-#[inline]
-#[must_use]
-pub fn predict_position(
-    position: Vec2,
-    speed: f32,
-    target: Vec2,
-    target_velocity: Vec2,
-    max_prediction: f32,
-) -> Vec2 {
-    let distance = (target - position).length();
-    let t = if speed <= distance / max_prediction {
-        max_prediction
-    } else {
-        distance / speed
-    };
-    target + target_velocity * t
-}
+use crate::vector::predict_position;
 
 /// Dynamic pursue: seek the target's predicted position at full speed.
 #[inline]
