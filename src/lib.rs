@@ -78,6 +78,8 @@ mod lines;
 pub mod measure;
 pub mod movement;
 pub mod obstacles;
+#[cfg(feature = "oracle")]
+pub mod oracle;
 pub mod orca;
 pub mod ped;
 pub mod profile;

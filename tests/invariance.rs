@@ -12,7 +12,7 @@ use std::collections::HashMap;
 
 use throng::ped::Model;
 use throng::prelude::*;
-use throng::scenario::{Scenario, builtin, builtin_names};
+use throng::scenario::{PlaneMap, Scenario, WorldKind, builtin, builtin_names};
 
 /// Every scenario file of the validation suite.
 fn validation_files() -> Vec<(String, Scenario)> {
@@ -332,6 +332,268 @@ fn relabelled_agents_take_the_same_step() {
                 w.step(s.dt).unwrap();
             }
         }
+    }
+    all_agree(failures);
+}
+
+/// The motions every scene is tried under: a translation by (37.25, -12.5), which no grid's
+/// cells divide, so agents sit elsewhere in their cells; a quarter turn and a mirror image
+/// about the world's centre (a walled or wrapped world turns onto itself only there) or, in an
+/// open world, about a point off every grid line. Every number is a multiple of 1/4, so the
+/// moved coordinates of a snapped state are exact (see [`snapped`]).
+fn motions(s: &Scenario) -> Vec<(&'static str, PlaneMap)> {
+    let centre = match s.world.kind {
+        WorldKind::Open => Vec2::new(3.5, -1.75),
+        _ => s.bounds().unwrap().size().unwrap() * 0.5,
+    };
+    vec![
+        ("translated", PlaneMap::Translate(Vec2::new(37.25, -12.5))),
+        ("turned", PlaneMap::Rotate90 { center: centre }),
+        ("mirrored", PlaneMap::MirrorX { axis: centre.x }),
+    ]
+}
+
+/// `p` rounded to a multiple of the power of two `quantum`.
+fn snap(p: Vec2, quantum: f32) -> Vec2 {
+    (p / quantum).round() * quantum
+}
+
+/// The smallest power of two that is at least the spacing of `f32`s at `extent`: multiples of
+/// it up to `extent` are exact, and so are their sums and differences within that range.
+fn quantum(extent: f32) -> f32 {
+    (extent.max(1.0).log2().ceil() - 23.0).exp2()
+}
+
+/// Snaps the positions and own targets of `w`'s agents to multiples of a power of two at which
+/// they, their images under `map` and the differences between them are exact, so that the moved
+/// scene starts from exactly the moved state: no rounding of the inputs, which the speed model's
+/// thresholds (and a field's cell edges) would turn into centimetres. The velocities' images
+/// (negations, swaps) are exact as they are.
+fn snapped(w: &mut World, map: PlaneMap) {
+    let a = w.agents();
+    let reach = |p: Vec2| p.abs().max(map.point(p).abs()).max_element();
+    let (mut far, mut far_target) = (0.0_f32, 0.0_f32);
+    for i in 0..a.len() {
+        far = far.max(reach(a.position(i)));
+        far_target = far_target.max(reach(a.target(i)));
+    }
+    let (q, qt) = (quantum(2.0 * far), quantum(2.0 * far_target));
+    let states: Vec<_> = (0..a.len())
+        .map(|i| (a.id(i), a.position(i), a.target(i)))
+        .collect();
+    for (id, p, t) in states {
+        // An agent pushed into a circle stays where it is (a position inside one is refused).
+        let _ = w.set_position(id, snap(p, q));
+        w.set_target(id, snap(t, qt)).unwrap();
+    }
+}
+
+/// Gives the agents of `moved` the state of `w`'s agents under `map`: positions (wrapped into
+/// `moved`'s world), velocities, own targets; agents gone from `w` leave `moved` too. Returns
+/// the agents that could not be placed (inside a circle obstacle, where a position is refused:
+/// they keep their own, and are not compared).
+fn put_moved(w: &World, moved: &mut World, map: PlaneMap) -> Vec<AgentId> {
+    let a = w.agents();
+    let gone: Vec<AgentId> = moved
+        .agents()
+        .ids()
+        .iter()
+        .copied()
+        .filter(|&id| a.index_of(id).is_none())
+        .collect();
+    for id in gone {
+        moved.remove_agent(id).unwrap();
+    }
+    let bounds = moved.bounds();
+    let mut unplaced = Vec::new();
+    for i in 0..a.len() {
+        let id = a.id(i);
+        if moved
+            .set_position(id, bounds.wrap(map.point(a.position(i))))
+            .is_err()
+        {
+            unplaced.push(id);
+        }
+        moved.set_velocity(id, map.vector(a.velocity(i))).unwrap();
+        moved.set_target(id, map.point(a.target(i))).unwrap();
+    }
+    unplaced
+}
+
+/// Along the first `steps` frames of `s`, the scene moved by `map` (built from the moved
+/// scenario, its agents given the original's state, moved, before every step) takes the moved
+/// step to 0.1 mm, agent by agent. Returns the disagreements, or why the scene cannot be moved.
+fn moved_scene_takes_the_moved_step(
+    name: &str,
+    s: &Scenario,
+    motion: &str,
+    map: PlaneMap,
+    steps: u64,
+) -> std::result::Result<Vec<String>, String> {
+    let moved = s
+        .transformed(map)
+        .map_err(|e| format!("{name} {motion}: {e}"))?;
+    let mut w = s.build().unwrap();
+    let mut m = moved.build().unwrap();
+    let bounds = m.bounds();
+    let mut failures = Vec::new();
+    while w.frame() < steps {
+        snapped(&mut w, map);
+        let unplaced = put_moved(&w, &mut m, map);
+        w.step(s.dt).unwrap();
+        m.step(s.dt).unwrap();
+        let (a, b) = (w.agents(), m.agents());
+        let mut worst = (0.0_f32, None);
+        let mut unmatched = b.len().abs_diff(a.len());
+        for i in 0..a.len() {
+            match b.index_of(a.id(i)) {
+                Some(_) if unplaced.contains(&a.id(i)) => {}
+                Some(j) => {
+                    let d = bounds
+                        .offset(bounds.wrap(map.point(a.position(i))), b.position(j))
+                        .abs()
+                        .max_element();
+                    if d > worst.0 || d.is_nan() {
+                        worst = (d, Some(a.id(i).0));
+                    }
+                }
+                None => unmatched += 1,
+            }
+        }
+        if !(worst.0 <= 1e-4 && unmatched == 0) {
+            failures.push(format!(
+                "{name} {motion}: the step to frame {}: moved by up to {} (agent {:?}), {unmatched} \
+                 agents in one only",
+                w.frame(),
+                worst.0,
+                worst.1
+            ));
+            break;
+        }
+    }
+    Ok(failures)
+}
+
+/// Scenes and motions that do not take the moved step, as measured (the first step that
+/// differs and by how much), so that any other disagreement fails: `(scene name prefix,
+/// motion, what is known)`. Each is an open question or a model's own handedness, not a
+/// tolerance.
+const NOT_INVARIANT: &[(&str, &str, &str)] = &[
+    (
+        "wander",
+        "turned",
+        "wander's per-agent wander point is state the test cannot move (0.38 m at the first step)",
+    ),
+    ("wander", "mirrored", "as turned (0.53 m)"),
+    (
+        "vicsek",
+        "mirrored",
+        "the noise angle is drawn with a sense of rotation a mirror reverses (0.29 m)",
+    ),
+    (
+        "circle",
+        "turned",
+        "ORCA from an exactly symmetric start: 1.7 cm at the first step, open",
+    ),
+    ("circle", "mirrored", "as turned (2.4 cm), open"),
+    (
+        "crossing",
+        "turned",
+        "ORCA: 0.35 mm at the first step, open",
+    ),
+    (
+        "crossing",
+        "mirrored",
+        "ORCA: 0.50 mm at the first step, open",
+    ),
+    (
+        "rimea-11-route-choice",
+        "turned",
+        "quickest paths with route choice: 0.8 mm (speed model) and 3.2 mm (social force) at \
+         the first step, open",
+    ),
+    (
+        "rimea-11-route-choice",
+        "mirrored",
+        "as turned (1.5 and 4.3 mm), open",
+    ),
+    (
+        "rimea-15-short",
+        "turned",
+        "quickest paths on cells of 0.25 m: 2.3 and 3.5 mm at the first step, open",
+    ),
+    (
+        "rimea-15-corner",
+        "turned",
+        "as rimea-15-short (rimea-15-long turns alike)",
+    ),
+    ("rimea-15", "mirrored", "as turned (3.4 and 3.6 mm), open"),
+    (
+        "exp-t-junction",
+        "translated",
+        "0.13 mm at frame 8 (speed model), 1.5 cm at frame 26 (social force), open",
+    ),
+];
+
+/// Every scene in `scenes` under every motion of [`motions`]: the disagreements, and the
+/// scenes and motions left out (they cannot be moved, or are in [`NOT_INVARIANT`]) with the
+/// reason.
+fn moved_scenes(scenes: &[(String, Scenario)], steps: u64) -> (Vec<String>, Vec<String>) {
+    let (mut failures, mut left_out) = (Vec::new(), Vec::new());
+    for (name, s) in scenes {
+        for (motion, map) in motions(s) {
+            let known = NOT_INVARIANT
+                .iter()
+                .find(|(scene, m, _)| name.starts_with(scene) && *m == motion);
+            match (
+                moved_scene_takes_the_moved_step(name, s, motion, map, steps),
+                known,
+            ) {
+                (Ok(f), None) => failures.extend(f),
+                (Ok(f), Some((_, _, why))) if !f.is_empty() => {
+                    left_out.push(format!("{} (known: {why})", f.join("; ")));
+                }
+                (Ok(_), Some(_)) => failures.push(format!(
+                    "{name} {motion}: listed as not invariant, but takes the moved step"
+                )),
+                (Err(why), _) => left_out.push(why),
+            }
+        }
+    }
+    (failures, left_out)
+}
+
+/// A scene translated, turned a quarter or mirrored takes the same step, moved: one step from
+/// the same state (the original's, moved) agrees to 0.1 mm agent by agent at each of the first
+/// 30 frames of every validation scene, with both pedestrian models. Neighbour grids, the
+/// field's raster (its origin moves with the scene) and the walls' broad phase all see other
+/// coordinates; a term that is not moved with the scene (a wall left behind, a goal, an axis
+/// written into a model) moves agents by centimetres. Scenes that cannot be moved are listed
+/// (see `Scenario::transformed`): the test fails only on disagreements.
+#[test]
+fn every_validation_scene_moves_alike_translated_turned_and_mirrored() {
+    let mut failures = Vec::new();
+    for model in [Model::Cfsm, Model::SocialForce] {
+        let scenes: Vec<_> = validation_with(model)
+            .into_iter()
+            .map(|(name, s)| (format!("{name} {model:?}"), s))
+            .collect();
+        let (f, left_out) = moved_scenes(&scenes, 30);
+        failures.extend(f);
+        for why in left_out {
+            eprintln!("left out: {why}");
+        }
+    }
+    all_agree(failures);
+}
+
+/// [`every_validation_scene_moves_alike_translated_turned_and_mirrored`] for the built-in
+/// scenes (flocking, Vicsek, ORCA, fields, group movement) at up to 2,000 agents.
+#[test]
+fn every_builtin_scene_moves_alike_translated_turned_and_mirrored() {
+    let (failures, left_out) = moved_scenes(&builtins(2000), 30);
+    for why in left_out {
+        eprintln!("left out: {why}");
     }
     all_agree(failures);
 }

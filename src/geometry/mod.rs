@@ -490,7 +490,17 @@ impl Walkable {
     /// As [`Walkable::from_polygons`]: moved points may leave the coordinate range, or meet
     /// after rounding.
     pub fn translated(&self, offset: Vec2) -> Result<Self> {
-        let moved = |ring: &[Vec2]| ring.iter().map(|&q| q + offset).collect::<Vec<_>>();
+        self.mapped(|q| q + offset)
+    }
+
+    /// The image of the area under `f`, a map of the plane that keeps polygons simple (a
+    /// translation, a rotation, a mirror image); rings are normalised again, so a mirror's
+    /// reversed windings are set right.
+    ///
+    /// # Errors
+    /// As [`Walkable::from_polygons`].
+    pub fn mapped(&self, f: impl Fn(Vec2) -> Vec2) -> Result<Self> {
+        let moved = |ring: &[Vec2]| ring.iter().map(|&q| f(q)).collect::<Vec<_>>();
         Self::from_polygons(
             self.polygons
                 .iter()

@@ -24,6 +24,7 @@ mod obstacles;
 mod overrides;
 mod spec;
 mod tiles;
+mod transform;
 
 pub use builtin::{BUILTIN, builtin, builtin_names, builtin_text};
 pub use fields::{FieldSpec, GoalSpec, MapSource, WalkerSpec};
@@ -32,4 +33,7 @@ pub use group::{AgentRef, FormationSpec, Members};
 pub use layout::Layout;
 pub use obstacles::{GravitySpec, ObstacleSpec, PolygonSpec, RandomCircles, RandomGravity};
 pub use overrides::set_path;
-pub use spec::{AgentGoal, DensitySpec, GroupSpec, Scenario, Spawn, WorldScale, WorldSpec};
+pub use spec::{
+    AgentGoal, DensitySpec, GroupSpec, Scenario, Spawn, WorldKind, WorldScale, WorldSpec,
+};
+pub use transform::PlaneMap;

@@ -492,6 +492,14 @@ fn agent(
         (e0, v0)
     };
     let (count, n) = gather(view, grid, avx2, i, pos, ped.cutoff(), b);
+    #[cfg(feature = "oracle")]
+    crate::oracle::record(crate::oracle::Seen {
+        model: "pedestrian",
+        agent: a.ids[i].0,
+        position: pos,
+        radius: ped.cutoff(),
+        neighbours: b.js[..count].iter().map(|&j| a.ids[j as usize].0).collect(),
+    });
 
     let chosen_velocity = match ped.model {
         Model::SocialForce => {
