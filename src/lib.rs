@@ -78,6 +78,7 @@ pub mod measure;
 pub mod movement;
 pub mod obstacles;
 pub mod orca;
+pub mod output;
 pub mod ped;
 pub mod profile;
 #[cfg(feature = "render")]
