@@ -81,6 +81,7 @@ pub mod obstacles;
 #[cfg(feature = "oracle")]
 pub mod oracle;
 pub mod orca;
+pub mod output;
 pub mod ped;
 pub mod profile;
 #[cfg(feature = "render")]

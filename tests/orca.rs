@@ -8,6 +8,9 @@ use throng::prelude::*;
 use throng::scenario::{self, Scenario};
 use throng::spatial::{GridIndex, Neighbour, NeighbourIndex};
 
+#[path = "support/orca.rs"]
+mod support;
+
 /// The smallest `distance / (ri + rj)` over all pairs of agents (pairs farther than 4 radii
 /// apart are not looked at; 1e9 when none is that close).
 fn closest_pair(world: &World) -> f32 {
@@ -142,26 +145,12 @@ fn everyone_crosses_the_blocks_and_no_centre_is_ever_inside_one() {
 
 /// A kinematic ORCA group of radius 1 seeking each agent's own target.
 fn orca_group(contact: bool) -> GroupParams {
-    let arrive = Behaviour::Arrive {
-        target: Target::Own,
-        params: ArriveParams {
-            target_radius: 0.0,
-            slow_radius: 1.0,
-            time_to_target: 1.0,
-        },
+    let orca = Orca {
+        pref_speed: Some(1.0),
+        contact,
+        ..Orca::default()
     };
-    GroupParams {
-        model: MovementModel::Kinematic,
-        max_speed: 2.0,
-        radius: 1.0,
-        orca: Some(Orca {
-            pref_speed: Some(1.0),
-            contact,
-            ..Orca::default()
-        }),
-        arrival_radius: Some(0.5),
-        ..GroupParams::kinematic(SteeringProfile::single(arrive))
-    }
+    support::arriving_orca_group(1.0, 2.0, orca, 0.5)
 }
 
 /// Two agents that must swap places; returns the steps to completion and the closest pair.

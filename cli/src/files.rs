@@ -1,10 +1,13 @@
 //! Output files that are complete or absent, and the checks made on output paths before a run.
 //!
-//! Invariants: an output to a regular file is written to a temporary file in the same folder
-//! and renamed over the target only when it is complete, so a failed or killed run leaves the
-//! previous file (or none) in place; the temporary file is removed when the output is dropped
-//! without being committed. Outputs to existing non-regular files (devices, pipes) are written
-//! directly. No output path names an input file, and no two outputs name the same file.
+//! Invariants: what a path is decides how it is written, by the library's one rule
+//! ([`throng::output::destination`]): an output to a regular file (or a new one) is written to a
+//! temporary file in the same folder and renamed over the target only when it is complete, so a
+//! failed or killed run leaves the previous file (or none) in place; the temporary file is
+//! removed when the output is dropped without being committed. A symbolic link is followed and
+//! never replaced. Outputs to character devices and pipes are written directly; folders, block
+//! devices and sockets are refused before the run. No output path names an input file, and no
+//! two outputs name the same file.
 
 use std::io::Write;
 use std::path::{Path, PathBuf};
@@ -35,7 +38,10 @@ pub fn is_closed_stdout(e: &Error) -> bool {
 /// [`AtomicOutput::commit`].
 #[derive(Debug)]
 pub struct AtomicOutput {
+    /// The path as given, for messages.
     target: PathBuf,
+    /// Where the output goes: the target, or the file its symbolic links name.
+    dest: throng::output::Destination,
     /// The temporary file, or `None` when the target is written directly (a device or a pipe).
     temp: Option<PathBuf>,
 }
@@ -45,19 +51,14 @@ impl AtomicOutput {
     /// folder exists and is writable.
     ///
     /// # Errors
-    /// [`Error::Io`] naming `target` when the file cannot be created.
+    /// As [`throng::output::destination`]; [`Error::Io`] naming `target` when the file cannot
+    /// be created.
     pub fn create(target: &Path) -> Result<(Self, std::fs::File)> {
-        let direct = std::fs::metadata(target).is_ok_and(|m| !m.is_file());
-        let temp = (!direct).then(|| {
-            let name = target
-                .file_name()
-                .map(|n| n.to_string_lossy().into_owned())
-                .unwrap_or_default();
-            target.with_file_name(format!(".{name}.{}.tmp", std::process::id()))
-        });
+        let dest = throng::output::destination(target)?;
         let out = AtomicOutput {
             target: target.to_path_buf(),
-            temp,
+            temp: dest.temp_path(),
+            dest,
         };
         let file = std::fs::File::create(out.write_path()).map_err(|source| out.io(source))?;
         Ok((out, file))
@@ -65,7 +66,7 @@ impl AtomicOutput {
 
     /// The path to write to (the temporary file, or the target itself).
     pub fn write_path(&self) -> &Path {
-        self.temp.as_deref().unwrap_or(&self.target)
+        self.temp.as_deref().unwrap_or(self.dest.path())
     }
 
     /// An I/O error naming the target.
@@ -91,7 +92,7 @@ impl AtomicOutput {
     pub fn commit(mut self) -> Result<()> {
         if let Some(temp) = self.temp.take() {
             let synced = std::fs::File::open(&temp).and_then(|f| f.sync_all());
-            let result = synced.and_then(|()| std::fs::rename(&temp, &self.target));
+            let result = synced.and_then(|()| std::fs::rename(&temp, self.dest.path()));
             if let Err(source) = result {
                 let _ = std::fs::remove_file(&temp);
                 return Err(self.io(source));
@@ -137,6 +138,15 @@ pub fn check_outputs(outputs: &[(&'static str, &Path)], inputs: &[PathBuf]) -> R
     for &(flag, path) in outputs {
         if path.is_dir() {
             return Err(bad(flag, path, "is a folder, not a file".into()));
+        }
+        if let Err(e) = throng::output::destination(path) {
+            return Err(match e {
+                Error::Invalid { reason, .. } => Error::Invalid {
+                    name: flag.trim_start_matches('-').to_string(),
+                    reason,
+                },
+                other => other,
+            });
         }
         let dir = match path.parent() {
             Some(d) if !d.as_os_str().is_empty() => d,

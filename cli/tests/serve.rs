@@ -357,6 +357,32 @@ fn obstacles_and_gravity_points_join_the_world_and_the_frames() {
     );
 }
 
+/// Four walls clicked into the circle, a spur and a triangle on its end (three
+/// wall ends at one point): the simulation goes on while the crowd crosses them, and `/state`
+/// reports no error.
+#[test]
+fn walls_meeting_at_one_point_keep_the_simulation_running() {
+    let s = Server::start(&["circle", "--agents", "100", "--paused", "--fast"]);
+    for [x0, y0, x1, y1] in [
+        [0, 0, -30, -30],
+        [0, 0, 40, 0],
+        [40, 0, 0, 40],
+        [0, 40, 0, 0],
+    ] {
+        s.control(&format!(
+            r#"{{"cmd":"wall","x0":{x0},"y0":{y0},"x1":{x1},"y1":{y1}}}"#
+        ));
+    }
+    let start = frame_of(&s.state());
+    s.control(r#"{"cmd":"play"}"#);
+    // 160 units across at speed 1 and 0.25 s a step: 640 steps take everyone past the walls.
+    eventually("frames past the walls", || {
+        let state = s.state();
+        assert_eq!(state["error"], Value::Null, "{state}");
+        frame_of(&state) > start + 800
+    });
+}
+
 #[test]
 fn bad_requests_get_4xx_with_a_message_and_the_server_goes_on() {
     let s = Server::start(&[

@@ -905,8 +905,8 @@ impl PyWorld {
     }
 
     /// Runs `steps` steps (GIL released) and returns a pandas DataFrame in the long format of
-    /// the CLI's `--trajectories` CSV: one row per agent for the current frame and for every
-    /// `every`-th frame after it, columns frame (int64), t (float64 seconds), id (uint32),
+    /// the CLI's `--trajectories` CSV: one row per agent for the current frame, for every
+    /// `every`-th frame after it and for the last frame, columns frame (int64), t (float64 seconds), id (uint32),
     /// x, y, vx, vy, heading (float32, bit-identical to the CSV's values), group (uint32).
     #[pyo3(signature = (steps, every=1, *, dt=None))]
     fn trajectories<'py>(
@@ -929,7 +929,9 @@ impl PyWorld {
         t.record(&self.world);
         let start = self.world.frame();
         self.run(py, dt, steps, |w, s| {
-            if (s.frame - start).is_multiple_of(every) {
+            let k = s.frame - start;
+            // The last frame too, as the CLI's `--every` writes it.
+            if k.is_multiple_of(every) || k == steps {
                 t.record(w);
             }
         })?;

@@ -99,3 +99,21 @@ def test_bench_returns_the_cli_bench_json_keys_and_values(throng_bin):
     ms = ours["ms_per_step"]
     assert 0 < ms["min"] <= ms["median"] <= ms["max"]
     assert ours["agent_steps_per_sec"] > 0 and ours["peak_rss_mb"] > 0
+
+
+@pytest.mark.parametrize("steps, every, frames", [
+    (7, 3, [0, 3, 6, 7]), (6, 3, [0, 3, 6]), (1, 5, [0, 1]), (0, 4, [0]),
+])
+def test_trajectories_end_with_the_last_frame(steps, every, frames):
+    world = throng.World.from_scenario("flock", agents=20, seed=3)
+    df = world.trajectories(steps, every=every)
+    assert sorted(set(df["frame"])) == frames
+    assert world.frame == steps
+
+
+def test_trajectories_with_a_step_count_not_a_multiple_of_every_match_the_cli(
+    throng_bin, tmp_path
+):
+    theirs = cli_trajectories(throng_bin, tmp_path, "flock", 200, 7, 3, 5)
+    ours = throng.World.from_scenario("flock", agents=200, seed=5).trajectories(7, every=3)
+    assert_same_trajectories(ours, theirs)

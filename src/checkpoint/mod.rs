@@ -35,7 +35,9 @@
 //!
 //! Files are written crash-safe by [`write_atomic`]: into a temporary file in the same
 //! directory, flushed to disk, then renamed over the old one, so that a kill at any moment
-//! leaves either the old checkpoint or the new one, whole.
+//! leaves either the old checkpoint or the new one, whole. A symbolic link is followed and the
+//! file it names replaced; a character device or a pipe is written directly; a folder, a block
+//! device or a socket is refused (the rule of [`crate::output`]).
 
 mod state;
 
@@ -234,47 +236,8 @@ fn load(reader: impl Read) -> Result<(World, Option<RunInfo>)> {
     Ok((world, decoded.run))
 }
 
-/// Writes a file crash-safe: `write` fills a temporary file in the same directory, which is
-/// flushed to disk and then renamed over `path` (and the directory synced), so that `path` holds
-/// either its old content or the whole new one, whatever happens meanwhile. When `write` or any
-/// of these steps fails, the temporary file is removed and `path` is left as it was.
-///
-/// # Errors
-/// [`Error::Io`] naming the file, or what `write` returned.
-pub fn write_atomic(path: &Path, write: impl FnOnce(&mut dyn Write) -> Result<()>) -> Result<()> {
-    let shown = path.display().to_string();
-    let name = path
-        .file_name()
-        .ok_or_else(|| io_error(&shown, std::io::ErrorKind::InvalidInput.into()))?;
-    let dir = match path.parent() {
-        Some(d) if !d.as_os_str().is_empty() => d.to_path_buf(),
-        _ => std::path::PathBuf::from("."),
-    };
-    let mut tmp_name = std::ffi::OsString::from(".");
-    tmp_name.push(name);
-    tmp_name.push(format!(".tmp{}", std::process::id()));
-    let tmp = dir.join(tmp_name);
-    let result = (|| {
-        let file = std::fs::File::create(&tmp).map_err(|e| io_error(&shown, e))?;
-        let mut out = std::io::BufWriter::new(file);
-        write(&mut out)?;
-        let file = out
-            .into_inner()
-            .map_err(|e| io_error(&shown, e.into_error()))?;
-        file.sync_all().map_err(|e| io_error(&shown, e))?;
-        drop(file);
-        std::fs::rename(&tmp, path).map_err(|e| io_error(&shown, e))?;
-        // Make the rename itself durable (where directories can be opened and synced).
-        if let Ok(d) = std::fs::File::open(&dir) {
-            let _ = d.sync_all();
-        }
-        Ok(())
-    })();
-    if result.is_err() {
-        let _ = std::fs::remove_file(&tmp);
-    }
-    result
-}
+/// Writes a file crash-safe; moved to [`crate::output`], which owns the rule for every output.
+pub use crate::output::write_atomic;
 
 impl World {
     /// Writes the world's whole state to `writer` as a checkpoint (see [`crate::checkpoint`]).

@@ -2,11 +2,15 @@
 //! agent gets from the edges near it, with RVO2's treatment of convex and concave vertices.
 //!
 //! throng's walls are two-sided segments; closed polygons are walls whose ends meet. Walls that
-//! share an end exactly (and no third wall meets there) form a chain. [`WallChains`] turns
-//! every chain into oriented *edges* whose permitted side is their right:
+//! share an end exactly (and no third wall meets there) form a chain. A point where one wall
+//! ends or three or more wall ends meet (a junction) ends every chain through it, so any planar
+//! arrangement (junctions of any degree, a polygon through one vertex twice, polygons touching
+//! at a corner) splits into chains that are open at their junctions. [`WallChains`] turns every
+//! chain into oriented *edges* whose permitted side is their right:
 //!
 //! - an open chain `v0 .. vk` becomes the thin loop `v0 -> .. -> vk -> .. -> v0`, so each
-//!   segment appears once per side and its ends are convex (an agent goes round them);
+//!   segment appears once per side and its ends are convex (an agent goes round them); a chain
+//!   that leaves a junction and comes back to it is open, with `vk = v0`;
 //! - a closed loop becomes two loops: counter-clockwise for agents outside it and clockwise for
 //!   agents inside it (a room), so that an agent never sees a polygon's far side as a near wall.
 //!
@@ -68,7 +72,8 @@ impl WallChains {
     /// The chains of `walls`.
     #[must_use]
     pub fn new(walls: &[Wall]) -> Self {
-        let key = |p: Vec2| (p.x.to_bits(), p.y.to_bits());
+        // `+ 0.0` makes -0.0 the same point as 0.0, as `==` (and the walk below) has it.
+        let key = |p: Vec2| ((p.x + 0.0).to_bits(), (p.y + 0.0).to_bits());
         let mut ends: HashMap<(u32, u32), Vec<(usize, bool)>> = HashMap::new();
         for (w, wall) in walls.iter().enumerate() {
             ends.entry(key(wall.a)).or_default().push((w, false));
@@ -115,7 +120,12 @@ impl WallChains {
             for from_b in [false, true] {
                 let p = if from_b { walls[w].b } else { walls[w].a };
                 if !used[w] && through(p, w).is_none() {
-                    let (pts, ws, _) = walk(w, !from_b, &mut used);
+                    let (mut pts, ws, closed) = walk(w, !from_b, &mut used);
+                    if closed {
+                        // Back at the junction it left (three or more wall ends meet there):
+                        // the loop is an open chain from the junction to itself.
+                        pts.push(p);
+                    }
                     out.push_open(&pts, &ws);
                 }
             }

@@ -124,9 +124,10 @@ pub fn serve(scenario: Scenario, args: &ServeArgs) -> Result<()> {
     };
     let (tx, rx) = mpsc::channel();
     let sim = Sim::new(setup, world, pool, shared.clone());
+    let sim_shared = shared.clone();
     let sim_thread = std::thread::Builder::new()
         .name("throng-sim".into())
-        .spawn(move || sim.run(&rx))
+        .spawn(move || sim::guarded(&sim_shared, || sim.run(&rx)))
         .map_err(|e| Error::Invalid {
             name: "serve".into(),
             reason: format!("cannot start the simulation thread: {e}"),

@@ -53,6 +53,31 @@ pub fn lock<T>(m: &Mutex<T>) -> std::sync::MutexGuard<'_, T> {
     m.lock().unwrap_or_else(PoisonError::into_inner)
 }
 
+/// Runs the simulation thread's `body`. When it panics, no step or control runs any more, so
+/// `GET /state` says so from then on: its `error` names the panic and `paused` is true (the
+/// page shows the error; controls get 503 as the thread has gone).
+pub fn guarded(shared: &Shared, body: impl FnOnce()) {
+    let Err(panic) = std::panic::catch_unwind(std::panic::AssertUnwindSafe(body)) else {
+        return;
+    };
+    let why = panic
+        .downcast_ref::<&str>()
+        .map(|s| (*s).to_string())
+        .or_else(|| panic.downcast_ref::<String>().cloned())
+        .unwrap_or_else(|| "a panic".into());
+    let mut state = lock(&shared.state);
+    let mut v: Value = serde_json::from_str(&state).unwrap_or(Value::Null);
+    if !v.is_object() {
+        v = json!({});
+    }
+    v["error"] = json!(format!(
+        "the simulation stopped ({}); restart throng serve",
+        why.escape_debug()
+    ));
+    v["paused"] = json!(true);
+    *state = Arc::new(v.to_string());
+}
+
 /// A control from the page (`POST /control`), parsed and range-checked; the world's own checks
 /// run when it is applied.
 #[derive(Clone, Debug, PartialEq)]
@@ -588,6 +613,22 @@ impl Sim {
 #[cfg(test)]
 mod tests {
     use super::*;
+
+    #[test]
+    fn a_simulation_thread_that_panics_leaves_its_error_in_the_state() {
+        let shared = Shared::default();
+        *lock(&shared.state) = Arc::new(r#"{"frame":7,"paused":false,"error":null}"#.into());
+        guarded(&shared, || {});
+        assert!(lock(&shared.state).contains(r#""error":null"#));
+        guarded(&shared, || {
+            panic!("index out of bounds: the len is 4 but the index is 5")
+        });
+        let v: Value = serde_json::from_str(&lock(&shared.state)).unwrap();
+        let error = v["error"].as_str().expect("an error");
+        assert!(error.contains("index out of bounds"), "{error}");
+        assert_eq!(v["paused"], json!(true));
+        assert_eq!(v["frame"], json!(7));
+    }
 
     #[test]
     fn controls_parse_and_bad_ones_name_the_problem() {
