@@ -81,6 +81,11 @@ fn rimea_15_the_corner_takes_between_the_short_and_the_long_way() {
 }
 
 #[test]
+fn rimea_16_the_single_file_slows_with_its_density() {
+    passes("rimea-16");
+}
+
+#[test]
 fn a_case_reports_the_same_on_one_and_two_threads() {
     let case = validate::case("rimea-12").unwrap();
     let run = |threads| {

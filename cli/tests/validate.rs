@@ -20,6 +20,7 @@ fn list_names_every_case() {
         "rimea-11",
         "rimea-12",
         "rimea-15",
+        "rimea-16",
         "bottleneck",
     ] {
         assert!(text.contains(id), "{id} missing from {text}");

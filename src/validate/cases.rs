@@ -177,6 +177,18 @@ pub const CASES: &[Case] = &[
         run: rimea_15,
     },
     Case {
+        id: "rimea-16",
+        title: "RiMEA 16: the single-file fundamental diagram",
+        about: "Pedestrians (0.36 m long) in one line in a corridor 0.6 m wide, the first 90 m \
+                at 0.375 to 2.625 persons/m, all at 1.13 m/s; one-dimensional Voronoi density \
+                and speed in 2 m over t 10 to 30 s (the runs of exp-single-file). RiMEA 4.x: \
+                the speed-density relation in single file, beside empirical data; here: the \
+                free speed within 5% when sparse, no rise of the speed from one 0.25 \
+                persons/m bin to the next above 0.02 m/s, every bin to 2.75 persons/m reached. \
+                Quick: as full.",
+        run: super::experiments::rimea_16,
+    },
+    Case {
         id: "bottleneck",
         title: "Bottleneck flow against its width",
         about: "JuPedSim's bottleneck experiment: 200 pedestrians leave a room 10 x 10 m through \

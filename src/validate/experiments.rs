@@ -298,7 +298,12 @@ pub(super) fn exp_unidirectional(opt: &Options, runs: &mut Runs) -> Result<Vec<C
     Ok(judge("speed", "1/m^2", UNIDIRECTIONAL, &binned, runs))
 }
 
-pub(super) fn exp_single_file(opt: &Options, runs: &mut Runs) -> Result<Vec<Check>> {
+/// The free speed of the single-file runs, m/s (the experiment's mean below 0.5 persons/m).
+const SINGLE_FILE_SPEED: f64 = 1.13;
+
+/// The single-file line at the centre of each 0.25 persons/m bin from 0.375 to 2.625: every
+/// sample of one-dimensional Voronoi density and speed in x 45 to 47 m over t 10 to 30 s.
+fn single_file(opt: &Options, runs: &mut Runs) -> Result<Binned> {
     // A line of the speed model keeps its spacing: each run fills the bin of its density, so
     // the runs sit at the bins' centres, quick or full.
     let densities: [f64; 10] = [
@@ -331,7 +336,11 @@ pub(super) fn exp_single_file(opt: &Options, runs: &mut Runs) -> Result<Vec<Chec
             false
         })?;
     }
-    let binned = binned.into_inner();
+    Ok(binned.into_inner())
+}
+
+pub(super) fn exp_single_file(opt: &Options, runs: &mut Runs) -> Result<Vec<Check>> {
+    let binned = single_file(opt, runs)?;
     diagrams(
         runs,
         "single file",
@@ -340,6 +349,55 @@ pub(super) fn exp_single_file(opt: &Options, runs: &mut Runs) -> Result<Vec<Chec
         SINGLE_FILE,
     );
     Ok(judge("speed", "1/m", SINGLE_FILE, &binned, runs))
+}
+
+/// RiMEA 16 (version 4.x): the single-file fundamental diagram. The guideline asks for the
+/// speed-density relation of pedestrians in one line, set beside empirical single-file data;
+/// its criteria are qualitative, so the checks are: the line walks at its free speed when
+/// sparse (within 5% at 0.25 to 0.5 persons/m), its speed never rises from one density bin to
+/// the next by more than 0.02 m/s, and every density bin from 0.25 to 2.75 persons/m is
+/// reached. The comparison bin by bin with the Juelich runs is `exp-single-file`'s.
+pub(super) fn rimea_16(opt: &Options, runs: &mut Runs) -> Result<Vec<Check>> {
+    let binned = single_file(opt, runs)?;
+    let points = binned.points();
+    let free = binned.at(0.25).0.map(|v| v / SINGLE_FILE_SPEED);
+    let rising = points
+        .windows(2)
+        .filter(|w| w[1][1] > w[0][1] + 0.02)
+        .count();
+    let reached = (0..10)
+        .filter(|&k| binned.at(0.25 * (k + 1) as f64).1 >= MIN_SAMPLES)
+        .count();
+    diagrams(
+        runs,
+        "single file (RiMEA 16)",
+        "Voronoi density (1/m)",
+        &binned,
+        SINGLE_FILE,
+    );
+    Ok(vec![
+        Check::within(
+            "speed at 0.25 to 0.5 persons/m over the free speed 1.13 m/s",
+            free,
+            0.95,
+            1.05,
+            "",
+        ),
+        Check::new(
+            "increases of the speed from one density bin to the next",
+            "none above 0.02 m/s".into(),
+            Some(rising as f64),
+            "",
+            rising == 0,
+        ),
+        Check::new(
+            "density bins of 0.25 to 2.75 persons/m reached (with enough samples)",
+            "all 10".into(),
+            Some(reached as f64),
+            "",
+            reached == 10,
+        ),
+    ])
 }
 
 pub(super) fn exp_bidirectional(opt: &Options, runs: &mut Runs) -> Result<Vec<Check>> {
