@@ -136,7 +136,7 @@ struct WorldArgs {
     #[arg(long, value_name = "SIZE")]
     max_memory: Option<String>,
     /// Pedestrian model of every group that has one: social_force (also sfm) or cfsm.
-    #[arg(long, value_name = "MODEL", value_parser = ["social_force", "sfm", "cfsm"])]
+    #[arg(long, value_name = "MODEL", value_parser = clap::builder::PossibleValuesParser::new(throng::ped::Model::names()))]
     pedestrian_model: Option<String>,
 }
 

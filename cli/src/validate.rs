@@ -28,7 +28,7 @@ pub struct ValidateArgs {
     pub threads: Option<usize>,
     /// Pedestrian model of every group: social_force (also sfm) or cfsm (default: the
     /// scenarios', the default model).
-    #[arg(long, value_name = "MODEL", value_parser = ["social_force", "sfm", "cfsm"])]
+    #[arg(long, value_name = "MODEL", value_parser = clap::builder::PossibleValuesParser::new(throng::ped::Model::names()))]
     pub pedestrian_model: Option<String>,
     /// Added to every scenario's seed (default 0: the files' seeds).
     #[arg(long, default_value_t = 0)]

@@ -33,7 +33,10 @@ pub(crate) fn validate<'py>(
         Some(name) => Some(throng::ped::Model::parse(name).ok_or_else(|| {
             raise(&Error::Invalid {
                 name: "model".into(),
-                reason: format!("unknown pedestrian model {name}"),
+                reason: format!(
+                    "unknown pedestrian model {name} (the models: {})",
+                    throng::ped::Model::names().collect::<Vec<_>>().join(", ")
+                ),
             })
         })?),
         None => None,

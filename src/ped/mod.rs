@@ -58,6 +58,10 @@ pub enum Model {
 }
 
 impl Model {
+    /// Every model: the registry the command line, `throng validate` and the Python package
+    /// take their lists of names from.
+    pub const ALL: [Model; 2] = [Model::SocialForce, Model::Cfsm];
+
     /// The name used in scenario files: `"social_force"` or `"cfsm"`.
     #[must_use]
     pub fn name(self) -> &'static str {
@@ -67,14 +71,28 @@ impl Model {
         }
     }
 
-    /// The model named `name` (`"social_force"`, also `"sfm"`, or `"cfsm"`).
+    /// Other names the model is known by (`"sfm"`, JuPedSim's, for the social force model).
+    #[must_use]
+    pub fn aliases(self) -> &'static [&'static str] {
+        match self {
+            Model::SocialForce => &["sfm"],
+            Model::Cfsm => &[],
+        }
+    }
+
+    /// Every name a model may be given by: each model's name, then its aliases.
+    pub fn names() -> impl Iterator<Item = &'static str> {
+        Model::ALL
+            .into_iter()
+            .flat_map(|m| std::iter::once(m.name()).chain(m.aliases().iter().copied()))
+    }
+
+    /// The model named `name` (its name or an alias: `"social_force"`, `"sfm"`, `"cfsm"`).
     #[must_use]
     pub fn parse(name: &str) -> Option<Model> {
-        match name {
-            "social_force" | "sfm" => Some(Model::SocialForce),
-            "cfsm" => Some(Model::Cfsm),
-            _ => None,
-        }
+        Model::ALL
+            .into_iter()
+            .find(|m| m.name() == name || m.aliases().contains(&name))
     }
 }
 
@@ -312,6 +330,28 @@ pub(crate) fn exp_capped(x: f32) -> f32 {
 #[cfg(test)]
 mod tests {
     use super::*;
+
+    #[test]
+    fn every_model_name_and_alias_parses_to_its_model_and_no_name_is_shared() {
+        let names: Vec<&str> = Model::names().collect();
+        assert_eq!(names, ["social_force", "sfm", "cfsm"]);
+        for m in Model::ALL {
+            assert_eq!(Model::parse(m.name()), Some(m));
+            for &a in m.aliases() {
+                assert_eq!(Model::parse(a), Some(m));
+            }
+            // The scenario files' name is the serde name.
+            let toml = format!("m = {:?}", m.name());
+            #[derive(serde::Deserialize)]
+            struct T {
+                m: Model,
+            }
+            assert_eq!(toml::from_str::<T>(&toml).unwrap().m, m);
+        }
+        let unique: std::collections::BTreeSet<_> = names.iter().collect();
+        assert_eq!(unique.len(), names.len());
+        assert_eq!(Model::parse("magic"), None);
+    }
 
     #[test]
     fn desired_speeds_follow_the_truncated_normal() {
