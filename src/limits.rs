@@ -97,14 +97,118 @@ pub fn read_text(path: &Path, limit: u64, what: &str) -> Result<String> {
     })
 }
 
-/// The memory the machine can give without swapping (`MemAvailable` of `/proc/meminfo`),
-/// bytes; `None` where that is unknown.
+/// The memory a run may still take, bytes; `None` where nothing is known. The least of
+/// [`memory_ceiling`]'s bounds.
 #[must_use]
 pub fn available_memory() -> Option<u64> {
-    let text = std::fs::read_to_string("/proc/meminfo").ok()?;
-    let line = text.lines().find(|l| l.starts_with("MemAvailable:"))?;
+    memory_ceiling().map(|c| c.bytes)
+}
+
+/// A bound on the memory a run may take, and what sets it.
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+pub struct MemoryCeiling {
+    /// The bytes still available under the bound.
+    pub bytes: u64,
+    /// What sets it, in words for an error message.
+    pub source: &'static str,
+}
+
+impl MemoryCeiling {
+    /// A bound the user gave (`--max-memory`, [`crate::scenario::Scenario::build_within`]).
+    #[must_use]
+    pub fn given(bytes: u64) -> MemoryCeiling {
+        MemoryCeiling {
+            bytes,
+            source: "the limit given",
+        }
+    }
+}
+
+/// The tightest of the bounds this process runs under: the machine's available memory
+/// (`MemAvailable` of `/proc/meminfo`), the address-space limit (`RLIMIT_AS`, `ulimit -v`)
+/// less the address space in use, and the memory limit of its control group (cgroup v2
+/// `memory.max` of its group and every parent, or v1 `memory.limit_in_bytes`) less the memory
+/// the group uses. `None` where none of them can be read (not Linux).
+#[must_use]
+pub fn memory_ceiling() -> Option<MemoryCeiling> {
+    let read = |path: &str| std::fs::read_to_string(path).ok();
+    [
+        read("/proc/meminfo")
+            .and_then(|t| meminfo_available(&t))
+            .map(|bytes| MemoryCeiling {
+                bytes,
+                source: "the machine's available memory",
+            }),
+        read("/proc/self/limits")
+            .zip(read("/proc/self/status"))
+            .and_then(|(limits, status)| address_space_left(&limits, &status))
+            .map(|bytes| MemoryCeiling {
+                bytes,
+                source: "the address-space limit (ulimit -v)",
+            }),
+        cgroup_left().map(|bytes| MemoryCeiling {
+            bytes,
+            source: "the control group's memory limit",
+        }),
+    ]
+    .into_iter()
+    .flatten()
+    .min_by_key(|c| c.bytes)
+}
+
+/// `MemAvailable` of a `/proc/meminfo` text, bytes.
+fn meminfo_available(meminfo: &str) -> Option<u64> {
+    let line = meminfo.lines().find(|l| l.starts_with("MemAvailable:"))?;
     let kb: u64 = line.split_whitespace().nth(1)?.parse().ok()?;
     kb.checked_mul(1024)
+}
+
+/// The address space left under the soft `Max address space` limit of a `/proc/self/limits`
+/// text, less `VmSize` of a `/proc/self/status` text; `None` when unlimited.
+fn address_space_left(limits: &str, status: &str) -> Option<u64> {
+    let line = limits
+        .lines()
+        .find(|l| l.starts_with("Max address space"))?;
+    let soft: u64 = line
+        .trim_start_matches("Max address space")
+        .split_whitespace()
+        .next()?
+        .parse()
+        .ok()?;
+    let size = status.lines().find(|l| l.starts_with("VmSize:"))?;
+    let kb: u64 = size.split_whitespace().nth(1)?.parse().ok()?;
+    Some(soft.saturating_sub(kb.saturating_mul(1024)))
+}
+
+/// The memory left under the control group's limit: the least over the process's cgroup v2
+/// group and its parents of `memory.max - memory.current`, or cgroup v1's
+/// `memory.limit_in_bytes - memory.usage_in_bytes`; `None` when unlimited or unknown.
+fn cgroup_left() -> Option<u64> {
+    let number =
+        |path: String| -> Option<u64> { std::fs::read_to_string(path).ok()?.trim().parse().ok() };
+    let cgroups = std::fs::read_to_string("/proc/self/cgroup").ok()?;
+    if let Some(path) = cgroups.lines().find_map(|l| l.strip_prefix("0::")) {
+        let mut dir = std::path::PathBuf::from("/sys/fs/cgroup").join(path.trim_start_matches('/'));
+        let mut least: Option<u64> = None;
+        loop {
+            let d = dir.display();
+            if let (Some(max), Some(current)) = (
+                number(format!("{d}/memory.max")),
+                number(format!("{d}/memory.current")),
+            ) {
+                let left = max.saturating_sub(current);
+                least = Some(least.map_or(left, |l| l.min(left)));
+            }
+            if dir.as_os_str() == "/sys/fs/cgroup" || !dir.pop() {
+                break;
+            }
+        }
+        return least;
+    }
+    let limit = number("/sys/fs/cgroup/memory/memory.limit_in_bytes".into())?;
+    let usage = number("/sys/fs/cgroup/memory/memory.usage_in_bytes".into())?;
+    // An unlimited v1 group reports a page-rounded i64::MAX.
+    (limit < 1 << 62).then(|| limit.saturating_sub(usage))
 }
 
 /// Parses a memory size: bytes, or a number with a `K`, `M`, `G` or `T` suffix (powers of
@@ -140,18 +244,27 @@ pub fn parse_size(text: &str) -> Result<u64> {
     Ok(bytes as u64)
 }
 
-/// Checks that `needed` bytes fit in `limit`.
+/// Checks that `needed` bytes fit in `limit`, a limit the user gave.
 ///
 /// # Errors
 /// [`Error::OutOfMemory`] naming `what` and both sizes.
 pub fn check_memory(what: &str, needed: u64, limit: u64) -> Result<()> {
-    if needed > limit {
+    check_memory_under(what, needed, MemoryCeiling::given(limit))
+}
+
+/// Checks that `needed` bytes fit under `ceiling`.
+///
+/// # Errors
+/// [`Error::OutOfMemory`] naming `what`, both sizes and what sets the ceiling.
+pub fn check_memory_under(what: &str, needed: u64, ceiling: MemoryCeiling) -> Result<()> {
+    if needed > ceiling.bytes {
         return Err(Error::OutOfMemory {
             what: what.to_string(),
             reason: format!(
-                "it needs about {} but {} may be used (the machine's available memory, or --max-memory)",
+                "it needs about {} but {} may be used ({})",
                 human(needed),
-                human(limit)
+                human(ceiling.bytes),
+                ceiling.source
             ),
         });
     }
@@ -178,6 +291,38 @@ pub fn human(bytes: u64) -> String {
 #[cfg(test)]
 mod tests {
     use super::*;
+
+    #[test]
+    fn the_ceilings_read_from_proc_texts() {
+        let meminfo = "MemTotal: 24000000 kB\nMemFree: 100 kB\nMemAvailable:   2048 kB\n";
+        assert_eq!(meminfo_available(meminfo), Some(2 << 20));
+        assert_eq!(meminfo_available("MemTotal: 1 kB\n"), None);
+        let limits = "Limit                     Soft Limit           Hard Limit           Units\n\
+                      Max stack size            8388608              unlimited            bytes\n\
+                      Max address space         1024000000           unlimited            bytes\n";
+        let status = "Name:\tthrong\nVmPeak:\t  9000 kB\nVmSize:\t  1000 kB\n";
+        assert_eq!(
+            address_space_left(limits, status),
+            Some(1_024_000_000 - 1_024_000)
+        );
+        let unlimited = limits.replace("1024000000 ", "unlimited  ");
+        assert_eq!(address_space_left(&unlimited, status), None);
+        // More in use than the limit (a limit lowered after start): nothing left, not a wrap.
+        let tiny = limits.replace("1024000000 ", "1000       ");
+        assert_eq!(address_space_left(&tiny, status), Some(0));
+    }
+
+    #[test]
+    fn the_ceiling_is_the_least_bound_and_names_it() {
+        // This process runs under at least the machine's memory, wherever /proc exists.
+        if let Some(c) = memory_ceiling() {
+            assert_eq!(available_memory(), Some(c.bytes));
+            let e = check_memory_under("x", c.bytes.saturating_add(1 << 30), c)
+                .unwrap_err()
+                .to_string();
+            assert!(e.contains(c.source), "{e}");
+        }
+    }
 
     #[test]
     fn sizes_parse_with_binary_suffixes() {

@@ -349,17 +349,27 @@ fn with_overrides(mut s: Scenario, c: &WorldArgs) -> Result<Scenario> {
     s.expanded()
 }
 
-/// The memory a world may take: `--max-memory`, or the machine's available memory.
+/// The memory a world may take when the user gives it (`--max-memory`); `None` leaves the
+/// bound to the build, which reads the tightest one this process runs under when it builds
+/// ([`throng::limits::memory_ceiling`]: available memory, `ulimit -v`, the control group).
 fn memory_limit(c: &WorldArgs) -> Result<Option<u64>> {
-    match &c.max_memory {
-        Some(text) => Ok(Some(throng::limits::parse_size(text)?)),
-        None => Ok(throng::limits::available_memory()),
-    }
+    c.max_memory
+        .as_deref()
+        .map(throng::limits::parse_size)
+        .transpose()
 }
 
-/// Builds the world of `s` within `memory` bytes; errors of the build name the scenario.
+/// Builds the world of `s` within `memory` bytes given by the user, or within the process's
+/// memory ceiling at this moment; errors of the build name the scenario.
 fn build_world(s: &Scenario, memory: Option<u64>) -> Result<World> {
-    let mut world = s.build_within(memory).map_err(|e| match e {
+    let built = match memory {
+        Some(bytes) => s.build_under(Some(throng::limits::MemoryCeiling {
+            bytes,
+            source: "--max-memory",
+        })),
+        None => s.build(),
+    };
+    let mut world = built.map_err(|e| match e {
         Error::Scenario { .. } | Error::Io { .. } | Error::OutOfMemory { .. } => e,
         other => Error::Scenario {
             source_name: s.name.clone(),

@@ -649,3 +649,38 @@ fn bench_json_reports_measurements_and_the_evacuation_time() {
     assert_eq!(v["measurements"]["areas"], serde_json::json!([]));
     assert!(v["evacuation_time"].is_null());
 }
+
+/// An address-space limit (`ulimit -v`) bounds the world as the machine's memory does: ten
+/// million agents under 1 GB of address space are a one-line error naming the limit, before
+/// any allocation can abort the process; `--max-memory` is named when it is the bound.
+#[test]
+fn an_address_space_limit_is_a_one_line_error_naming_it() {
+    let bin = env!("CARGO_BIN_EXE_throng");
+    let o = Command::new("sh")
+        .arg("-c")
+        .arg(format!(
+            "ulimit -v 1000000 && exec '{bin}' demo flock --agents 10000000 --steps 1"
+        ))
+        .output()
+        .unwrap();
+    let err = stderr(&o);
+    assert_eq!(o.status.code(), Some(1), "{err}");
+    assert_eq!(err.trim_end().lines().count(), 1, "{err}");
+    assert!(
+        err.contains("ulimit -v") && err.contains("not enough memory"),
+        "{err}"
+    );
+    assert_one_line_failure(
+        &[
+            "demo",
+            "flock",
+            "--agents",
+            "10000000",
+            "--steps",
+            "1",
+            "--max-memory",
+            "100M",
+        ],
+        "(--max-memory)",
+    );
+}

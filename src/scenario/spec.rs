@@ -784,13 +784,15 @@ impl Scenario {
     }
 
     /// Builds the world: groups, then agents spawned group by group from the seed. The memory
-    /// estimate is checked first against the machine's available memory (where known).
+    /// estimate is checked first against the tightest bound this process runs under (the
+    /// machine's available memory, `ulimit -v`, the control group's limit:
+    /// [`crate::limits::memory_ceiling`]), where known.
     ///
     /// # Errors
     /// The variant naming the first bad value (a spawn region outside the world, say);
-    /// [`Error::OutOfMemory`] when the estimate exceeds the available memory.
+    /// [`Error::OutOfMemory`] when the estimate exceeds that bound, naming it.
     pub fn build(&self) -> Result<World> {
-        self.build_within(crate::limits::available_memory())
+        self.build_under(crate::limits::memory_ceiling())
     }
 
     /// [`Scenario::build`] with the memory estimate checked against `memory` bytes (`None`:
@@ -799,15 +801,24 @@ impl Scenario {
     /// # Errors
     /// As [`Scenario::build`].
     pub fn build_within(&self, memory: Option<u64>) -> Result<World> {
+        self.build_under(memory.map(crate::limits::MemoryCeiling::given))
+    }
+
+    /// [`Scenario::build`] with the memory estimate checked against `ceiling` (`None`: not
+    /// checked).
+    ///
+    /// # Errors
+    /// As [`Scenario::build`].
+    pub fn build_under(&self, ceiling: Option<crate::limits::MemoryCeiling>) -> Result<World> {
         if self.layout.is_some() {
-            return self.expanded()?.build_within(memory);
+            return self.expanded()?.build_under(ceiling);
         }
         self.validate()?;
-        if let Some(limit) = memory {
-            crate::limits::check_memory(
+        if let Some(ceiling) = ceiling {
+            crate::limits::check_memory_under(
                 &format!("scenario {}", self.name),
                 self.memory_estimate(),
-                limit,
+                ceiling,
             )?;
         }
         let bounds = self.bounds()?;
