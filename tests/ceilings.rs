@@ -142,6 +142,71 @@ fn numbers_beyond_the_ceiling_are_refused_naming_the_key() {
     }
 }
 
+/// The ceiling of scenario files holds for the world's own setters and builders too (and so for
+/// every caller: Python, `throng serve`, checkpoints): a target at 1e20 froze every agent.
+#[test]
+fn coordinates_beyond_the_ceiling_are_refused_by_every_setter() {
+    let text = "[world]\nkind = \"open\"\n[[groups]]\ncount = 2\nspawn = { kind = \"disc\", center = [0, 0], radius = 5 }\n";
+    let mut w = Scenario::from_toml(text, "c.toml")
+        .unwrap()
+        .build()
+        .unwrap();
+    let id = w.agents().id(0);
+    let far = Vec2::new(1e20, 0.0);
+    let ok = Vec2::new(1e17, 0.0);
+    let refused = |r: throng::Result<()>, what: &str| {
+        let e = r.expect_err(what).to_string();
+        assert!(e.contains("1e18"), "{what}: {e}");
+    };
+    refused(w.set_target(id, far), "set_target");
+    assert!(w.set_target(id, ok).is_ok());
+    refused(w.set_position(id, far), "set_position");
+    refused(
+        w.add_wall(throng::obstacles::Wall {
+            a: Vec2::ZERO,
+            b: far,
+        }),
+        "add_wall",
+    );
+    refused(
+        w.add_polygon(&[Vec2::ZERO, far, Vec2::ONE], true),
+        "add_polygon",
+    );
+    refused(
+        w.add_circle(throng::obstacles::Circle::new(far, 1.0)),
+        "add_circle",
+    );
+    refused(
+        w.add_gravity_point(throng::gravity::GravityPoint::fixed(far, 1.0, 2.0, 5.0))
+            .map(|_| ()),
+        "add_gravity_point",
+    );
+    let k = w
+        .add_gravity_point(throng::gravity::GravityPoint::fixed(
+            Vec2::ZERO,
+            1.0,
+            2.0,
+            5.0,
+        ))
+        .unwrap();
+    refused(w.set_gravity_position(k, far), "set_gravity_position");
+    refused(
+        w.add_target_point(TargetPoint::at(far)).map(|_| ()),
+        "add_target_point",
+    );
+    let mut p = w.groups()[0].clone();
+    p.steering = SteeringProfile::single(Behaviour::Seek {
+        target: Target::Point(far),
+        threshold: 0.0,
+    });
+    refused(w.set_group_params(0, p.clone()), "set_group_params");
+    refused(w.add_group(p).map(|_| ()), "add_group");
+    for _ in 0..3 {
+        w.step(0.1).unwrap();
+    }
+    assert!((0..w.len()).all(|i| w.agents().position(i).is_finite()));
+}
+
 #[test]
 fn derived_world_sides_are_capped() {
     let text = "[world]\nkind = \"torus\"\nagents_per_area = 1e-15\n[[groups]]\ncount = 100\n";

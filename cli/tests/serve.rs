@@ -413,6 +413,10 @@ fn bad_requests_get_4xx_with_a_message_and_the_server_goes_on() {
         (r#"{"cmd":"reset","agents":0}"#, "agents"),
         (r#"{"cmd":"steps_per_frame","n":5000}"#, "1000"),
         (r#"{"cmd":"reset","agents":50000000}"#, "memory"),
+        // The coordinate ceiling of scenario files holds for controls too.
+        (r#"{"cmd":"wall","x0":1,"y0":1,"x1":1e20,"y1":1}"#, "1e18"),
+        (r#"{"cmd":"gravity","x":-1e20,"y":1,"strength":1}"#, "1e18"),
+        (r#"{"cmd":"circle","x":1,"y":1e20,"radius":1}"#, "1e18"),
     ] {
         let (status, v) = s.json("POST", "/control", Some(body));
         assert_eq!(status, 400, "{body} -> {v}");

@@ -487,9 +487,10 @@ impl World {
     /// [`crate::steering::Target::Own`]).
     ///
     /// # Errors
-    /// [`Error::UnknownAgent`], [`Error::NonFinite`].
+    /// [`Error::UnknownAgent`], [`Error::NonFinite`], or [`Error::OutOfRange`] for a coordinate
+    /// beyond 1e18 ([`crate::error::coordinate`]).
     pub fn set_target(&mut self, id: AgentId, target: Vec2) -> Result<()> {
-        finite_vec("target", target)?;
+        crate::error::coordinate("target", target)?;
         let i = self.index(id)?;
         self.agents.target_x[i] = target.x;
         self.agents.target_y[i] = target.y;
