@@ -1,9 +1,77 @@
-"""Hostile values that once killed the interpreter or slipped past the library's ceilings."""
+"""Hostile values that once killed the interpreter or slipped past the library's ceilings.
+
+Each input that crashed runs in a child interpreter, so that a crash fails its test instead of
+ending the pytest run: the child must exit 0 after catching a ThrongError naming the argument.
+"""
+
+import subprocess
+import sys
+import textwrap
 
 import numpy as np
 import pytest
 
+import throng
 from throng import ThrongError, World
+
+#: Values nested deeper than the bindings accept, built in the child: a list that contains
+#: itself, and lists and dicts nested 10,000 deep.
+BUILD = """
+import throng
+loop = []
+loop.append(loop)
+deep = 0
+for _ in range(10_000):
+    deep = [deep]
+deep_dict = 0
+for _ in range(10_000):
+    deep_dict = {"a": deep_dict}
+"""
+
+CALLS = {
+    "override": ('throng.World.from_scenario("flock", agents=10, world__size=VALUE)', "world__size"),
+    "from_toml": ('throng.World.from_toml("[[groups]]\\ncount = 1", x=VALUE)', "x"),
+    "set_group_params": (
+        'throng.World.from_scenario("flock", agents=10).set_group_params(0, {"steering": VALUE})',
+        "params.steering",
+    ),
+    "add_gravity_point": (
+        'throng.World.from_scenario("flock", agents=10).add_gravity_point((0, 0), 1.0, 5.0, motion={"kind": VALUE})',
+        "motion.kind",
+    ),
+    "sweep run": ('throng.run({"scenario": "flock", "agents": 10, "steps": 1, "x": VALUE})', "x"),
+}
+
+
+@pytest.mark.parametrize("value", ["loop", "deep", "deep_dict"])
+@pytest.mark.parametrize("call", sorted(CALLS))
+def test_values_nested_too_deep_are_a_throng_error(call, value):
+    expr, argument = CALLS[call]
+    script = BUILD + textwrap.dedent(
+        f"""
+        try:
+            {expr.replace("VALUE", value)}
+        except throng.ThrongError as e:
+            assert "nest more than 64 levels" in str(e), e
+            assert str(e).startswith("invalid {argument}"), e
+        else:
+            raise SystemExit("accepted")
+        """
+    )
+    r = subprocess.run([sys.executable, "-c", script], capture_output=True, text=True, timeout=120)
+    assert r.returncode == 0, f"exit {r.returncode}: {r.stderr[-2000:]}"
+
+
+def test_values_nested_as_deep_as_a_scenario_are_accepted():
+    w = World.from_scenario("flock", agents=10)
+    p = w.group_params(0)
+    w.set_group_params(0, p)
+    assert w.group_params(0) == p
+
+
+def test_a_rust_panic_is_a_throng_error():
+    with pytest.raises(ThrongError, match="internal error.*made to panic"):
+        throng._throng._panic("made to panic")
 
 
 @pytest.mark.parametrize(
