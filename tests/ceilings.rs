@@ -255,3 +255,34 @@ steering = { behaviours = [{ kind = "follow_field", field = 0, channel = 0 }] }
     let v = Vec2::new(w.agents().vel_x()[0], w.agents().vel_y()[0]);
     assert!(v.x < 0.0 && v.y <= 0.0, "heads for the goal at (0, 0): {v}");
 }
+
+/// Inputs that were read as something else without a word: each is now an error naming the
+/// key (and the group or exit it belongs to).
+#[test]
+fn silent_nonsense_is_an_error_naming_the_key() {
+    for (file, wanted, unwanted) in [
+        (
+            "measurements_window_of_three.toml",
+            "measurements.window: expected two times [t0, t1], got 3 numbers",
+            "",
+        ),
+        (
+            "cfsm_group_with_social_force_table.toml",
+            "groups[0].pedestrian.social_force",
+            "",
+        ),
+        ("field_cell_size_0.toml", "field.cell_size", "EiB"),
+        (
+            "orca_key_without_group_path.toml",
+            "groups[1]: orca.time_horizon",
+            "",
+        ),
+        ("exit_min_beyond_max.toml", "exits[1]", ""),
+        ("target_slot_beyond_max_speed.toml", "targets[1]", ""),
+        ("walkable_bow_tie.toml", "crosses itself", "collinear"),
+    ] {
+        let e = refused(&data(file));
+        assert!(e.contains(wanted), "{file}: {e}");
+        assert!(unwanted.is_empty() || !e.contains(unwanted), "{file}: {e}");
+    }
+}
