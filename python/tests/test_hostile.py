@@ -94,3 +94,11 @@ def test_coordinates_beyond_the_ceiling_are_refused(call):
     w.step()
     assert np.isfinite(w.positions()).all()
 
+
+def test_set_group_params_refuses_a_field_the_world_does_not_have():
+    w = World.from_scenario("flock", agents=10)
+    follow = {"steering": {"behaviours": [{"kind": "follow_field", "field": 3}]}}
+    with pytest.raises(ThrongError, match="field 3"):
+        w.set_group_params(0, follow)
+    w.step()
+    assert w.frame == 1
