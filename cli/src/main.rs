@@ -372,27 +372,12 @@ fn build_world(s: &Scenario, memory: Option<u64>) -> Result<World> {
     Ok(world)
 }
 
-/// The rayon pool of `threads` workers (default: all cores, at most [`max_threads`]) and its
-/// size.
+/// The rayon pool of `threads` workers (default: all cores, at most
+/// [`throng::limits::max_threads`]) and its size.
 fn thread_pool(threads: Option<usize>) -> Result<(rayon::ThreadPool, usize)> {
     let cores = std::thread::available_parallelism().map_or(1, usize::from);
     let threads = match threads {
-        Some(0) => {
-            return Err(Error::NotPositive {
-                name: "threads",
-                value: 0.0,
-            });
-        }
-        Some(t) if t > max_threads(cores) => {
-            return Err(Error::Invalid {
-                name: "threads".into(),
-                reason: format!(
-                    "{t} is more than {} (four per core of this machine's {cores}, at least 16, at most 1024): workers beyond the cores only add fork-join cost to every step",
-                    max_threads(cores)
-                ),
-            });
-        }
-        Some(t) => t,
+        Some(t) => throng::limits::check_threads(t)?,
         None => cores,
     };
     let pool = rayon::ThreadPoolBuilder::new()
@@ -441,14 +426,6 @@ struct Drive<'a> {
     quiet: bool,
     /// Stop once every agent with a goal has arrived.
     until_arrived: bool,
-}
-
-/// The most worker threads `--threads` accepts on a machine with `cores` cores: four per core,
-/// at least 16 and at most 1024. Rayon's fork-join cost grows with the pool, so a pool far
-/// larger than the machine only slows each step (1,024 workers on 2 cores made a 2,000-agent
-/// flock step take 0.5 s against 4 ms), and each worker reserves a stack.
-fn max_threads(cores: usize) -> usize {
-    cores.saturating_mul(4).clamp(16, 1024)
 }
 
 fn run_scenario(s: Scenario, args: &RunArgs, file: Option<&Path>) -> Result<()> {

@@ -95,6 +95,12 @@ def test_coordinates_beyond_the_ceiling_are_refused(call):
     assert np.isfinite(w.positions()).all()
 
 
+def test_threads_beyond_the_clis_ceiling_are_refused():
+    with pytest.raises(ThrongError, match="at most 1024") as e:
+        World.from_scenario("flock", agents=10, threads=2000)
+    assert e.value.parameter == "threads"
+
+
 def test_set_group_params_refuses_a_field_the_world_does_not_have():
     w = World.from_scenario("flock", agents=10)
     follow = {"steering": {"behaviours": [{"kind": "follow_field", "field": 3}]}}
