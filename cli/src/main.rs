@@ -168,7 +168,7 @@ struct RunArgs {
     #[arg(long)]
     quiet: bool,
     /// Stop at the first frame at which every agent with a goal has arrived (--steps stays
-    /// the ceiling).
+    /// the ceiling); an error in a scenario with no goal (no arrival_radius, no exit).
     #[arg(long)]
     until_arrived: bool,
     /// Keep a checkpoint of the run in FILE (written crash-safe at the start, every
@@ -443,6 +443,19 @@ fn run_scenario(s: Scenario, args: &RunArgs, file: Option<&Path>) -> Result<()> 
         output::Format::of(p)?;
     }
     let (s, mut world, pool, threads) = prepare(s, &args.common)?;
+    if args.until_arrived
+        && world.exits().is_empty()
+        && world.groups().iter().all(|g| g.arrival_radius.is_none())
+    {
+        // Nothing could ever arrive: the run would silently take every step.
+        return Err(Error::Invalid {
+            name: "until-arrived".into(),
+            reason: format!(
+                "scenario {} has no goal to arrive at (no group has an `arrival_radius` and there is no exit)",
+                s.name
+            ),
+        });
+    }
     let every = period("every", args.every, (s.steps / 20).max(1))?;
     let checkpoint = match (&args.checkpoint, args.checkpoint_every) {
         (None, Some(_)) => {
