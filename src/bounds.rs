@@ -9,7 +9,7 @@
 use glam::Vec2;
 use serde::{Deserialize, Serialize};
 
-use crate::error::{Error, MAX_COORDINATE, Result, finite, positive};
+use crate::error::{Error, MAX_COORDINATE, Result, positive};
 
 /// The shape of the world agents live in.
 #[derive(Clone, Copy, Debug, Default, PartialEq, Serialize, Deserialize)]
@@ -102,10 +102,7 @@ impl Bounds {
     /// # Errors
     /// [`Error::NonFinite`] or [`Error::Invalid`] when outside.
     pub fn check_point(&self, name: &'static str, p: Vec2) -> Result<Vec2> {
-        finite(name, p.x)?;
-        finite(name, p.y)?;
-        crate::error::in_range(name, p.x, -MAX_COORDINATE, MAX_COORDINATE, "[-1e18, 1e18]")?;
-        crate::error::in_range(name, p.y, -MAX_COORDINATE, MAX_COORDINATE, "[-1e18, 1e18]")?;
+        crate::error::coordinate(name, p)?;
         if self.contains(p) {
             Ok(p)
         } else {

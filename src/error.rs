@@ -256,6 +256,20 @@ pub fn finite_vec(name: &'static str, v: glam::Vec2) -> Result<glam::Vec2> {
     Ok(v)
 }
 
+/// Checks that `p` is a point of the plane throng works in: both coordinates finite and of a
+/// magnitude of at most [`MAX_COORDINATE`] (1e18). Every entry point that takes a position or a
+/// target (scenario files, the world's setters and builders, checkpoints, Python, `throng
+/// serve`) goes through this one check, so a target at 1e20 is refused wherever it comes from.
+///
+/// # Errors
+/// [`Error::NonFinite`] or [`Error::OutOfRange`] naming the first bad component.
+pub fn coordinate(name: &'static str, p: glam::Vec2) -> Result<glam::Vec2> {
+    for c in [p.x, p.y] {
+        in_range(name, c, -MAX_COORDINATE, MAX_COORDINATE, "[-1e18, 1e18]")?;
+    }
+    Ok(p)
+}
+
 /// Checks that `value` is finite and not negative.
 ///
 /// # Errors

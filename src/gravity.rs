@@ -85,7 +85,7 @@ impl GravityPoint {
     /// # Errors
     /// [`Error::NonFinite`], [`Error::Negative`] or [`Error::NotPositive`] naming the parameter.
     pub fn validate(&self) -> Result<()> {
-        finite_vec("gravity.position", self.position)?;
+        crate::error::coordinate("gravity.position", self.position)?;
         finite("gravity.strength", self.strength)?;
         non_negative("gravity.exponent", self.exponent)?;
         positive("gravity.radius", self.radius)?;
@@ -95,7 +95,7 @@ impl GravityPoint {
             angular_speed,
         } = self.motion
         {
-            finite_vec("gravity.motion.center", center)?;
+            crate::error::coordinate("gravity.motion.center", center)?;
             non_negative("gravity.motion.orbit_radius", orbit_radius)?;
             finite("gravity.motion.angular_speed", angular_speed)?;
         }
@@ -167,7 +167,7 @@ impl GravityField {
     /// # Errors
     /// [`Error::Invalid`] for an unknown point, [`Error::NonFinite`] for a bad position.
     pub fn set_position(&mut self, k: usize, position: Vec2) -> Result<()> {
-        finite_vec("gravity.position", position)?;
+        crate::error::coordinate("gravity.position", position)?;
         let count = self.points.len();
         let p = self.points.get_mut(k).ok_or_else(|| Error::Invalid {
             name: "gravity point".into(),

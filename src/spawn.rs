@@ -31,7 +31,7 @@ use rand::{Rng, RngExt, SeedableRng};
 use rand_chacha::ChaCha8Rng;
 
 use crate::agents::AgentInit;
-use crate::error::{Error, MAX_AGENTS, MAX_COORDINATE, Result, finite, non_negative, positive};
+use crate::error::{Error, MAX_AGENTS, MAX_COORDINATE, Result, non_negative, positive};
 use crate::field::OccupancyGrid;
 use crate::obstacles::Obstacles;
 
@@ -383,9 +383,7 @@ fn coordinate(name: &'static str, v: f32) -> Result<f32> {
 }
 
 fn point_ok(name: &'static str, p: Vec2) -> Result<()> {
-    coordinate(name, finite(name, p.x)?)?;
-    coordinate(name, finite(name, p.y)?)?;
-    Ok(())
+    crate::error::coordinate(name, p).map(|_| ())
 }
 
 fn rect_ok(min: Vec2, max: Vec2) -> Result<()> {

@@ -7,14 +7,14 @@
 //! step. A slot may carry a velocity, which pursuit and evasion use to predict where it will be.
 //!
 //! Invariants: every slot's position is finite with coordinates within
-//! [`MAX_COORDINATE`], and its velocity finite with a magnitude of
+//! [`MAX_COORDINATE`](crate::error::MAX_COORDINATE), and its velocity finite with a magnitude of
 //! at most [`MAX_SPEED`]; slots are never removed, so a
 //! [`TargetSlot`] handed out stays valid for the world's life.
 
 use glam::Vec2;
 use serde::{Deserialize, Serialize};
 
-use crate::error::{Error, MAX_COORDINATE, MAX_SPEED, Result, finite_vec, in_range};
+use crate::error::{Error, MAX_SPEED, Result, finite_vec, in_range};
 
 /// A handle to one of a world's target slots (its index in the order slots were added).
 #[derive(Clone, Copy, Debug, PartialEq, Eq, Hash, PartialOrd, Ord, Serialize, Deserialize)]
@@ -52,18 +52,9 @@ impl TargetPoint {
     ///
     /// # Errors
     /// [`Error::NonFinite`] or [`Error::OutOfRange`] for a position beyond
-    /// [`MAX_COORDINATE`] or a velocity faster than [`MAX_SPEED`].
+    /// [`MAX_COORDINATE`](crate::error::MAX_COORDINATE) or a velocity faster than [`MAX_SPEED`].
     pub fn validate(&self) -> Result<()> {
-        let p = finite_vec("target.position", self.position)?;
-        for c in [p.x, p.y] {
-            in_range(
-                "target.position",
-                c,
-                -MAX_COORDINATE,
-                MAX_COORDINATE,
-                "[-1e18, 1e18]",
-            )?;
-        }
+        crate::error::coordinate("target.position", self.position)?;
         let v = finite_vec("target.velocity", self.velocity)?;
         in_range(
             "target.velocity",

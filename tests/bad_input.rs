@@ -235,6 +235,35 @@ fn bad_behaviour_parameters_are_rejected() {
     ));
 }
 
+/// `set_group_params` on a built world took a profile naming a field the world does not have,
+/// and every later step failed; now the call is refused and the world steps on.
+#[test]
+fn set_group_params_refuses_a_field_or_group_the_world_does_not_have() {
+    let mut w = world();
+    for behaviour in [
+        Behaviour::FollowField {
+            field: 3,
+            channel: 0,
+        },
+        Behaviour::Seek {
+            target: Target::Nearest {
+                group: 7,
+                within: 1.0,
+            },
+            threshold: 0.0,
+        },
+    ] {
+        let p = GroupParams::dynamic(SteeringProfile::single(behaviour));
+        let err = w.set_group_params(0, p).unwrap_err();
+        assert!(
+            matches!(err, Error::UnknownField { .. } | Error::UnknownGroup { .. }),
+            "{err}"
+        );
+    }
+    w.step(0.1).unwrap();
+    assert_eq!(w.frame(), 1);
+}
+
 #[test]
 fn references_to_missing_fields_and_groups_are_rejected_at_the_step() {
     let follow = SteeringProfile::single(Behaviour::FollowField {

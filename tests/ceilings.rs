@@ -142,6 +142,71 @@ fn numbers_beyond_the_ceiling_are_refused_naming_the_key() {
     }
 }
 
+/// The ceiling of scenario files holds for the world's own setters and builders too (and so for
+/// every caller: Python, `throng serve`, checkpoints): a target at 1e20 froze every agent.
+#[test]
+fn coordinates_beyond_the_ceiling_are_refused_by_every_setter() {
+    let text = "[world]\nkind = \"open\"\n[[groups]]\ncount = 2\nspawn = { kind = \"disc\", center = [0, 0], radius = 5 }\n";
+    let mut w = Scenario::from_toml(text, "c.toml")
+        .unwrap()
+        .build()
+        .unwrap();
+    let id = w.agents().id(0);
+    let far = Vec2::new(1e20, 0.0);
+    let ok = Vec2::new(1e17, 0.0);
+    let refused = |r: throng::Result<()>, what: &str| {
+        let e = r.expect_err(what).to_string();
+        assert!(e.contains("1e18"), "{what}: {e}");
+    };
+    refused(w.set_target(id, far), "set_target");
+    assert!(w.set_target(id, ok).is_ok());
+    refused(w.set_position(id, far), "set_position");
+    refused(
+        w.add_wall(throng::obstacles::Wall {
+            a: Vec2::ZERO,
+            b: far,
+        }),
+        "add_wall",
+    );
+    refused(
+        w.add_polygon(&[Vec2::ZERO, far, Vec2::ONE], true),
+        "add_polygon",
+    );
+    refused(
+        w.add_circle(throng::obstacles::Circle::new(far, 1.0)),
+        "add_circle",
+    );
+    refused(
+        w.add_gravity_point(throng::gravity::GravityPoint::fixed(far, 1.0, 2.0, 5.0))
+            .map(|_| ()),
+        "add_gravity_point",
+    );
+    let k = w
+        .add_gravity_point(throng::gravity::GravityPoint::fixed(
+            Vec2::ZERO,
+            1.0,
+            2.0,
+            5.0,
+        ))
+        .unwrap();
+    refused(w.set_gravity_position(k, far), "set_gravity_position");
+    refused(
+        w.add_target_point(TargetPoint::at(far)).map(|_| ()),
+        "add_target_point",
+    );
+    let mut p = w.groups()[0].clone();
+    p.steering = SteeringProfile::single(Behaviour::Seek {
+        target: Target::Point(far),
+        threshold: 0.0,
+    });
+    refused(w.set_group_params(0, p.clone()), "set_group_params");
+    refused(w.add_group(p).map(|_| ()), "add_group");
+    for _ in 0..3 {
+        w.step(0.1).unwrap();
+    }
+    assert!((0..w.len()).all(|i| w.agents().position(i).is_finite()));
+}
+
 #[test]
 fn derived_world_sides_are_capped() {
     let text = "[world]\nkind = \"torus\"\nagents_per_area = 1e-15\n[[groups]]\ncount = 100\n";
@@ -189,4 +254,35 @@ steering = { behaviours = [{ kind = "follow_field", field = 0, channel = 0 }] }
     }
     let v = Vec2::new(w.agents().vel_x()[0], w.agents().vel_y()[0]);
     assert!(v.x < 0.0 && v.y <= 0.0, "heads for the goal at (0, 0): {v}");
+}
+
+/// Inputs that were read as something else without a word: each is now an error naming the
+/// key (and the group or exit it belongs to).
+#[test]
+fn silent_nonsense_is_an_error_naming_the_key() {
+    for (file, wanted, unwanted) in [
+        (
+            "measurements_window_of_three.toml",
+            "measurements.window: expected two times [t0, t1], got 3 numbers",
+            "",
+        ),
+        (
+            "cfsm_group_with_social_force_table.toml",
+            "groups[0].pedestrian.social_force",
+            "",
+        ),
+        ("field_cell_size_0.toml", "field.cell_size", "EiB"),
+        (
+            "orca_key_without_group_path.toml",
+            "groups[1]: orca.time_horizon",
+            "",
+        ),
+        ("exit_min_beyond_max.toml", "exits[1]", ""),
+        ("target_slot_beyond_max_speed.toml", "targets[1]", ""),
+        ("walkable_bow_tie.toml", "crosses itself", "collinear"),
+    ] {
+        let e = refused(&data(file));
+        assert!(e.contains(wanted), "{file}: {e}");
+        assert!(unwanted.is_empty() || !e.contains(unwanted), "{file}: {e}");
+    }
 }

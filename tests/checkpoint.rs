@@ -353,7 +353,7 @@ fn crafted_values_are_rejected_by_the_worlds_validation() {
     let bytes = tiny();
     assert!(World::load(&crafted(&bytes, |_| {}) as &[u8]).is_ok());
     type Edit = fn(&mut ciborium::Value);
-    let cases: [(&str, Edit); 8] = [
+    let cases: [(&str, Edit); 9] = [
         ("position", |v| {
             entry(v, &["world", "agents", "pos_x"])
                 .as_array_mut()
@@ -388,6 +388,12 @@ fn crafted_values_are_rejected_by_the_worlds_validation() {
         }),
         ("ids_issued", |v| {
             *entry(v, &["world", "ids_issued"]) = ciborium::Value::Integer(u32::MAX.into());
+        }),
+        // A target past the coordinate ceiling froze every agent that sought it.
+        ("target", |v| {
+            entry(v, &["world", "agents", "target_x"])
+                .as_array_mut()
+                .unwrap()[0] = ciborium::Value::Float(1e20);
         }),
         ("decay", |v| {
             let f = &mut entry(v, &["world", "fields"]).as_array_mut().unwrap()[0];

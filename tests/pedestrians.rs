@@ -261,7 +261,10 @@ fn bad_pedestrian_values_are_errors_naming_the_key() {
             "desired_speed",
         ),
         ("pedestrian = { model = \"magic\" }", "magic"),
-        ("pedestrian = { social_force = { lambda = 2 } }", "lambda"),
+        (
+            "pedestrian = { model = \"social_force\", social_force = { lambda = 2 } }",
+            "lambda",
+        ),
         (
             "pedestrian = { cfsm = { speed_function = \"cubic\" } }",
             "cubic",

@@ -168,7 +168,7 @@ struct RunArgs {
     #[arg(long)]
     quiet: bool,
     /// Stop at the first frame at which every agent with a goal has arrived (--steps stays
-    /// the ceiling).
+    /// the ceiling); an error in a scenario with no goal (no arrival_radius, no exit).
     #[arg(long)]
     until_arrived: bool,
     /// Keep a checkpoint of the run in FILE (written crash-safe at the start, every
@@ -382,27 +382,12 @@ fn build_world(s: &Scenario, memory: Option<u64>) -> Result<World> {
     Ok(world)
 }
 
-/// The rayon pool of `threads` workers (default: all cores, at most [`max_threads`]) and its
-/// size.
+/// The rayon pool of `threads` workers (default: all cores, at most
+/// [`throng::limits::max_threads`]) and its size.
 fn thread_pool(threads: Option<usize>) -> Result<(rayon::ThreadPool, usize)> {
     let cores = std::thread::available_parallelism().map_or(1, usize::from);
     let threads = match threads {
-        Some(0) => {
-            return Err(Error::NotPositive {
-                name: "threads",
-                value: 0.0,
-            });
-        }
-        Some(t) if t > max_threads(cores) => {
-            return Err(Error::Invalid {
-                name: "threads".into(),
-                reason: format!(
-                    "{t} is more than {} (four per core of this machine's {cores}, at least 16, at most 1024): workers beyond the cores only add fork-join cost to every step",
-                    max_threads(cores)
-                ),
-            });
-        }
-        Some(t) => t,
+        Some(t) => throng::limits::check_threads(t)?,
         None => cores,
     };
     let pool = rayon::ThreadPoolBuilder::new()
@@ -453,14 +438,6 @@ struct Drive<'a> {
     until_arrived: bool,
 }
 
-/// The most worker threads `--threads` accepts on a machine with `cores` cores: four per core,
-/// at least 16 and at most 1024. Rayon's fork-join cost grows with the pool, so a pool far
-/// larger than the machine only slows each step (1,024 workers on 2 cores made a 2,000-agent
-/// flock step take 0.5 s against 4 ms), and each worker reserves a stack.
-fn max_threads(cores: usize) -> usize {
-    cores.saturating_mul(4).clamp(16, 1024)
-}
-
 fn run_scenario(s: Scenario, args: &RunArgs, file: Option<&Path>) -> Result<()> {
     let outputs: Vec<(&'static str, &Path)> = [
         ("--render", args.render.as_deref()),
@@ -476,6 +453,19 @@ fn run_scenario(s: Scenario, args: &RunArgs, file: Option<&Path>) -> Result<()> 
         output::Format::of(p)?;
     }
     let (s, mut world, pool, threads) = prepare(s, &args.common)?;
+    if args.until_arrived
+        && world.exits().is_empty()
+        && world.groups().iter().all(|g| g.arrival_radius.is_none())
+    {
+        // Nothing could ever arrive: the run would silently take every step.
+        return Err(Error::Invalid {
+            name: "until-arrived".into(),
+            reason: format!(
+                "scenario {} has no goal to arrive at (no group has an `arrival_radius` and there is no exit)",
+                s.name
+            ),
+        });
+    }
     let every = period("every", args.every, (s.steps / 20).max(1))?;
     let checkpoint = match (&args.checkpoint, args.checkpoint_every) {
         (None, Some(_)) => {

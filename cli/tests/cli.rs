@@ -161,6 +161,11 @@ fn bad_input_gets_a_non_zero_exit_and_one_line() {
     assert_one_line_failure(&["demo", "flock", "--threads", "0"], "threads");
     assert_one_line_failure(&["demo", "flock", "--index", "octree"], "--index");
     assert_one_line_failure(&["demo", "flock", "--every", "0"], "every");
+    // Nothing in a flock can arrive: --until-arrived ran every step without a word.
+    assert_one_line_failure(
+        &["demo", "flock", "--agents", "20", "--until-arrived"],
+        "no goal to arrive at",
+    );
     assert_one_line_failure(&["run", "/no/such/file.toml"], "/no/such/file.toml");
     assert_one_line_failure(
         &[

@@ -345,6 +345,12 @@ fn bad_extensions_and_unwritable_paths_are_refused_before_the_run() {
         refused(path.to_str().unwrap(), ".sqlite");
         assert!(!path.exists(), "{ext}");
     }
+    // A compressed name was filled with plain CSV.
+    for name in ["t.csv.gz", "t.txt.XZ", "t.csv.zst", "t.zip"] {
+        let path = tmp(name);
+        refused(path.to_str().unwrap(), "does not compress");
+        assert!(!path.exists(), "{name}");
+    }
     refused("no-such-folder-xyz/t.sqlite", "no-such-folder-xyz");
     refused("no-such-folder-xyz/t.txt", "no-such-folder-xyz");
     // A database cannot be streamed into a device.

@@ -7,7 +7,7 @@ use throng::timing::Timings;
 use throng::{Error, IndexKind};
 
 use crate::convert;
-use crate::error::{OrRaise, raise, unsigned};
+use crate::error::{OrRaise, guarded, raise, unsigned};
 use crate::scenario::{Source, load};
 use crate::world::{build, changes, pool};
 
@@ -65,8 +65,8 @@ pub(crate) fn bench<'py>(
     let mut world = build(&s)?;
     let dt = s.dt;
     let mut measure = Measurements::new(&s.measurements).or_raise()?;
-    let timings = py
-        .detach(|| {
+    let timings = guarded(|| {
+        py.detach(|| {
             pool.install(|| -> throng::Result<Timings> {
                 measure.observe(&world);
                 for _ in 0..warmup {
@@ -82,7 +82,8 @@ pub(crate) fn bench<'py>(
                 Ok(timings)
             })
         })
-        .or_raise()?;
+        .or_raise()
+    })?;
     let report = timings
         .report(
             &s.name,

@@ -14,8 +14,27 @@ use serde::de::DeserializeOwned;
 
 use crate::error::invalid;
 
-/// A Python value (bool, int, float, str, sequence, dict, numpy scalar or array) as TOML.
+/// How deeply lists and dicts may nest in a value handed to a scenario (overrides, group
+/// profiles, gravity motions, sweep runs). The deepest key of a scenario file sits about eight
+/// levels down (`groups[0].steering.behaviours[0].target.point[0]`); a list that contains
+/// itself, or one nested 10,000 deep, overflowed the stack and killed the interpreter.
+pub(crate) const MAX_DEPTH: usize = 64;
+
+/// A Python value (bool, int, float, str, sequence, dict, numpy scalar or array) as TOML, nested
+/// at most [`MAX_DEPTH`] levels; errors name `name`.
 pub(crate) fn to_toml(name: &str, obj: &Bound<'_, PyAny>) -> PyResult<toml::Value> {
+    to_toml_at(name, obj, 0)
+}
+
+fn to_toml_at(name: &str, obj: &Bound<'_, PyAny>, depth: usize) -> PyResult<toml::Value> {
+    if depth > MAX_DEPTH {
+        return Err(invalid(
+            name,
+            format!(
+                "lists and dicts nest more than {MAX_DEPTH} levels deep (or a list contains itself)"
+            ),
+        ));
+    }
     if obj.is_instance_of::<PyBool>() {
         return Ok(toml::Value::Boolean(obj.extract()?));
     }
@@ -37,7 +56,7 @@ pub(crate) fn to_toml(name: &str, obj: &Bound<'_, PyAny>) -> PyResult<toml::Valu
             let key: String = k
                 .extract()
                 .map_err(|_| invalid(name, "dictionary keys must be strings"))?;
-            let value = to_toml(&format!("{name}.{key}"), &v)?;
+            let value = to_toml_at(&format!("{name}.{key}"), &v, depth + 1)?;
             table.insert(key, value);
         }
         return Ok(toml::Value::Table(table));
@@ -45,7 +64,7 @@ pub(crate) fn to_toml(name: &str, obj: &Bound<'_, PyAny>) -> PyResult<toml::Valu
     if obj.is_instance_of::<PyList>() || obj.is_instance_of::<PyTuple>() {
         let items = obj
             .try_iter()?
-            .map(|item| to_toml(name, &item?))
+            .map(|item| to_toml_at(name, &item?, depth + 1))
             .collect::<PyResult<Vec<_>>>()?;
         return Ok(toml::Value::Array(items));
     }
@@ -54,7 +73,7 @@ pub(crate) fn to_toml(name: &str, obj: &Bound<'_, PyAny>) -> PyResult<toml::Valu
         if obj.hasattr(method)? {
             let plain = obj.call_method0(method)?;
             if !plain.is(obj) {
-                return to_toml(name, &plain);
+                return to_toml_at(name, &plain, depth + 1);
             }
         }
     }

@@ -48,6 +48,23 @@ pub(crate) fn raise_in(context: Option<&str>, e: &Error) -> PyErr {
     )
 }
 
+/// Runs `f`; a Rust panic inside it becomes a `ThrongError` carrying the panic's message
+/// (pyo3 would raise its `PanicException`, a `BaseException` that `except Exception` does not
+/// catch). Every call of the module that builds or steps a world, or changes one, runs through
+/// here.
+pub(crate) fn guarded<T>(f: impl FnOnce() -> PyResult<T>) -> PyResult<T> {
+    std::panic::catch_unwind(std::panic::AssertUnwindSafe(f)).unwrap_or_else(|payload| {
+        let message = payload
+            .downcast_ref::<&str>()
+            .map(|s| (*s).to_string())
+            .or_else(|| payload.downcast_ref::<String>().cloned())
+            .unwrap_or_else(|| "a panic without a message".into());
+        Err(ThrongError::new_err(format!(
+            "internal error (a bug of throng; please report it): {message}"
+        )))
+    })
+}
+
 /// `e` as a `ThrongError`.
 pub(crate) fn raise(e: &Error) -> PyErr {
     raise_in(None, e)

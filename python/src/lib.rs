@@ -33,6 +33,13 @@ fn scenarios(py: Python<'_>) -> PyResult<Bound<'_, PyDict>> {
     Ok(d)
 }
 
+/// Panics with `message` inside the module's panic guard: the test suite's way of checking that
+/// a Rust panic reaches Python as a `ThrongError` (private; not part of the API).
+#[pyfunction]
+fn _panic(message: &str) -> PyResult<()> {
+    error::guarded(|| panic!("{message}"))
+}
+
 /// The native part of the `throng` package; import `throng` instead.
 #[pymodule]
 fn _throng(m: &Bound<'_, PyModule>) -> PyResult<()> {
@@ -44,6 +51,8 @@ fn _throng(m: &Bound<'_, PyModule>) -> PyResult<()> {
     m.add_function(wrap_pyfunction!(bench::bench, m)?)?;
     m.add_function(wrap_pyfunction!(validate::validate, m)?)?;
     m.add_function(wrap_pyfunction!(scenarios, m)?)?;
+    // Private: set as an attribute, so it stays out of `__all__`.
+    m.setattr("_panic", wrap_pyfunction!(_panic, m)?)?;
     m.add("__version__", env!("CARGO_PKG_VERSION"))?;
     Ok(())
 }

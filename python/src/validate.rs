@@ -7,7 +7,7 @@ use throng::Error;
 use throng::validate::{Options, Size, case as find_case, run_case};
 
 use crate::convert;
-use crate::error::{OrRaise, raise};
+use crate::error::{OrRaise, guarded, raise};
 use crate::world::pool;
 
 /// Runs validation case `case` and returns its report as a dict: {"id", "title", "pass",
@@ -57,9 +57,10 @@ pub(crate) fn validate<'py>(
     let threads = threads
         .unwrap_or_else(|| std::thread::available_parallelism().map_or(1, |n| n.get() as i128));
     let pool = pool(Some(threads))?.expect("a thread count was given");
-    let report = py
-        .detach(|| pool.install(|| run_case(case, &options)))
-        .or_raise()?;
+    let report = guarded(|| {
+        py.detach(|| pool.install(|| run_case(case, &options)))
+            .or_raise()
+    })?;
     let dict = convert::serialize_to_py(py, &report, false)?;
     Ok(dict)
 }

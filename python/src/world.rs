@@ -21,7 +21,7 @@ use throng::{AgentId, AgentInit, Error, GroupParams, IndexKind, StepStats, World
 
 use crate::arrays::{self, Order};
 use crate::convert;
-use crate::error::{OrRaise, invalid, raise, raise_in, unsigned};
+use crate::error::{OrRaise, guarded, invalid, raise, raise_in, unsigned};
 use crate::scenario::{Changes, Source, load};
 
 /// The longest stretch of steps run without looking at Python's signals.
@@ -49,12 +49,8 @@ pub(crate) fn pool(threads: Option<i128>) -> PyResult<Option<rayon::ThreadPool>>
         return Ok(None);
     };
     let t: usize = unsigned("threads", t)?;
-    if t == 0 {
-        return Err(raise(&Error::NotPositive {
-            name: "threads",
-            value: 0.0,
-        }));
-    }
+    // The CLI's ceiling: 2000 workers on 2 cores only add fork-join cost to every step.
+    let t = throng::limits::check_threads(t).or_raise()?;
     rayon::ThreadPoolBuilder::new()
         .num_threads(t)
         .build()
@@ -64,9 +60,11 @@ pub(crate) fn pool(threads: Option<i128>) -> PyResult<Option<rayon::ThreadPool>>
 
 /// Builds a scenario's world; an error names the scenario, as the CLI's do.
 pub(crate) fn build(s: &Scenario) -> PyResult<World> {
-    s.build().map_err(|e| match e {
-        Error::Scenario { .. } | Error::Io { .. } => raise(&e),
-        other => raise_in(Some(&s.name), &other),
+    guarded(|| {
+        s.build().map_err(|e| match e {
+            Error::Scenario { .. } | Error::Io { .. } => raise(&e),
+            other => raise_in(Some(&s.name), &other),
+        })
     })
 }
 
@@ -207,30 +205,32 @@ impl PyWorld {
             let world = &mut self.world;
             let pool = self.pool.as_ref();
             let each = &mut each;
-            let (k, stats, result) = py.detach(|| {
-                let mut slice = || {
-                    let start = Instant::now();
-                    let (mut k, mut stats) = (0, None);
-                    while done + k < n {
-                        match world.step(dt) {
-                            Ok(s) => {
-                                each(world, &s);
-                                stats = Some(s);
-                                k += 1;
+            let (k, stats, result) = guarded(|| {
+                Ok(py.detach(|| {
+                    let mut slice = || {
+                        let start = Instant::now();
+                        let (mut k, mut stats) = (0, None);
+                        while done + k < n {
+                            match world.step(dt) {
+                                Ok(s) => {
+                                    each(world, &s);
+                                    stats = Some(s);
+                                    k += 1;
+                                }
+                                Err(e) => return (k, stats, Err(e)),
                             }
-                            Err(e) => return (k, stats, Err(e)),
+                            if start.elapsed() >= SLICE {
+                                break;
+                            }
                         }
-                        if start.elapsed() >= SLICE {
-                            break;
-                        }
+                        (k, stats, Ok(()))
+                    };
+                    match pool {
+                        Some(p) => p.install(slice),
+                        None => slice(),
                     }
-                    (k, stats, Ok(()))
-                };
-                match pool {
-                    Some(p) => p.install(slice),
-                    None => slice(),
-                }
-            });
+                }))
+            })?;
             result.or_raise()?;
             done += k;
             last = stats.or(last);
@@ -577,86 +577,91 @@ impl PyWorld {
         max_speed: Option<&Bound<'py, PyAny>>,
         radius: Option<&Bound<'py, PyAny>>,
     ) -> PyResult<Bound<'py, PyAny>> {
-        let pos = arrays::read_pairs("positions", positions)?;
-        let m = pos.len();
-        let vel = match velocities {
-            Some(v) => arrays::read_pairs("velocities", v)?,
-            None => vec![[0.0; 2]; m],
-        };
-        if vel.len() != m {
-            return Err(invalid(
-                "velocities",
-                format!("expected {m} rows, got {}", vel.len()),
-            ));
-        }
-        let floats = |name: &str, v: Option<&Bound<'py, PyAny>>| -> PyResult<Option<Vec<f32>>> {
-            v.map(|v| arrays::broadcast(name, arrays::read_floats(name, v)?, m))
-                .transpose()
-        };
-        let orient = floats("orientations", orientations)?;
-        let speeds = floats("max_speed", max_speed)?;
-        let radii = floats("radius", radius)?;
-        let groups = match group {
-            Some(g) => arrays::broadcast("group", arrays::read_ints("group", g)?, m)?,
-            None => vec![0; m],
-        };
-        let mut ids = Vec::with_capacity(m);
-        for k in 0..m {
-            let group = usize::try_from(groups[k])
-                .map_err(|_| invalid("group", format!("row {k}: {} is negative", groups[k])));
-            let init = group.map(|group| AgentInit {
-                position: pos[k].into(),
-                velocity: vel[k].into(),
-                orientation: orient.as_ref().map_or(0.0, |o| o[k]),
-                rotation: 0.0,
-                group,
-                max_speed: speeds.as_ref().map(|s| s[k]),
-                radius: radii.as_ref().map(|r| r[k]),
-                desired_speed: None,
-            });
-            match init.and_then(|i| {
-                self.world
-                    .add_agent(i)
-                    .map_err(|e| raise_in(Some(&format!("row {k}")), &e))
-            }) {
-                Ok(id) => ids.push(id.0),
-                Err(e) => {
-                    // The new agents sit at the end of storage: removing them from the last
-                    // moves no other agent.
-                    for &id in ids.iter().rev() {
-                        self.world
-                            .remove_agent(AgentId(id))
-                            .expect("an agent added just now is alive");
+        guarded(|| {
+            let pos = arrays::read_pairs("positions", positions)?;
+            let m = pos.len();
+            let vel = match velocities {
+                Some(v) => arrays::read_pairs("velocities", v)?,
+                None => vec![[0.0; 2]; m],
+            };
+            if vel.len() != m {
+                return Err(invalid(
+                    "velocities",
+                    format!("expected {m} rows, got {}", vel.len()),
+                ));
+            }
+            let floats =
+                |name: &str, v: Option<&Bound<'py, PyAny>>| -> PyResult<Option<Vec<f32>>> {
+                    v.map(|v| arrays::broadcast(name, arrays::read_floats(name, v)?, m))
+                        .transpose()
+                };
+            let orient = floats("orientations", orientations)?;
+            let speeds = floats("max_speed", max_speed)?;
+            let radii = floats("radius", radius)?;
+            let groups = match group {
+                Some(g) => arrays::broadcast("group", arrays::read_ints("group", g)?, m)?,
+                None => vec![0; m],
+            };
+            let mut ids = Vec::with_capacity(m);
+            for k in 0..m {
+                let group = usize::try_from(groups[k])
+                    .map_err(|_| invalid("group", format!("row {k}: {} is negative", groups[k])));
+                let init = group.map(|group| AgentInit {
+                    position: pos[k].into(),
+                    velocity: vel[k].into(),
+                    orientation: orient.as_ref().map_or(0.0, |o| o[k]),
+                    rotation: 0.0,
+                    group,
+                    max_speed: speeds.as_ref().map(|s| s[k]),
+                    radius: radii.as_ref().map(|r| r[k]),
+                    desired_speed: None,
+                });
+                match init.and_then(|i| {
+                    self.world
+                        .add_agent(i)
+                        .map_err(|e| raise_in(Some(&format!("row {k}")), &e))
+                }) {
+                    Ok(id) => ids.push(id.0),
+                    Err(e) => {
+                        // The new agents sit at the end of storage: removing them from the last
+                        // moves no other agent.
+                        for &id in ids.iter().rev() {
+                            self.world
+                                .remove_agent(AgentId(id))
+                                .expect("an agent added just now is alive");
+                        }
+                        return Err(e);
                     }
-                    return Err(e);
                 }
             }
-        }
-        Ok(Array1::from_vec(ids).into_pyarray(py).into_any())
+            Ok(Array1::from_vec(ids).into_pyarray(py).into_any())
+        })
     }
 
     /// Removes the agents with these ids (an int or a 1-D array-like); the others keep their
     /// ids. Unknown or repeated ids raise ThrongError and nothing is removed.
     fn remove_agents(&mut self, ids: &Bound<'_, PyAny>) -> PyResult<()> {
-        let ids = arrays::read_ints("ids", ids)?;
-        let mut seen = std::collections::HashSet::with_capacity(ids.len());
-        let mut checked = Vec::with_capacity(ids.len());
-        for &id in &ids {
-            let id = agent_id(id)?;
-            if self.world.agent(id).is_none() {
-                return Err(raise_in(Some("ids"), &Error::UnknownAgent { id }));
+        guarded(|| {
+            let ids = arrays::read_ints("ids", ids)?;
+            let mut seen = std::collections::HashSet::with_capacity(ids.len());
+            let mut checked = Vec::with_capacity(ids.len());
+            for &id in &ids {
+                let id = agent_id(id)?;
+                if self.world.agent(id).is_none() {
+                    return Err(raise_in(Some("ids"), &Error::UnknownAgent { id }));
+                }
+                if !seen.insert(id) {
+                    return Err(invalid("ids", format!("agent {} is listed twice", id.0)));
+                }
+                checked.push(id);
             }
-            if !seen.insert(id) {
-                return Err(invalid("ids", format!("agent {} is listed twice", id.0)));
+            for id in checked {
+                self.world
+                    .remove_agent(id)
+                    .expect("every id was checked alive");
             }
-            checked.push(id);
-        }
-        for id in checked {
-            self.world
-                .remove_agent(id)
-                .expect("every id was checked alive");
-        }
-        Ok(())
+            Ok(())
+        })
     }
 
     /// Moves agents: `positions` is an (m, 2) array-like, one row per id. On an error nothing
@@ -666,15 +671,17 @@ impl PyWorld {
         ids: &Bound<'_, PyAny>,
         positions: &Bound<'_, PyAny>,
     ) -> PyResult<()> {
-        let (ids, v) = self.rows_of(ids, positions, "positions")?;
-        set_each(
-            "positions",
-            &mut self.world,
-            &ids,
-            &v,
-            |w, id| w.agent(id).map(|a| a.position.into()),
-            |w, id, p: [f32; 2]| w.set_position(id, p.into()),
-        )
+        guarded(|| {
+            let (ids, v) = self.rows_of(ids, positions, "positions")?;
+            set_each(
+                "positions",
+                &mut self.world,
+                &ids,
+                &v,
+                |w, id| w.agent(id).map(|a| a.position.into()),
+                |w, id, p: [f32; 2]| w.set_position(id, p.into()),
+            )
+        })
     }
 
     /// Sets agents' velocities (clamped to their maximum speed); one (vx, vy) row per id. On an
@@ -684,30 +691,34 @@ impl PyWorld {
         ids: &Bound<'_, PyAny>,
         velocities: &Bound<'_, PyAny>,
     ) -> PyResult<()> {
-        let (ids, v) = self.rows_of(ids, velocities, "velocities")?;
-        set_each(
-            "velocities",
-            &mut self.world,
-            &ids,
-            &v,
-            |w, id| w.agent(id).map(|a| a.velocity.into()),
-            |w, id, p: [f32; 2]| w.set_velocity(id, p.into()),
-        )
+        guarded(|| {
+            let (ids, v) = self.rows_of(ids, velocities, "velocities")?;
+            set_each(
+                "velocities",
+                &mut self.world,
+                &ids,
+                &v,
+                |w, id| w.agent(id).map(|a| a.velocity.into()),
+                |w, id, p: [f32; 2]| w.set_velocity(id, p.into()),
+            )
+        })
     }
 
     /// Sets agents' own goal points, which behaviours with `target = "own"` steer to; one
     /// (x, y) row per id.
     fn set_targets(&mut self, ids: &Bound<'_, PyAny>, targets: &Bound<'_, PyAny>) -> PyResult<()> {
-        let (ids, v) = self.rows_of(ids, targets, "targets")?;
-        // Checked first (ids are alive already), so that an error changes nothing.
-        for (k, p) in v.iter().enumerate() {
-            throng::error::finite_vec("target", (*p).into())
-                .map_err(|e| raise_in(Some(&format!("targets[{k}]")), &e))?;
-        }
-        for (&id, &p) in ids.iter().zip(&v) {
-            self.world.set_target(id, p.into()).or_raise()?;
-        }
-        Ok(())
+        guarded(|| {
+            let (ids, v) = self.rows_of(ids, targets, "targets")?;
+            // Checked first (ids are alive already), so that an error changes nothing.
+            for (k, p) in v.iter().enumerate() {
+                throng::error::finite_vec("target", (*p).into())
+                    .map_err(|e| raise_in(Some(&format!("targets[{k}]")), &e))?;
+            }
+            for (&id, &p) in ids.iter().zip(&v) {
+                self.world.set_target(id, p.into()).or_raise()?;
+            }
+            Ok(())
+        })
     }
 
     /// Gives agents their own maximum speed (one value, or one per id).
@@ -716,25 +727,27 @@ impl PyWorld {
         ids: &Bound<'_, PyAny>,
         max_speed: &Bound<'_, PyAny>,
     ) -> PyResult<()> {
-        let ids = self.checked_ids(ids)?;
-        let v = arrays::broadcast(
-            "max_speed",
-            arrays::read_floats("max_speed", max_speed)?,
-            ids.len(),
-        )?;
-        // Checked first: a rolled-back agent would keep an override flag it did not have.
-        for (k, &s) in v.iter().enumerate() {
-            throng::error::positive("max_speed", s)
-                .map_err(|e| raise_in(Some(&format!("max_speed[{k}]")), &e))?;
-        }
-        set_each(
-            "max_speed",
-            &mut self.world,
-            &ids,
-            &v,
-            |w, id| w.agents().index_of(id).map(|i| w.agents().max_speeds()[i]),
-            |w, id, s| w.set_max_speed(id, s),
-        )
+        guarded(|| {
+            let ids = self.checked_ids(ids)?;
+            let v = arrays::broadcast(
+                "max_speed",
+                arrays::read_floats("max_speed", max_speed)?,
+                ids.len(),
+            )?;
+            // Checked first: a rolled-back agent would keep an override flag it did not have.
+            for (k, &s) in v.iter().enumerate() {
+                throng::error::positive("max_speed", s)
+                    .map_err(|e| raise_in(Some(&format!("max_speed[{k}]")), &e))?;
+            }
+            set_each(
+                "max_speed",
+                &mut self.world,
+                &ids,
+                &v,
+                |w, id| w.agents().index_of(id).map(|i| w.agents().max_speeds()[i]),
+                |w, id, s| w.set_max_speed(id, s),
+            )
+        })
     }
 
     /// Group `group`'s profile as a dict with the keys of a scenario file's group table
@@ -753,40 +766,50 @@ impl PyWorld {
     /// file's group table (missing keys take their defaults). Agents without their own maximum
     /// speed or radius take the new ones.
     fn set_group_params(&mut self, group: usize, params: &Bound<'_, PyAny>) -> PyResult<()> {
-        let p: GroupParams = convert::deserialize_from_py("params", params)?;
-        self.world.set_group_params(group, p).or_raise()
+        guarded(|| {
+            let p: GroupParams = convert::deserialize_from_py("params", params)?;
+            self.world.set_group_params(group, p).or_raise()
+        })
     }
 
     /// Adds a group with the profile `params` (as for `set_group_params`); returns its index.
     fn add_group(&mut self, params: &Bound<'_, PyAny>) -> PyResult<usize> {
-        let p: GroupParams = convert::deserialize_from_py("params", params)?;
-        self.world.add_group(p).or_raise()
+        guarded(|| {
+            let p: GroupParams = convert::deserialize_from_py("params", params)?;
+            self.world.add_group(p).or_raise()
+        })
     }
 
     /// Adds a circular obstacle; no agent may stand inside it.
     fn add_circle(&mut self, center: &Bound<'_, PyAny>, radius: f32) -> PyResult<()> {
-        let center = convert::vec2("center", center)?;
-        self.world.add_circle(Circle { center, radius }).or_raise()
+        guarded(|| {
+            let center = convert::vec2("center", center)?;
+            self.world.add_circle(Circle { center, radius }).or_raise()
+        })
     }
 
     /// Adds a wall: the segment from `a` to `b`, which agents cannot cross.
     fn add_wall(&mut self, a: &Bound<'_, PyAny>, b: &Bound<'_, PyAny>) -> PyResult<()> {
-        let wall = Wall {
-            a: convert::vec2("a", a)?,
-            b: convert::vec2("b", b)?,
-        };
-        self.world.add_wall(wall).or_raise()
+        guarded(|| {
+            let wall = Wall {
+                a: convert::vec2("a", a)?,
+                b: convert::vec2("b", b)?,
+            };
+            self.world.add_wall(wall).or_raise()
+        })
     }
 
     /// Adds the walls of a polyline through `points` ((m, 2)), closed into a polygon when
     /// `closed`.
     #[pyo3(signature = (points, closed=true))]
     fn add_polygon(&mut self, points: &Bound<'_, PyAny>, closed: bool) -> PyResult<()> {
-        let pts: Vec<glam::Vec2> = arrays::read_pairs("points", points)?
-            .into_iter()
-            .map(Into::into)
-            .collect();
-        self.world.add_polygon(&pts, closed).or_raise()
+        guarded(|| {
+            let pts: Vec<glam::Vec2> = arrays::read_pairs("points", points)?
+                .into_iter()
+                .map(Into::into)
+                .collect();
+            self.world.add_polygon(&pts, closed).or_raise()
+        })
     }
 
     /// Adds a gravity point pushing agents with `strength / distance**exponent` within
@@ -803,19 +826,21 @@ impl PyWorld {
         exponent: f32,
         motion: Option<&Bound<'_, PyAny>>,
     ) -> PyResult<usize> {
-        let motion: Motion = match motion {
-            Some(m) => convert::deserialize_from_py("motion", m)?,
-            None => Motion::Static,
-        };
-        let point = GravityPoint {
-            position: convert::vec2("position", position)?,
-            strength,
-            exponent,
-            radius,
-            motion,
-        };
-        point.validate().or_raise()?;
-        self.world.add_gravity_point(point).or_raise()
+        guarded(|| {
+            let motion: Motion = match motion {
+                Some(m) => convert::deserialize_from_py("motion", m)?,
+                None => Motion::Static,
+            };
+            let point = GravityPoint {
+                position: convert::vec2("position", position)?,
+                strength,
+                exponent,
+                radius,
+                motion,
+            };
+            point.validate().or_raise()?;
+            self.world.add_gravity_point(point).or_raise()
+        })
     }
 
     /// The gravity points' current positions as a (K, 2) float32 array.
@@ -826,8 +851,10 @@ impl PyWorld {
 
     /// Moves gravity point `k`.
     fn set_gravity_position(&mut self, k: usize, position: &Bound<'_, PyAny>) -> PyResult<()> {
-        let p = convert::vec2("position", position)?;
-        self.world.set_gravity_position(k, p).or_raise()
+        guarded(|| {
+            let p = convert::vec2("position", position)?;
+            self.world.set_gravity_position(k, p).or_raise()
+        })
     }
 
     /// Number of grid fields.
@@ -844,30 +871,32 @@ impl PyWorld {
         channel: usize,
         goals: &Bound<'_, PyAny>,
     ) -> PyResult<()> {
-        let flat = arrays::read_ints("goals", goals)?;
-        if !flat.len().is_multiple_of(2) {
-            return Err(invalid(
-                "goals",
-                "expected (x, y) cells: an (m, 2) integer array",
-            ));
-        }
-        let cells = flat
-            .chunks_exact(2)
-            .map(|c| {
-                let cell = |v: i64| {
-                    u32::try_from(v).map_err(|_| {
-                        invalid(
-                            "goals",
-                            format!("cell coordinate {v} is negative or too large"),
-                        )
-                    })
-                };
-                Ok((cell(c[0])?, cell(c[1])?))
-            })
-            .collect::<PyResult<Vec<_>>>()?;
-        self.world
-            .set_field_goals(field, channel, &cells)
-            .or_raise()
+        guarded(|| {
+            let flat = arrays::read_ints("goals", goals)?;
+            if !flat.len().is_multiple_of(2) {
+                return Err(invalid(
+                    "goals",
+                    "expected (x, y) cells: an (m, 2) integer array",
+                ));
+            }
+            let cells = flat
+                .chunks_exact(2)
+                .map(|c| {
+                    let cell = |v: i64| {
+                        u32::try_from(v).map_err(|_| {
+                            invalid(
+                                "goals",
+                                format!("cell coordinate {v} is negative or too large"),
+                            )
+                        })
+                    };
+                    Ok((cell(c[0])?, cell(c[1])?))
+                })
+                .collect::<PyResult<Vec<_>>>()?;
+            self.world
+                .set_field_goals(field, channel, &cells)
+                .or_raise()
+        })
     }
 
     /// Draws `n` distinct free cells with `seed` as the new goals of one channel.
@@ -878,9 +907,11 @@ impl PyWorld {
         n: usize,
         seed: u64,
     ) -> PyResult<()> {
-        self.world
-            .randomize_field_goals(field, channel, n, seed)
-            .or_raise()
+        guarded(|| {
+            self.world
+                .randomize_field_goals(field, channel, n, seed)
+                .or_raise()
+        })
     }
 
     /// Re-draws every channel's goals of `field` (`count` cells each) every `every` frames
@@ -891,17 +922,21 @@ impl PyWorld {
         every: u64,
         count: usize,
     ) -> PyResult<()> {
-        self.world
-            .shuffle_field_goals_every(field, every, count)
-            .or_raise()
+        guarded(|| {
+            self.world
+                .shuffle_field_goals_every(field, every, count)
+                .or_raise()
+        })
     }
 
     /// Makes cell (x, y) of `field` a wall (or free ground with `blocked=False`).
     #[pyo3(signature = (field, x, y, blocked=true))]
     fn set_field_blocked(&mut self, field: usize, x: u32, y: u32, blocked: bool) -> PyResult<()> {
-        self.world
-            .set_field_blocked(field, x, y, blocked)
-            .or_raise()
+        guarded(|| {
+            self.world
+                .set_field_blocked(field, x, y, blocked)
+                .or_raise()
+        })
     }
 
     /// Runs `steps` steps (GIL released) and returns a pandas DataFrame in the long format of

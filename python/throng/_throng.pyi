@@ -224,6 +224,8 @@ def bench(
     **overrides: Any,
 ) -> BenchReport: ...
 def scenarios() -> Dict[str, str]: ...
+def _panic(message: str) -> None:
+    """Panics inside the module's panic guard (the tests' check that a panic is a ThrongError)."""
 def validate(
     case: str,
     *,

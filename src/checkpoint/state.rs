@@ -310,7 +310,7 @@ fn restore_agents(mut c: AgentColumns, issued: usize, w: &World) -> Result<Agent
             }
             finite("rotation", c.rotation[i])?;
             finite("wander", c.wander[i])?;
-            finite_vec("target", Vec2::new(c.target_x[i], c.target_y[i]))?;
+            crate::error::coordinate("target", Vec2::new(c.target_x[i], c.target_y[i]))?;
             crate::world::check_max_speed(c.max_speed[i])?;
             non_negative("radius", c.radius[i])?;
             non_negative("desired_speed", c.desired_speed[i])?;

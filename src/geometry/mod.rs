@@ -168,7 +168,16 @@ fn clean_ring(ring: &[Vec2], name: &str, ccw: bool) -> Result<Vec<Vec2>> {
     }
     let area = twice_area(&out);
     if area == 0.0 {
-        return Err(bad("the ring has no area (its points are collinear)".into()));
+        let (a, b) = (out[0], out[1]);
+        let collinear = out.iter().all(|&p| {
+            f64::from(b.x - a.x) * f64::from(p.y - a.y)
+                == f64::from(b.y - a.y) * f64::from(p.x - a.x)
+        });
+        return Err(bad(if collinear {
+            "the ring has no area (its points are collinear)".into()
+        } else {
+            "the ring crosses itself (its parts cancel to no area)".into()
+        }));
     }
     if (area > 0.0) != ccw {
         out.reverse();

@@ -81,8 +81,9 @@ struct SpecFields {
     lines: Vec<MeasurementLine>,
     #[serde(default)]
     areas: Vec<MeasurementArea>,
+    /// Any length, so that `[0, 1, 2]` is an error instead of `[0, 1]`.
     #[serde(default)]
-    window: Option<[f64; 2]>,
+    window: Option<Vec<f64>>,
     #[serde(default)]
     voronoi: bool,
 }
@@ -90,10 +91,20 @@ struct SpecFields {
 impl TryFrom<SpecFields> for MeasurementSpec {
     type Error = Error;
     fn try_from(f: SpecFields) -> Result<Self> {
+        let window = match f.window.as_deref() {
+            None => None,
+            Some(&[t0, t1]) => Some([t0, t1]),
+            Some(other) => {
+                return Err(Error::Invalid {
+                    name: "measurements.window".into(),
+                    reason: format!("expected two times [t0, t1], got {} numbers", other.len()),
+                });
+            }
+        };
         let spec = MeasurementSpec {
             lines: f.lines,
             areas: f.areas,
-            window: f.window,
+            window,
             voronoi: f.voronoi,
         };
         spec.validate()?;

@@ -13,7 +13,7 @@ use serde::{Deserialize, Serialize};
 
 pub use broadphase::ObstacleGrid;
 
-use crate::error::{Error, Result, finite_vec, positive};
+use crate::error::{Error, Result, positive};
 use crate::vector::Basis;
 
 /// A circular obstacle.
@@ -82,15 +82,22 @@ pub fn segment_intersection(p0: Vec2, p1: Vec2, q0: Vec2, q1: Vec2) -> Option<(f
 
 /// The checks of [`Obstacles::add_circle`].
 fn check_circle(circle: &Circle) -> Result<()> {
-    finite_vec("circle.center", circle.center)?;
+    crate::error::coordinate("circle.center", circle.center)?;
     positive("circle.radius", circle.radius)?;
+    crate::error::in_range(
+        "circle.radius",
+        circle.radius,
+        0.0,
+        crate::error::MAX_COORDINATE,
+        "(0, 1e18]",
+    )?;
     Ok(())
 }
 
 /// The checks of [`Obstacles::add_wall`].
 fn check_wall(wall: &Wall) -> Result<()> {
-    finite_vec("wall.a", wall.a)?;
-    finite_vec("wall.b", wall.b)?;
+    crate::error::coordinate("wall.a", wall.a)?;
+    crate::error::coordinate("wall.b", wall.b)?;
     if wall.a == wall.b {
         return Err(Error::Invalid {
             name: "wall".into(),
@@ -168,10 +175,7 @@ impl Obstacles {
     /// # Errors
     /// As [`Obstacles::add_circle`], for the first bad circle.
     pub fn add_circles(&mut self, circles: &[Circle]) -> Result<()> {
-        for c in circles {
-            finite_vec("circle.center", c.center)?;
-            positive("circle.radius", c.radius)?;
-        }
+        circles.iter().try_for_each(check_circle)?;
         crate::error::try_reserve(&mut self.circles, circles.len(), "circles")?;
         self.circles.extend_from_slice(circles);
         self.grid.rebuild(&self.circles, &self.walls);
@@ -224,8 +228,8 @@ impl Obstacles {
             });
         }
         for w in &walls {
-            finite_vec("polygon point", w.a)?;
-            finite_vec("polygon point", w.b)?;
+            crate::error::coordinate("polygon point", w.a)?;
+            crate::error::coordinate("polygon point", w.b)?;
         }
         for w in walls {
             if w.a != w.b {

@@ -199,6 +199,8 @@ impl FieldSpec {
     pub(crate) fn validate(&self) -> Result<()> {
         use super::obstacles::at_most;
         use crate::limits::{MAX_CELLS, MAX_CHANNELS, MAX_RANDOM_GOALS};
+        // Checked first: a side of 0 made the memory estimate of a walkable raster 16 EiB.
+        crate::error::positive("field.cell_size", self.cell_size)?;
         at_most(
             "field.channels",
             self.channels.len(),

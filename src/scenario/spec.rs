@@ -370,6 +370,57 @@ fn check_numbers(table: &toml::Table, prefix: &str) -> std::result::Result<(), S
     })
 }
 
+/// An error of group `i`'s table, its message led by the group's path (`groups[0]`).
+fn in_group<T>(i: usize, r: Result<T>) -> Result<T> {
+    r.map_err(|e| at_path(format!("groups[{i}]"), e))
+}
+
+/// `e` as an error of the scenario key at `path`: "invalid groups[0]: orca.time_horizon must
+/// ...". Errors that already name their place (a scenario or map file's) stay as they are.
+fn at_path(path: String, e: Error) -> Error {
+    match e {
+        Error::Scenario { .. } | Error::MapParse { .. } | Error::Io { .. } => e,
+        Error::Invalid { name, reason } if name.starts_with("groups[") => {
+            Error::Invalid { name, reason }
+        }
+        other => Error::Invalid {
+            name: path,
+            reason: other.to_string(),
+        },
+    }
+}
+
+/// Checks that no group's `pedestrian` table holds the parameters of a model the group does
+/// not use (a `social_force` table under `model = "cfsm"`, the default, was silently ignored);
+/// the error names the key. Only the file as written is checked, so `--pedestrian-model` may
+/// still switch a group to the other model's defaults.
+fn check_model_tables(table: &toml::Table) -> std::result::Result<(), String> {
+    let Some(groups) = table.get("groups").and_then(toml::Value::as_array) else {
+        return Ok(());
+    };
+    for (i, g) in groups.iter().enumerate() {
+        let Some(p) = g.get("pedestrian").and_then(toml::Value::as_table) else {
+            continue;
+        };
+        let model = p
+            .get("model")
+            .and_then(toml::Value::as_str)
+            .and_then(crate::ped::Model::parse)
+            .unwrap_or_default();
+        for other in [crate::ped::Model::SocialForce, crate::ped::Model::Cfsm] {
+            if other != model && p.contains_key(other.name()) {
+                return Err(format!(
+                    "groups[{i}].pedestrian.{}: the group's pedestrian model is {}, which does not read this table (set `model = \"{}\"` or remove the table)",
+                    other.name(),
+                    model.name(),
+                    other.name()
+                ));
+            }
+        }
+    }
+    Ok(())
+}
+
 /// Byte offset to 1-based (line, column).
 pub(crate) fn line_col(text: &str, offset: usize) -> (usize, usize) {
     let before = &text[..offset.min(text.len())];
@@ -394,11 +445,13 @@ impl Scenario {
             message: e.message().trim().to_string(),
         })?;
         if let Ok(table) = toml::from_str::<toml::Table>(text) {
-            check_numbers(&table, "").map_err(|message| Error::Scenario {
-                source_name: source_name.to_string(),
-                location: None,
-                message,
-            })?;
+            check_numbers(&table, "")
+                .and_then(|()| check_model_tables(&table))
+                .map_err(|message| Error::Scenario {
+                    source_name: source_name.to_string(),
+                    location: None,
+                    message,
+                })?;
         }
         if let Some(f) = &mut s.field {
             f.resolve_paths(source_name);
@@ -492,9 +545,9 @@ impl Scenario {
                     .into(),
             });
         }
-        for g in &self.groups {
-            g.params.validate()?;
-            non_negative("initial_speed", g.initial_speed)?;
+        for (i, g) in self.groups.iter().enumerate() {
+            in_group(i, g.params.validate())?;
+            in_group(i, non_negative("initial_speed", g.initial_speed))?;
             match &g.spawn {
                 Spawn::Uniform if self.world.kind == WorldKind::Open && self.geometry.is_none() => {
                     return Err(Error::Invalid {
@@ -582,19 +635,23 @@ impl Scenario {
                 Spawn::FreeCells => {}
             }
         }
-        for g in &self.groups {
-            match g.goal {
-                Some(AgentGoal::Antipode { center }) => finite_vec("goal.center", center)?,
-                Some(AgentGoal::Point { point }) => finite_vec("goal.point", point)?,
-                Some(AgentGoal::Offset { by }) => finite_vec("goal.by", by)?,
-                None => Vec2::ZERO,
-            };
+        for (i, g) in self.groups.iter().enumerate() {
+            in_group(
+                i,
+                match g.goal {
+                    Some(AgentGoal::Antipode { center }) => finite_vec("goal.center", center),
+                    Some(AgentGoal::Point { point }) => finite_vec("goal.point", point),
+                    Some(AgentGoal::Offset { by }) => finite_vec("goal.by", by),
+                    None => Ok(Vec2::ZERO),
+                },
+            )?;
         }
         for f in &self.formations {
             f.validate(self.groups.len())?;
         }
-        for e in &self.exits {
-            e.validate()?;
+        for (k, e) in self.exits.iter().enumerate() {
+            e.validate()
+                .map_err(|e| at_path(format!("exits[{k}]"), e))?;
         }
         if let Some(l) = &self.layout {
             l.validate()?;
@@ -827,8 +884,10 @@ impl Scenario {
         if let Some(k) = self.world.reorder_every {
             world.set_reorder_every(k);
         }
-        for t in &self.targets {
-            world.add_target_point(*t)?;
+        for (k, t) in self.targets.iter().enumerate() {
+            world
+                .add_target_point(*t)
+                .map_err(|e| at_path(format!("targets[{k}]"), e))?;
         }
         for p in &self.paths {
             world.add_path(p.clone())?;

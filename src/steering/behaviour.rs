@@ -37,7 +37,7 @@ impl Target {
     fn validate(&self, name: &'static str) -> Result<()> {
         match self {
             Target::Point(p) => {
-                finite_vec(name, *p)?;
+                crate::error::coordinate(name, *p)?;
             }
             Target::Nearest { within, .. } => {
                 positive("target.within", *within)?;

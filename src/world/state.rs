@@ -377,25 +377,34 @@ impl World {
     /// values (and have their velocities truncated to the new maximum speed).
     ///
     /// # Errors
-    /// [`Error::UnknownGroup`], or the variant naming the first bad parameter of `params`.
+    /// [`Error::UnknownGroup`], or the variant naming the first bad parameter of `params`;
+    /// [`Error::UnknownField`] (and the like) for a field, channel, group, path or target slot
+    /// that `params` names and the world does not have.
     pub fn set_group_params(&mut self, group: usize, params: GroupParams) -> Result<()> {
         self.check_group(group)?;
         params.validate()?;
         self.check_group_refs(&params)?;
+        // The world is built: a field or group the profile names must exist now (a missing one
+        // made every later step fail). The plans are compiled as the next step would.
+        let old = std::mem::replace(&mut self.groups[group], params);
+        self.plans_stale = true;
+        if let Err(e) = self.ensure_plans() {
+            self.groups[group] = old;
+            return Err(e);
+        }
+        let (max_speed, radius) = (self.groups[group].max_speed, self.groups[group].radius);
         for i in 0..self.agents.len() {
             if self.agents.group[i] as usize == group {
                 let o = self.agents.overrides[i];
                 if o & crate::agents::store_flags::OVERRIDE_SPEED == 0 {
-                    self.agents.max_speed[i] = params.max_speed;
+                    self.agents.max_speed[i] = max_speed;
                     self.clamp_velocity(i);
                 }
                 if o & crate::agents::store_flags::OVERRIDE_RADIUS == 0 {
-                    self.agents.radius[i] = params.radius;
+                    self.agents.radius[i] = radius;
                 }
             }
         }
-        self.groups[group] = params;
-        self.plans_stale = true;
         Ok(())
     }
 
@@ -487,9 +496,10 @@ impl World {
     /// [`crate::steering::Target::Own`]).
     ///
     /// # Errors
-    /// [`Error::UnknownAgent`], [`Error::NonFinite`].
+    /// [`Error::UnknownAgent`], [`Error::NonFinite`], or [`Error::OutOfRange`] for a coordinate
+    /// beyond 1e18 ([`crate::error::coordinate`]).
     pub fn set_target(&mut self, id: AgentId, target: Vec2) -> Result<()> {
-        finite_vec("target", target)?;
+        crate::error::coordinate("target", target)?;
         let i = self.index(id)?;
         self.agents.target_x[i] = target.x;
         self.agents.target_y[i] = target.y;

@@ -30,6 +30,8 @@ pub enum Format {
 /// Extensions of formats throng does not write; naming one is refused rather than filled with
 /// CSV under a misleading name.
 const REFUSED: [&str; 6] = ["h5", "hdf5", "parquet", "json", "gif", "png"];
+/// Extensions of compressed files: `x.csv.gz` was written as plain CSV.
+const COMPRESSED: [&str; 8] = ["gz", "bz2", "xz", "zst", "lz4", "zip", "7z", "z"];
 
 impl Format {
     /// The format of a trajectory file named `path`.
@@ -50,6 +52,14 @@ impl Format {
                 reason: format!(
                     "{}: throng writes trajectories as .csv (or any other extension), .txt \
                      (PedPy text) or .sqlite/.sqlite3/.db (JuPedSim SQLite), not .{e}",
+                    path.display()
+                ),
+            }),
+            Some(e) if COMPRESSED.contains(&e) => Err(Error::Invalid {
+                name: "trajectories".into(),
+                reason: format!(
+                    "{}: throng does not compress trajectories (a .{e} file would hold plain \
+                     text); write .csv, .txt or .sqlite and compress it afterwards",
                     path.display()
                 ),
             }),

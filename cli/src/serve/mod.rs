@@ -1,7 +1,8 @@
 //! `throng serve`: a live view of a running simulation in the browser.
 //!
-//! A small synchronous HTTP server (`tiny_http`: a thread that accepts, no async runtime, a
-//! handful of dependencies) serves one page embedded in the binary, the world's geometry as
+//! A small synchronous HTTP server ([`http`]: a thread that accepts, a thread per connection
+//! that reads its request within stated ceilings, no async runtime) serves one page embedded in
+//! the binary, the world's geometry as
 //! JSON, the state as JSON, a binary stream of frames, and the page's controls. The world steps
 //! on its own thread ([`sim`]) in its own rayon pool; docs/SERVE.md describes the protocol.
 //!
@@ -11,9 +12,10 @@
 //! every request that is not understood gets a 4xx answer and the server goes on.
 
 mod frame;
+mod http;
 mod sim;
 
-use std::io::{Read, Write};
+use std::io::Write;
 use std::net::{IpAddr, SocketAddr};
 use std::sync::atomic::{AtomicUsize, Ordering};
 use std::sync::mpsc::{self, Sender};
@@ -23,7 +25,8 @@ use std::time::Duration;
 use clap::Args;
 use throng::scenario::Scenario;
 use throng::{Error, Result};
-use tiny_http::{Header, Method, Request, Response, Server};
+
+use self::http::{BodyError, Request, Response, Server};
 
 use self::sim::{Control, Setup, Shared, Sim, lock};
 use crate::{CommonArgs, WorldArgs};
@@ -80,14 +83,11 @@ pub fn serve(scenario: Scenario, args: &ServeArgs) -> Result<()> {
     let base = scenario.clone();
     let (s, world, pool, threads) = crate::prepare(scenario, &common)?;
     let memory = crate::memory_limit(&common.world)?;
-    let server = Server::http(SocketAddr::new(bind, args.port)).map_err(|e| Error::Invalid {
+    let server = Server::bind(SocketAddr::new(bind, args.port)).map_err(|e| Error::Invalid {
         name: "port".into(),
         reason: format!("cannot listen on {bind}:{}: {e}", args.port),
     })?;
-    let addr = server.server_addr().to_ip().ok_or_else(|| Error::Invalid {
-        name: "bind".into(),
-        reason: "the server has no IP address".into(),
-    })?;
+    let addr = server.addr();
     if !bind.is_loopback() {
         eprintln!(
             "throng: warning: listening on {bind}, not a loopback address: anyone who can reach it can watch and steer this run"
@@ -147,10 +147,8 @@ pub fn serve(scenario: Scenario, args: &ServeArgs) -> Result<()> {
         port: addr.port(),
     };
     while !stop.load(Ordering::SeqCst) {
-        match server.recv_timeout(Duration::from_millis(100)) {
-            Ok(Some(rq)) => route(rq, &ctx),
-            Ok(None) => {}
-            Err(e) => eprintln!("throng: warning: a request failed: {e}"),
+        if let Some(rq) = server.recv_timeout(Duration::from_millis(100)) {
+            route(rq, &ctx);
         }
     }
     shared.stop.store(true, Ordering::SeqCst);
@@ -174,27 +172,19 @@ struct Context {
     port: u16,
 }
 
-fn header(name: &str, value: &str) -> Header {
-    Header::from_bytes(name.as_bytes(), value.as_bytes()).expect("ASCII header names and values")
-}
-
 /// A JSON answer.
-fn json(status: u16, body: String) -> Response<std::io::Cursor<Vec<u8>>> {
-    Response::from_string(body)
-        .with_chunked_threshold(usize::MAX)
-        .with_status_code(status)
-        .with_header(header("Content-Type", "application/json"))
-        .with_header(header("Cache-Control", "no-store"))
+fn json(status: u16, body: String) -> Response {
+    Response::new(status, "application/json", body)
 }
 
 /// A JSON error answer: `{"error": message}`.
-fn error(status: u16, message: &str) -> Response<std::io::Cursor<Vec<u8>>> {
-    json(status, serde_json::json!({ "error": message }).to_string())
+fn error(status: u16, message: &str) -> Response {
+    Response::error(status, message)
 }
 
 /// Answers a request; a client that has gone while being answered is no concern of the server.
-fn respond(rq: Request, response: Response<std::io::Cursor<Vec<u8>>>) {
-    let _ = rq.respond(response);
+fn respond(rq: Request, response: Response) {
+    rq.respond(&response);
 }
 
 /// Whether the Host header names this server (a page of another site that made a browser
@@ -203,12 +193,7 @@ fn host_ok(rq: &Request, ctx: &Context) -> bool {
     if !ctx.loopback {
         return true;
     }
-    let Some(host) = rq
-        .headers()
-        .iter()
-        .find(|h| h.field.equiv("Host"))
-        .map(|h| h.value.as_str().to_ascii_lowercase())
-    else {
+    let Some(host) = rq.header("Host").map(str::to_ascii_lowercase) else {
         return true;
     };
     let port = format!(":{}", ctx.port);
@@ -221,71 +206,65 @@ fn route(rq: Request, ctx: &Context) {
         return respond(rq, error(403, "unexpected Host header"));
     }
     let path = rq.url().split('?').next().unwrap_or("").to_string();
-    let method = rq.method().clone();
-    match (method, path.as_str()) {
-        (Method::Get, "/" | "/index.html") => {
+    let method = rq.method().to_string();
+    match (method.as_str(), path.as_str()) {
+        ("GET", "/" | "/index.html") => {
             let csp = "default-src 'none'; script-src 'unsafe-inline'; style-src 'unsafe-inline'; \
                        connect-src 'self'; img-src 'self' data:";
-            let response = Response::from_string(PAGE)
-                .with_chunked_threshold(usize::MAX)
-                .with_header(header("Content-Type", "text/html; charset=utf-8"))
-                .with_header(header("Cache-Control", "no-store"))
-                .with_header(header("Content-Security-Policy", csp));
+            let response = Response::new(200, "text/html; charset=utf-8", PAGE)
+                .with_header("Content-Security-Policy", csp);
             respond(rq, response);
         }
-        (Method::Get, "/state") => {
+        ("GET", "/state") => {
             let body = lock(&ctx.shared.state).as_ref().clone();
             respond(rq, json(200, body));
         }
-        (Method::Get, "/world") => {
+        ("GET", "/world") => {
             let body = lock(&ctx.shared.world).as_ref().clone();
             respond(rq, json(200, body));
         }
-        (Method::Get, "/frames") => stream(rq, ctx),
-        (Method::Post, "/control") => control(rq, ctx),
+        ("GET", "/frames") => stream(rq, ctx),
+        ("POST", "/control") => control(rq, ctx),
         (_, "/" | "/index.html" | "/state" | "/world" | "/frames") => {
-            let r = error(405, "method not allowed").with_header(header("Allow", "GET"));
+            let r = error(405, "method not allowed").with_header("Allow", "GET");
             respond(rq, r);
         }
         (_, "/control") => {
-            let r = error(405, "method not allowed").with_header(header("Allow", "POST"));
+            let r = error(405, "method not allowed").with_header("Allow", "POST");
             respond(rq, r);
         }
         _ => respond(rq, error(404, &format!("no such path: {path}"))),
     }
 }
 
+/// Whether a Content-Type is JSON: the media type `application/json` exactly (any case), with
+/// or without parameters (`; charset=utf-8`); `application/jsonx` is another type.
+fn is_json(content_type: &str) -> bool {
+    let media = content_type.split(';').next().unwrap_or("");
+    media.trim().eq_ignore_ascii_case("application/json")
+}
+
 /// `POST /control`: reads the body, hands the control to the simulation and answers with the
 /// state after it (or 400 and the reason), on a thread of its own.
 fn control(mut rq: Request, ctx: &Context) {
-    let json_body = rq.headers().iter().any(|h| {
-        h.field.equiv("Content-Type")
-            && h.value
-                .as_str()
-                .to_ascii_lowercase()
-                .starts_with("application/json")
-    });
-    if !json_body {
+    if !rq.header("Content-Type").is_some_and(is_json) {
         return respond(
             rq,
             error(415, "a control's Content-Type must be application/json"),
         );
     }
-    if rq.body_length().is_some_and(|n| n as u64 > MAX_BODY) {
-        return respond(rq, error(413, "a control's body is at most 64 KiB"));
-    }
-    let mut body = Vec::new();
-    if rq
-        .as_reader()
-        .take(MAX_BODY + 1)
-        .read_to_end(&mut body)
-        .is_err()
-    {
-        return respond(rq, error(400, "the body could not be read"));
-    }
-    if body.len() as u64 > MAX_BODY {
-        return respond(rq, error(413, "a control's body is at most 64 KiB"));
-    }
+    let body = match rq.read_body(MAX_BODY) {
+        Ok(b) => b,
+        Err(BodyError::TooLarge) => {
+            return respond(rq, error(413, "a control's body is at most 64 KiB"));
+        }
+        Err(BodyError::NoLength) => {
+            return respond(rq, error(411, "a control needs a Content-Length"));
+        }
+        Err(BodyError::Unreadable) => {
+            return respond(rq, error(400, "the body could not be read"));
+        }
+    };
     let control = match Control::parse(&body) {
         Ok(c) => c,
         Err(e) => return respond(rq, error(400, &e)),
@@ -334,7 +313,7 @@ fn stream(rq: Request, ctx: &Context) {
             let (tx, rx) = mpsc::sync_channel(1);
             let first = lock(&shared.latest).clone();
             lock(&shared.clients).push(tx);
-            let mut w = rq.into_writer();
+            let mut w = rq.into_stream();
             let head = "HTTP/1.1 200 OK\r\nContent-Type: application/octet-stream\r\n\
                         Cache-Control: no-store\r\nX-Content-Type-Options: nosniff\r\n\
                         Connection: close\r\n\r\n";
