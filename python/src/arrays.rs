@@ -177,6 +177,26 @@ fn as_numpy<'py>(name: &str, obj: &Bound<'py, PyAny>, dtype: &str) -> PyResult<B
     np.call_method1("ascontiguousarray", (arr, dtype))
 }
 
+/// The rows an `(m, 2)` array-like holds (1 for one pair), read from its shape before any
+/// copy is made, so that a request beyond a ceiling (a broadcast view of 10^8 rows, say) is
+/// refused before it allocates.
+pub(crate) fn pair_rows(name: &str, obj: &Bound<'_, PyAny>) -> PyResult<usize> {
+    let np = obj.py().import("numpy")?;
+    let shape: Vec<usize> = np
+        .call_method1("shape", (obj,))
+        .and_then(|s| s.extract())
+        .map_err(|_| {
+            invalid(
+                name,
+                format!("expected an (m, 2) array of numbers, got {}", describe(obj)),
+            )
+        })?;
+    Ok(match shape.as_slice() {
+        [] | [_] => 1,
+        [m, ..] => *m,
+    })
+}
+
 /// An `(m, 2)` array-like of numbers as pairs (one pair alone counts as `m = 1`).
 pub(crate) fn read_pairs(name: &str, obj: &Bound<'_, PyAny>) -> PyResult<Vec<[f32; 2]>> {
     let arr = as_numpy(name, obj, "float32")?;

@@ -578,6 +578,25 @@ impl PyWorld {
         radius: Option<&Bound<'py, PyAny>>,
     ) -> PyResult<Bound<'py, PyAny>> {
         guarded(|| {
+            // The ceilings first, from the shape alone: the rows must fit under the agent
+            // ceiling and their memory under the process's bound, before anything is copied.
+            let rows = arrays::pair_rows("positions", positions)?;
+            let room = throng::error::MAX_AGENTS.saturating_sub(self.world.len());
+            if rows > room {
+                return Err(invalid(
+                    "positions",
+                    format!(
+                        "{rows} rows, more than the {room} agents the ceiling of {} leaves room for",
+                        throng::error::MAX_AGENTS
+                    ),
+                ));
+            }
+            if let Some(ceiling) = throng::limits::memory_ceiling() {
+                // The agent's state and the copies read from the arrays.
+                let bytes = (rows as u64).saturating_mul(throng::limits::BYTES_PER_AGENT + 64);
+                throng::limits::check_memory_under("agents", bytes, ceiling)
+                    .map_err(|e| raise(&e))?;
+            }
             let pos = arrays::read_pairs("positions", positions)?;
             let m = pos.len();
             let vel = match velocities {

@@ -108,3 +108,37 @@ def test_set_group_params_refuses_a_field_the_world_does_not_have():
         w.set_group_params(0, follow)
     w.step()
     assert w.frame == 1
+
+
+def test_add_agents_beyond_the_agent_ceiling_is_refused_before_it_copies():
+    # A broadcast view of 10^8 + 1 rows takes no memory; copying it would take 800 MB.
+    rows = np.broadcast_to(np.zeros(2, np.float32), (100_000_001, 2))
+    w = World.from_scenario("flock", agents=10)
+    with pytest.raises(ThrongError, match="positions.*100000001 rows, more than"):
+        w.add_agents(rows)
+    assert len(w) == 10
+
+
+def test_add_agents_beyond_an_address_space_limit_is_refused_naming_it():
+    # In a child: an address-space limit 400 MB above what the interpreter holds, then 50
+    # million agents (about 13 GB of state) asked for. The child must catch the error.
+    script = textwrap.dedent(
+        """
+        import resource
+        import numpy as np
+        import throng
+        w = throng.World.from_scenario("flock", agents=10)
+        size = int(open("/proc/self/status").read().split("VmSize:")[1].split()[0]) * 1024
+        resource.setrlimit(resource.RLIMIT_AS, (size + (400 << 20), resource.RLIM_INFINITY))
+        rows = np.broadcast_to(np.zeros(2, np.float32), (50_000_000, 2))
+        try:
+            w.add_agents(rows)
+        except throng.ThrongError as e:
+            assert "not enough memory for agents" in str(e) and "ulimit -v" in str(e), e
+        else:
+            raise SystemExit("accepted")
+        assert len(w) == 10
+        """
+    )
+    child = subprocess.run([sys.executable, "-c", script], capture_output=True, text=True, timeout=120)
+    assert child.returncode == 0, child.stderr[-2000:]
