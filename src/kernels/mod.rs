@@ -1,6 +1,7 @@
 //! The step's per-agent passes that belong to no subsystem: the world's bounds on the moved
-//! agents ([`bounds`]), the arrival count ([`arrivals`]), obstacle non-penetration over the
-//! agents ([`obstacles`]), and the copies of columns the later phases compare against.
+//! agents ([`bounds`]), the arrival count ([`arrivals`](mod@arrivals)), obstacle
+//! non-penetration over the agents ([`obstacles`]), and the copies of columns the later phases
+//! compare against.
 //! `World::step` (`world/step.rs`) decides when each runs; these passes read and write the
 //! columns they are given and nothing else.
 //!

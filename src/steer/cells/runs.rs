@@ -64,7 +64,7 @@ fn column() -> Column {
 /// The sums and state of a task's agents, in columns indexed from the task's first grid
 /// position: the kernel writes every batched or summed agent's sums here; `mark` is the agent's
 /// group plus one where they wait for the flocking terms or Vicsek turns, 0 elsewhere (a summed
-/// agent's sums are read back at once, by [`Outputs::settle`](super::task::Outputs::settle)).
+/// agent's sums are read back at once, by `task::Outputs::settle`).
 #[derive(Debug)]
 pub(super) struct Runs {
     pub(super) mark: Box<[u32; CELL_CHUNK]>,

@@ -15,8 +15,9 @@ use crate::steer::plan::{ALI, SEP};
 
 /// The flocking terms and the model adapter for the agents at `range` of `r`, one term at a
 /// time over the whole run (long loops of vector instructions): the same operations in the same
-/// order as [`flock_total`] and [`Adapter::finish`] per agent (exact square roots and
-/// divisions), so each agent's result equals the scalar evaluation bit for bit.
+/// order as [`flock_total`](crate::steer::pass::flock_total) and [`Adapter::finish`] per agent
+/// (exact square roots and divisions), so each agent's result equals the scalar evaluation bit
+/// for bit.
 #[multiversion(targets(
     "x86_64+avx2+fma+avx512f+avx512vl+avx512bw+avx512dq",
     "x86_64+avx2+fma",
@@ -57,10 +58,10 @@ pub(super) fn evaluate_run(
 }
 
 /// The Vicsek step for the agents at `range` of `r`: each agent's turn drawn from its stream
-/// (`rng::unit_at` on the frame's `key`, as [`AgentRng`] draws it), its summed heading
-/// normalised and turned ([`crate::steering::vicsek_heading`]'s operations), times its speed
-/// and the weight, then the model adapter, in long loops over the run: each agent equals the
-/// scalar evaluation bit for bit.
+/// (`rng::unit_at` on the frame's `key`, as [`AgentRng`](crate::rng::AgentRng) draws it), its
+/// summed heading normalised and turned ([`crate::steering::vicsek_heading`]'s operations),
+/// times its speed and the weight, then the model adapter, in long loops over the run: each
+/// agent equals the scalar evaluation bit for bit.
 #[multiversion(targets(
     "x86_64+avx2+fma+avx512f+avx512vl+avx512bw+avx512dq",
     "x86_64+avx2+fma",

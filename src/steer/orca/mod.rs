@@ -57,9 +57,9 @@ struct Buffers {
     ry: Vec<f32>,
     js: Vec<u32>,
     /// The nearest candidates as `dist_sq bits << 32 | p`, `p` their place in `rx`, `ry` and
-    /// `js`, in order of `(dist_sq, id)` ([`nearest_in_order`](search::nearest_in_order)).
+    /// `js`, in order of `(dist_sq, id)` (`search::nearest_in_order`).
     near: Vec<u64>,
-    /// Scratch of [`nearest_in_order`](search::nearest_in_order) for ties at the `k`-th
+    /// Scratch of `search::nearest_in_order` for ties at the `k`-th
     /// distance: `(dist_sq bits << 32 | id, p)`.
     tied: Vec<(u64, u32)>,
     lines: Vec<Line>,
