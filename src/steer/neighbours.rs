@@ -25,7 +25,7 @@ use crate::steering::NeighbourSums;
 /// SIMD width of the grid kernel.
 pub(crate) const LANES: usize = 8;
 
-// The grid kernel here and the cell batch's gather (`cells::append_motion`) read the grid's
+// The grid kernel here and the cell batch's gather (`cells::gather::append_motion`) read the grid's
 // sorted positions in whole blocks of `LANES`, up to `LANES - 1` values past a run's end: the
 // grid's padding must hold them.
 const _: () = assert!(SORTED_PAD >= LANES);

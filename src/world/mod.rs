@@ -6,7 +6,9 @@
 //! nearest-agent indices); the subsystems' prepare hooks (**fields**, **formations**);
 //! **steer** (the steering layer's pass); **integrate** (the vectorised integrator of
 //! [`crate::movement`]); **bounds** (contact between ORCA agents, torus wrap or wall clamp, obstacle
-//! non-penetration); the fields' constrain hook; contact's guard; arrivals counted and agents in exits removed. No per-agent logic lives here.
+//! non-penetration); the fields' constrain hook; contact's guard; arrivals counted and agents in
+//! exits removed. No per-agent logic lives here: the per-agent passes are the steering layer's,
+//! the integrator's and those of `kernels` (the edges, obstacle moves, arrivals).
 //!
 //! Determinism: per-agent randomness is keyed by (seed, [`crate::AgentId`], frame), steering has
 //! no cross-agent writes and the integrator is element-wise, so the state after any number of

@@ -1,6 +1,8 @@
 //! The step pipeline: the phases of one frame, in order, and nothing else.
 //!
-//! `World::step` only orchestrates. Per-agent steering lives in [`crate::steer`]; each subsystem
+//! `World::step` only orchestrates. Per-agent steering lives in [`crate::steer`], the integrator
+//! in [`crate::movement`], the other per-agent passes of the step (the world's edges, obstacle
+//! non-penetration, the arrival count, column copies) in [`crate::kernels`]; each subsystem
 //! (fields, group movement, obstacles, gravity) owns its per-step state and is called through
 //! its prepare hook before steering and its constrain hook after integration.
 
@@ -8,19 +10,16 @@ use std::time::Instant;
 
 use super::state::World;
 use super::stats::{PhaseTimes, StepStats};
-use crate::agents::Agents;
-use crate::bounds::{Bounds, wrap_delta};
+use crate::bounds::Bounds;
 use crate::error::{Error, MAX_DT, Result};
 use crate::group;
+use crate::kernels;
 use crate::movement::{self, IntegrationParams, MotionState, SteeringBuffers};
 use crate::spatial::{NeighbourIndex, SpatialIndex};
 use crate::steer::{
-    self, NearestIndex, PassScratch, Plan, References, STEER_CHUNK, SortedCopies, SteerOut,
-    SteerView,
+    self, NearestIndex, PassScratch, Plan, References, SortedCopies, SteerOut, SteerView,
 };
 use crate::steering::Steering;
-
-use rayon::prelude::*;
 
 /// Per-frame buffers, reused across steps (never serialised).
 #[derive(Debug, Default)]
@@ -159,8 +158,8 @@ impl World {
         let keep_start = contact || !self.obstacles.is_empty() || self.fields.is_active();
         if keep_start {
             let parallel = exec == Execution::Parallel;
-            copy_column(&mut self.scratch.prev_x, &self.agents.pos_x, parallel);
-            copy_column(&mut self.scratch.prev_y, &self.agents.pos_y, parallel);
+            kernels::copy_column(&mut self.scratch.prev_x, &self.agents.pos_x, parallel);
+            kernels::copy_column(&mut self.scratch.prev_y, &self.agents.pos_y, parallel);
         }
         // Without contact resolution nothing comes between the integrator and the world's
         // edges: the parallel integrator applies them to each task's agents in cache.
@@ -172,7 +171,7 @@ impl World {
         let t = Instant::now();
         self.resolve_contacts(exec);
         if !edges_inside {
-            apply_bounds(&mut self.agents, self.bounds, exec == Execution::Parallel);
+            kernels::apply_bounds(&mut self.agents, self.bounds, exec == Execution::Parallel);
         }
         if !self.obstacles.is_empty() {
             self.resolve_obstacles(exec);
@@ -388,61 +387,17 @@ impl World {
                 .iter()
                 .map(|g| g.arrival_radius.map_or(-1.0, |r| r * r)),
         );
-        let (a, bounds, r_sq) = (&self.agents, self.bounds, &self.scratch.arrival_sq[..]);
-        let count = |range: std::ops::Range<usize>| {
-            let (px, py) = (&a.pos_x[range.clone()], &a.pos_y[range.clone()]);
-            let (tx, ty) = (&a.target_x[range.clone()], &a.target_y[range.clone()]);
-            let group = &a.group[range];
-            let (mut arrived, mut with_goal) = (0, 0);
-            let mut tally = |dx: f32, dy: f32, g: u32| {
-                let r_sq = r_sq[g as usize];
-                with_goal += usize::from(r_sq >= 0.0);
-                arrived += usize::from(dx * dx + dy * dy <= r_sq);
-            };
-            if let ([r_sq], Bounds::Open | Bounds::Bounded { .. }) = (r_sq, bounds) {
-                // One group (the group numbers are not read): counts in vector lanes.
-                let within =
-                    px.iter()
-                        .zip(py)
-                        .zip(tx)
-                        .zip(ty)
-                        .fold(0u32, |n, (((px, py), tx), ty)| {
-                            let (dx, dy) = (tx - px, ty - py);
-                            n + u32::from(dx * dx + dy * dy <= *r_sq)
-                        });
-                let goals = if *r_sq >= 0.0 { px.len() } else { 0 };
-                return (within as usize, goals);
-            }
-            let each = px.iter().zip(py).zip(tx).zip(ty).zip(group);
-            match bounds {
-                Bounds::Torus { size } => {
-                    for ((((&px, &py), &tx), &ty), &g) in each {
-                        let (dx, dy) = (wrap_delta(tx - px, size.x), wrap_delta(ty - py, size.y));
-                        tally(dx, dy, g);
-                    }
-                }
-                _ => {
-                    for ((((&px, &py), &tx), &ty), &g) in each {
-                        tally(tx - px, ty - py, g);
-                    }
-                }
-            }
-            (arrived, with_goal)
-        };
-        let n = a.len();
-        if parallel && n > BOUNDS_CHUNK {
-            (0..n.div_ceil(BOUNDS_CHUNK))
-                .into_par_iter()
-                .map(|c| count(c * BOUNDS_CHUNK..n.min((c + 1) * BOUNDS_CHUNK)))
-                .reduce(|| (0, 0), |x, y| (x.0 + y.0, x.1 + y.1))
-        } else {
-            count(0..n)
-        }
+        kernels::arrivals(
+            &self.agents,
+            self.bounds,
+            &self.scratch.arrival_sq,
+            parallel,
+        )
     }
 
     /// The integrator over all agents: the SIMD pass, or its scalar reference sequentially
     /// (with `edges`, the parallel pass also applies the world's bounds to each task's agents,
-    /// as [`apply_bounds`] would after it).
+    /// as [`kernels::apply_bounds`] would after it).
     fn integrate(&mut self, dt: f32, exec: Execution, edges: bool) {
         self.scratch.params.clear();
         self.scratch
@@ -485,7 +440,7 @@ impl World {
         let bounds = self.bounds;
         let edge = |s: &mut MotionState<'_>| {
             if edges {
-                bound_piece((s.pos_x, s.pos_y, s.vel_x, s.vel_y), bounds);
+                kernels::bound_piece((s.pos_x, s.pos_y, s.vel_x, s.vel_y), bounds);
             }
         };
         let (cells, index) = (&self.scratch.pass.cells, &self.index);
@@ -551,38 +506,14 @@ impl World {
 
     /// The hard non-penetration step: no centre inside a circle, no move across a wall.
     fn resolve_obstacles(&mut self, exec: Execution) {
-        let obstacles = &self.obstacles;
-        let bounds = self.bounds;
-        let (px, py) = (&self.scratch.prev_x, &self.scratch.prev_y);
-        let fix = |base: usize, x: &mut [f32], y: &mut [f32], vx: &mut [f32], vy: &mut [f32]| {
-            for k in 0..x.len() {
-                let from = glam::Vec2::new(px[base + k], py[base + k]);
-                let to = glam::Vec2::new(x[k], y[k]);
-                // On a torus, resolve the move as the short hop it was, then wrap.
-                let to_image = from + bounds.offset(from, to);
-                let (p, v) = obstacles.resolve(from, to_image, glam::Vec2::new(vx[k], vy[k]));
-                let p = if p == to_image { to } else { bounds.wrap(p) };
-                x[k] = p.x;
-                y[k] = p.y;
-                vx[k] = v.x;
-                vy[k] = v.y;
-            }
-        };
         let a = &mut self.agents;
-        match exec {
-            Execution::Parallel => {
-                (
-                    a.pos_x.par_chunks_mut(STEER_CHUNK),
-                    a.pos_y.par_chunks_mut(STEER_CHUNK),
-                    a.vel_x.par_chunks_mut(STEER_CHUNK),
-                    a.vel_y.par_chunks_mut(STEER_CHUNK),
-                )
-                    .into_par_iter()
-                    .enumerate()
-                    .for_each(|(c, (x, y, vx, vy))| fix(c * STEER_CHUNK, x, y, vx, vy));
-            }
-            Execution::Sequential => fix(0, &mut a.pos_x, &mut a.pos_y, &mut a.vel_x, &mut a.vel_y),
-        }
+        kernels::resolve_obstacles(
+            &self.obstacles,
+            self.bounds,
+            (&self.scratch.prev_x, &self.scratch.prev_y),
+            (&mut a.pos_x, &mut a.pos_y, &mut a.vel_x, &mut a.vel_y),
+            exec == Execution::Parallel,
+        )
     }
 
     /// The one owner of the agents' order in a frame: decides the frame's order once, before
@@ -728,138 +659,6 @@ thread_local! {
         rayon::ThreadPoolBuilder::new().num_threads(1).build().ok();
 }
 
-/// Makes `to` a copy of `from`, in parallel chunks when `parallel` and `from` is long.
-fn copy_column(to: &mut Vec<f32>, from: &[f32], parallel: bool) {
-    if parallel && from.len() > BOUNDS_CHUNK {
-        to.resize(from.len(), 0.0);
-        to.par_chunks_mut(BOUNDS_CHUNK)
-            .zip(from.par_chunks(BOUNDS_CHUNK))
-            .for_each(|(t, f)| t.copy_from_slice(f));
-    } else {
-        to.clear();
-        to.extend_from_slice(from);
-    }
-}
-
-/// Agents per parallel task of the bounds phase.
-const BOUNDS_CHUNK: usize = 16 * 1024;
-
-/// Wraps positions on a torus; on a walled rectangle clamps them and removes the velocity
-/// component that points into the wall.
-fn apply_bounds(a: &mut Agents, bounds: Bounds, parallel: bool) {
-    if matches!(bounds, Bounds::Open) {
-        return;
-    }
-    let columns = (
-        &mut a.pos_x[..],
-        &mut a.pos_y[..],
-        &mut a.vel_x[..],
-        &mut a.vel_y[..],
-    );
-    if parallel {
-        (
-            columns.0.par_chunks_mut(BOUNDS_CHUNK),
-            columns.1.par_chunks_mut(BOUNDS_CHUNK),
-            columns.2.par_chunks_mut(BOUNDS_CHUNK),
-            columns.3.par_chunks_mut(BOUNDS_CHUNK),
-        )
-            .into_par_iter()
-            .for_each(|piece| bound_piece(piece, bounds));
-    } else {
-        bound_piece(columns, bounds);
-    }
-}
-
-/// The world's bounds on one piece of the agents (positions x and y, velocities x and y): each
-/// agent's result depends on its own values alone, so pieces of any size give the same bits.
-fn bound_piece(
-    (pos_x, pos_y, vel_x, vel_y): (&mut [f32], &mut [f32], &mut [f32], &mut [f32]),
-    bounds: Bounds,
-) {
-    match bounds {
-        Bounds::Open => {}
-        Bounds::Torus { size } => {
-            wrap_lined(pos_x, size.x);
-            wrap_lined(pos_y, size.y);
-        }
-        Bounds::Bounded { size } => {
-            clamp_axis(pos_x, vel_x, size.x);
-            clamp_axis(pos_y, vel_y, size.y);
-        }
-    }
-}
-
-/// [`wrap_all`] in two pieces, split at the first cache line (`crate::lines`).
-fn wrap_lined(v: &mut [f32], side: f32) {
-    let (head, rest) = v.split_at_mut(crate::lines::lead(v));
-    wrap_all(head, side);
-    wrap_all(rest, side);
-}
-
-/// [`crate::bounds::wrap_coord`] over a slice, bit for bit: one side added or taken away in
-/// lanes (exact, and what `rem_euclid` gives for a coordinate less than one side out), the
-/// general function for the rare values farther out (kept unchanged by the lanes).
-// `&` rather than a range test: no short circuit, so no branch in the lanes.
-#[allow(clippy::manual_range_contains)]
-#[multiversion::multiversion(targets(
-    "x86_64+avx2+fma+avx512f+avx512vl+avx512bw+avx512dq",
-    "x86_64+avx2+fma",
-    "x86_64+avx"
-))]
-fn wrap_all(v: &mut [f32], side: f32) {
-    let mut outside = false;
-    for x in v.iter_mut() {
-        // `-side` itself is left to the general function (`rem_euclid` gives -0 there).
-        let w = if (*x < 0.0) & (*x > -side) {
-            *x + side
-        } else if *x >= side {
-            *x - side
-        } else {
-            *x
-        };
-        let inside = (w >= 0.0) & (w < side);
-        outside |= !inside;
-        // A value still outside keeps its original bits for the general function.
-        *x = if inside { w } else { *x };
-    }
-    if outside {
-        for x in v.iter_mut() {
-            *x = crate::bounds::wrap_coord(*x, side);
-        }
-    }
-}
-
-/// A bounded world's walls on one axis: a coordinate below 0 or above `side` is put on the wall
-/// and its velocity's outward part dropped. Every value is written, as selects in lanes (a NaN
-/// coordinate is neither below nor above and stays as it is, with its velocity).
-#[multiversion::multiversion(targets(
-    "x86_64+avx2+fma+avx512f+avx512vl+avx512bw+avx512dq",
-    "x86_64+avx2+fma",
-    "x86_64+avx"
-))]
-fn clamp_axis(pos: &mut [f32], vel: &mut [f32], side: f32) {
-    let n = pos.len().min(vel.len());
-    let (pos, vel) = (&mut pos[..n], &mut vel[..n]);
-    for k in 0..n {
-        let (p, v) = (pos[k], vel[k]);
-        let (below, above) = (p < 0.0, p > side);
-        pos[k] = if below {
-            0.0
-        } else if above {
-            side
-        } else {
-            p
-        };
-        vel[k] = if below {
-            v.max(0.0)
-        } else if above {
-            v.min(0.0)
-        } else {
-            v
-        };
-    }
-}
-
 #[cfg(test)]
 mod tests {
     use super::*;
@@ -933,84 +732,5 @@ mod tests {
             flagged > 1000 && unflagged > 1000,
             "{flagged} flagged, {unflagged} not"
         );
-    }
-
-    #[test]
-    fn wall_clamp_in_lanes_equals_the_branches_bit_for_bit() {
-        let side = 12.5_f32;
-        let coords = [
-            -1.0,
-            -0.0,
-            0.0,
-            1e-30,
-            -1e-30,
-            6.0,
-            side,
-            side + 1e-6,
-            1e9,
-            -1e9,
-            f32::NAN,
-            f32::INFINITY,
-            f32::NEG_INFINITY,
-        ];
-        let speeds = [-3.0, -0.0, 0.0, 2.0, f32::NAN];
-        let (mut pos, mut vel) = (Vec::new(), Vec::new());
-        for &p in &coords {
-            for &v in &speeds {
-                pos.push(p);
-                vel.push(v);
-            }
-        }
-        let (mut want_p, mut want_v) = (pos.clone(), vel.clone());
-        for (p, v) in want_p.iter_mut().zip(want_v.iter_mut()) {
-            if *p < 0.0 {
-                *p = 0.0;
-                *v = v.max(0.0);
-            } else if *p > side {
-                *p = side;
-                *v = v.min(0.0);
-            }
-        }
-        clamp_axis(&mut pos, &mut vel, side);
-        let bits = |v: &[f32]| v.iter().map(|x| x.to_bits()).collect::<Vec<_>>();
-        assert_eq!(bits(&pos), bits(&want_p));
-        assert_eq!(bits(&vel), bits(&want_v));
-    }
-
-    #[test]
-    fn lane_wrapping_equals_wrap_coord_bit_for_bit() {
-        let side = 37.25_f32;
-        let mut values = vec![
-            0.0,
-            -0.0,
-            side,
-            -side,
-            2.0 * side,
-            -1e-9,
-            -1e-30,
-            side - 1e-6,
-            side + 1e-6,
-            1e10,
-            -1e10,
-            3.5 * side,
-            -3.5 * side,
-            f32::MAX,
-            -f32::MAX,
-        ];
-        let mut rng = crate::rng::AgentRng::new(5, 0, 0, 0);
-        values.extend((0..10_000).map(|_| rng.signed() * 3.0 * side));
-        let expected: Vec<u32> = values
-            .iter()
-            .map(|&x| crate::bounds::wrap_coord(x, side).to_bits())
-            .collect();
-        wrap_all(&mut values, side);
-        for (k, (x, e)) in values.iter().zip(&expected).enumerate() {
-            assert_eq!(
-                x.to_bits(),
-                *e,
-                "value {k}: {x} against {}",
-                f32::from_bits(*e)
-            );
-        }
     }
 }

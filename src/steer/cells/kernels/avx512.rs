@@ -221,7 +221,7 @@ mod tests {
     use rand_chacha::ChaCha8Rng;
 
     use super::*;
-    use crate::steer::cells::tree_sum;
+    use crate::steer::cells::kernels::tree_sum;
 
     /// [`reduce`] of eight accumulators given as 16 lanes each.
     #[target_feature(enable = "avx512f,avx512dq,avx512vl,avx2,fma")]
