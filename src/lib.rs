@@ -73,7 +73,6 @@ pub mod geometry;
 pub mod gravity;
 pub mod group;
 mod id;
-mod kernels;
 pub mod limits;
 mod lines;
 pub mod measure;
@@ -83,6 +82,7 @@ pub mod obstacles;
 pub mod oracle;
 pub mod orca;
 pub mod output;
+mod passes;
 pub mod ped;
 pub mod profile;
 #[cfg(feature = "render")]

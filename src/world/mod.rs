@@ -8,12 +8,12 @@
 //! [`crate::movement`]); **bounds** (contact between ORCA agents, torus wrap or wall clamp, obstacle
 //! non-penetration); the fields' constrain hook; contact's guard; arrivals counted and agents in
 //! exits removed. No per-agent logic lives here: the per-agent passes are the steering layer's,
-//! the integrator's and those of `kernels` (the edges, obstacle moves, arrivals).
+//! the integrator's and those of `passes` (the edges, obstacle moves, arrivals).
 //!
 //! Determinism: per-agent randomness is keyed by (seed, [`crate::AgentId`], frame), steering has
 //! no cross-agent writes and the integrator is element-wise, so the state after any number of
 //! steps is bit-identical for any thread count. [`World::step_sequential`] runs the same phases
-//! and kernels on one thread (with the scalar integrator), the reference the parallel step is
+//! and passes on one thread (with the scalar integrator), the reference the parallel step is
 //! tested against bit for bit.
 
 mod awake;

@@ -2,7 +2,7 @@
 //!
 //! `World::step` only orchestrates. Per-agent steering lives in [`crate::steer`], the integrator
 //! in [`crate::movement`], the other per-agent passes of the step (the world's edges, obstacle
-//! non-penetration, the arrival count, column copies) in [`crate::kernels`]; each subsystem
+//! non-penetration, the arrival count, column copies) in [`crate::passes`]; each subsystem
 //! (fields, group movement, obstacles, gravity) owns its per-step state and is called through
 //! its prepare hook before steering and its constrain hook after integration.
 
@@ -13,8 +13,8 @@ use super::stats::{PhaseTimes, StepStats};
 use crate::bounds::Bounds;
 use crate::error::{Error, MAX_DT, Result};
 use crate::group;
-use crate::kernels;
 use crate::movement::{self, IntegrationParams, MotionState, SteeringBuffers};
+use crate::passes;
 use crate::spatial::{NeighbourIndex, SpatialIndex};
 use crate::steer::{
     self, NearestIndex, PassScratch, Plan, References, SortedCopies, SteerOut, SteerView,
@@ -79,7 +79,7 @@ impl World {
         super::awake::with_awake_workers(|| self.step_with(dt, Execution::Parallel))
     }
 
-    /// The sequential reference step: the same phases and kernels as [`World::step`] on one
+    /// The sequential reference step: the same phases and passes as [`World::step`] on one
     /// thread, bit for bit the same results. The per-agent loops run without rayon tasks, and
     /// the step runs in a pool of one thread, so that the few splits below them (the index's
     /// and the hashed grids' rebuilds over many points) run in sequence too. Where that pool
@@ -158,8 +158,8 @@ impl World {
         let keep_start = contact || !self.obstacles.is_empty() || self.fields.is_active();
         if keep_start {
             let parallel = exec == Execution::Parallel;
-            kernels::copy_column(&mut self.scratch.prev_x, &self.agents.pos_x, parallel);
-            kernels::copy_column(&mut self.scratch.prev_y, &self.agents.pos_y, parallel);
+            passes::copy_column(&mut self.scratch.prev_x, &self.agents.pos_x, parallel);
+            passes::copy_column(&mut self.scratch.prev_y, &self.agents.pos_y, parallel);
         }
         // Without contact resolution nothing comes between the integrator and the world's
         // edges: the parallel integrator applies them to each task's agents in cache.
@@ -171,7 +171,7 @@ impl World {
         let t = Instant::now();
         self.resolve_contacts(exec);
         if !edges_inside {
-            kernels::apply_bounds(&mut self.agents, self.bounds, exec == Execution::Parallel);
+            passes::apply_bounds(&mut self.agents, self.bounds, exec == Execution::Parallel);
         }
         if !self.obstacles.is_empty() {
             self.resolve_obstacles(exec);
@@ -387,7 +387,7 @@ impl World {
                 .iter()
                 .map(|g| g.arrival_radius.map_or(-1.0, |r| r * r)),
         );
-        kernels::arrivals(
+        passes::arrivals(
             &self.agents,
             self.bounds,
             &self.scratch.arrival_sq,
@@ -397,7 +397,7 @@ impl World {
 
     /// The integrator over all agents: the SIMD pass, or its scalar reference sequentially
     /// (with `edges`, the parallel pass also applies the world's bounds to each task's agents,
-    /// as [`kernels::apply_bounds`] would after it).
+    /// as [`passes::apply_bounds`] would after it).
     fn integrate(&mut self, dt: f32, exec: Execution, edges: bool) {
         self.scratch.params.clear();
         self.scratch
@@ -440,7 +440,7 @@ impl World {
         let bounds = self.bounds;
         let edge = |s: &mut MotionState<'_>| {
             if edges {
-                kernels::bound_piece((s.pos_x, s.pos_y, s.vel_x, s.vel_y), bounds);
+                passes::bound_piece((s.pos_x, s.pos_y, s.vel_x, s.vel_y), bounds);
             }
         };
         let (cells, index) = (&self.scratch.pass.cells, &self.index);
@@ -507,7 +507,7 @@ impl World {
     /// The hard non-penetration step: no centre inside a circle, no move across a wall.
     fn resolve_obstacles(&mut self, exec: Execution) {
         let a = &mut self.agents;
-        kernels::resolve_obstacles(
+        passes::resolve_obstacles(
             &self.obstacles,
             self.bounds,
             (&self.scratch.prev_x, &self.scratch.prev_y),
