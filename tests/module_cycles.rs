@@ -1,6 +1,7 @@
-//! The library's top-level modules form no import cycle: `error` and the leaves (`id`,
-//! `vector`, `rng`, `lines`) sit at the bottom, and each module depends only on modules below
-//! it, so that a module can be read, tested and changed without the rest of the crate.
+//! The house's structure, held by tests: the library's top-level modules form no import
+//! cycle (`error` and the leaves `id`, `vector`, `rng`, `lines` sit at the bottom, and each
+//! module depends only on modules below it, so that a module can be read, tested and changed
+//! without the rest of the crate), and every module opens with a doc saying what it owns.
 //!
 //! The dependencies are read from the source: every `crate::name` path in code (comments,
 //! doc links and `#[cfg(test)]` modules left out, as they create no dependency of the
@@ -186,4 +187,24 @@ fn the_reader_sees_uses_and_paths_and_finds_a_cycle() {
     assert!(cycle(&edges).is_some());
     edges.get_mut("c").unwrap().clear();
     assert_eq!(cycle(&edges), None);
+}
+
+/// Every source file of the library, the command line and the bindings opens with a module
+/// doc (`//!`) saying what it owns (test-only files named `tests.rs` aside).
+#[test]
+fn every_module_says_what_it_owns() {
+    let root = Path::new(env!("CARGO_MANIFEST_DIR"));
+    let mut missing = Vec::new();
+    for dir in ["src", "cli/src", "python/src"] {
+        for (_, path) in files(&root.join(dir)) {
+            if path.file_name().is_some_and(|n| n == "tests.rs") {
+                continue;
+            }
+            let text = fs::read_to_string(&path).unwrap();
+            if !text.starts_with("//!") {
+                missing.push(path.display().to_string());
+            }
+        }
+    }
+    assert!(missing.is_empty(), "no module doc: {missing:?}");
 }

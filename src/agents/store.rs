@@ -1,3 +1,11 @@
+//! The agents' structure-of-arrays storage ([`Agents`]), what a new agent starts with
+//! ([`AgentInit`]), and the plain columns a checkpoint keeps.
+//!
+//! Invariants: every column has one entry per agent, index `i` of each describing the same
+//! agent; ids are handed out in order, never reused, and map back to indices both ways; every
+//! change of the storage order (an addition, a removal, a reorder) gives the agents a new
+//! [`AgentOrder`] stamp, so that copies built for the old order are refused.
+
 use super::order::AgentOrder;
 pub use crate::id::AgentId;
 use glam::Vec2;

@@ -1,3 +1,11 @@
+//! The integrator of both movement models: it turns each agent's steering request (a force in
+//! the dynamic model, a desired velocity in the kinematic one) into its new velocity, position
+//! and orientation over one time step, clamped to its group's limits.
+//!
+//! Invariants: every agent's update reads its own values and its group's constants only, so
+//! pieces of any size on any number of threads give the same bits; speeds never exceed the
+//! agent's maximum, and orientations stay in `[0, 2pi)`.
+
 use std::f32::consts::TAU;
 
 use rayon::iter::Either;

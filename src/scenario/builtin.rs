@@ -1,3 +1,5 @@
+//! The built-in scenarios: their TOML texts, embedded in the binary, by name.
+
 use super::spec::Scenario;
 use crate::error::{Error, Result};
 

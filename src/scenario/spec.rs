@@ -1,3 +1,10 @@
+//! A scenario as its file states it ([`Scenario`] and the types of its tables), the checks
+//! of every value against its range and ceiling, the memory estimate, and the build of a
+//! [`World`] from it.
+//!
+//! Invariant: a scenario is validated whole before anything is built, and the error names
+//! the first bad key with its path (`groups[2].spawn.count`).
+
 use std::f32::consts::PI;
 use std::path::Path;
 

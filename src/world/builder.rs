@@ -1,3 +1,6 @@
+//! [`WorldBuilder`]: an empty world's bounds, seed, neighbour index and first groups, checked
+//! when the world is built.
+
 use super::GroupParams;
 use super::state::World;
 use crate::agents::{AgentId, AgentInit};

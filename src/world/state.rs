@@ -1,3 +1,9 @@
+//! The [`World`] itself: the agents, their groups, the obstacles, targets, gravity points and
+//! fields a step reads, and the methods that read and change them between steps.
+//!
+//! Invariant: every mutator validates its input before it changes anything, so nothing invalid
+//! reaches the buffers and a refused call leaves the world as it was.
+
 use glam::Vec2;
 
 use super::GroupParams;

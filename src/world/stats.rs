@@ -1,3 +1,6 @@
+//! What a step reports: the time spent in each of its phases ([`PhaseTimes`]) and its counts
+//! ([`StepStats`]: the frame, agents, arrivals, departures through exits, mean neighbours).
+
 use std::time::Duration;
 
 /// Wall-clock time of each phase of a step.
