@@ -2,6 +2,7 @@
 //! package (`python/throng/`), built by maturin as an abi3 wheel for CPython 3.9 and later.
 //!
 //! - [`world`]: `throng.World`, stepped with the GIL released and read out as numpy arrays;
+//! - [`simulation`]: `throng.Simulation`, a pedestrian study with stages and journeys, no TOML;
 //! - [`bench`]: `throng.bench`, the CLI's benchmark object as a dict;
 //! - [`validate`]: `throng.validate`, one validation case's report as a dict;
 //! - [`scenario`]: built-in names, files and TOML text, with keyword overrides;
@@ -16,6 +17,7 @@ mod bench;
 mod convert;
 mod error;
 mod scenario;
+mod simulation;
 mod validate;
 mod world;
 
@@ -48,6 +50,11 @@ fn _throng(m: &Bound<'_, PyModule>) -> PyResult<()> {
     throng_error.setattr("parameter", m.py().None())?;
     m.add("ThrongError", throng_error)?;
     m.add_class::<world::PyWorld>()?;
+    m.add_class::<simulation::PySimulation>()?;
+    m.add_class::<simulation::PyJourney>()?;
+    m.add_class::<simulation::PyTransition>()?;
+    m.add_class::<simulation::PyQueue>()?;
+    m.add_class::<simulation::PyWaitingSet>()?;
     m.add_function(wrap_pyfunction!(bench::bench, m)?)?;
     m.add_function(wrap_pyfunction!(validate::validate, m)?)?;
     m.add_function(wrap_pyfunction!(scenarios, m)?)?;

@@ -3,6 +3,9 @@
 A Rust simulator (Reynolds steering, flocking, potential and flow fields, group movement)
 behind a numpy-native interface:
 
+- ``Simulation(geometry=WKT, model="cfsm", dt=0.01)`` builds a pedestrian study without
+  scenario files: stages (waypoints, exits, queues, waiting sets, direct steering), journeys
+  with transitions, agents with their own parameters, ``iterate()``;
 - ``World.from_scenario(name, ...)`` / ``World.from_toml(path_or_text, ...)`` build a world;
 - ``world.step(n=...)`` runs steps with the GIL released (rayon threads inside);
 - ``positions()``, ``velocities()``, ``orientations()``, ``ids()``, ``groups()`` return fresh
@@ -21,12 +24,29 @@ Every bad argument raises ``ThrongError`` (a ``ValueError``) with the Rust libra
 (500, 2)
 """
 
-from ._throng import ThrongError, World, __version__, bench, scenarios, validate
+from ._throng import (
+    Journey,
+    QueueStage,
+    Simulation,
+    ThrongError,
+    Transition,
+    WaitingSetStage,
+    World,
+    __version__,
+    bench,
+    scenarios,
+    validate,
+)
 from ._sweep import METRICS, VALIDATE_METRICS, run, sweep, threads_per_task
 
 __all__ = [
+    "Journey",
     "METRICS",
+    "QueueStage",
+    "Simulation",
     "ThrongError",
+    "Transition",
+    "WaitingSetStage",
     "World",
     "__version__",
     "bench",

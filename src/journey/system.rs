@@ -141,10 +141,9 @@ impl Journeys {
         }
         stage.validate(&format!("stage {k}"), area)?;
         if let Some(r) = &mut self.routes {
-            let mut r2 = r.clone();
-            r2.add(k, &stage)?;
-            r2.build()?;
-            *r = r2;
+            // `add` fails before it changes anything; `build` cannot fail on checked goals.
+            r.add(k, &stage)?;
+            r.build()?;
         } else if let Some(a) = area {
             // Checked now, so that a stage no cell reaches fails where it is added.
             let mut all: Vec<Stage> = self.stages.iter().map(|s| s.stage.clone()).collect();

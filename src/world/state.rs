@@ -558,6 +558,37 @@ impl World {
         Ok(())
     }
 
+    /// Sets an agent's desired walking speed under a pedestrian model ([`crate::ped`]).
+    ///
+    /// # Errors
+    /// [`Error::UnknownAgent`], [`Error::NonFinite`], or [`Error::OutOfRange`] outside
+    /// `[0, 100]` m/s.
+    pub fn set_desired_speed(&mut self, id: AgentId, speed: f32) -> Result<()> {
+        crate::error::finite("desired_speed", speed)?;
+        crate::error::in_range(
+            "desired_speed",
+            speed,
+            0.0,
+            crate::ped::MAX_DESIRED_SPEED,
+            "[0, 100] m/s",
+        )?;
+        let i = self.index(id)?;
+        self.agents.desired_speed[i] = speed;
+        Ok(())
+    }
+
+    /// Sets an agent's own radius (its group's radius no longer applies to it).
+    ///
+    /// # Errors
+    /// [`Error::UnknownAgent`], [`Error::NonFinite`] or [`Error::Negative`].
+    pub fn set_radius(&mut self, id: AgentId, radius: f32) -> Result<()> {
+        non_negative("radius", radius)?;
+        let i = self.index(id)?;
+        self.agents.radius[i] = radius;
+        self.agents.overrides[i] |= crate::agents::store_flags::OVERRIDE_RADIUS;
+        Ok(())
+    }
+
     /// Truncates agent `i`'s velocity to its maximum speed.
     fn clamp_velocity(&mut self, i: usize) {
         let a = &mut self.agents;

@@ -1,0 +1,150 @@
+"""throng.Simulation: pedestrian studies built in Python without TOML (stages, journeys,
+transitions, per-agent parameters), its examples run with their outcomes asserted, and its bad
+input raised as ThrongError naming the thing."""
+
+import math
+import runpy
+from pathlib import Path
+
+import numpy as np
+import pytest
+
+import throng
+
+EXAMPLES = Path(__file__).resolve().parents[2] / "examples" / "python"
+HALL = "POLYGON ((0 0, 30 0, 30 20, 0 20, 0 0))"
+
+
+def example(name):
+    return runpy.run_path(str(EXAMPLES / f"{name}.py"))["main"]
+
+
+def test_a_bottleneck_from_wkt_empties_at_a_measured_flow():
+    r = example("bottleneck_wkt")()
+    assert r["left"] == 100
+    # A 1 m door: the Juelich bottleneck experiments give about 1.9 persons/s per metre of
+    # width at this size; the speed model lies within a third of it.
+    assert 1.2 < r["flow"] < 2.6, r
+
+
+def test_the_ticket_gate_queue_lets_through_exactly_the_popped_count():
+    r = example("ticket_gate_queue")()
+    assert r["popped"] == 21
+    assert r["left"] == r["popped"]
+    assert r["in_queue"] == 9
+
+
+def test_the_waiting_area_holds_everyone_until_the_signal():
+    r = example("waiting_area")()
+    assert r["held"] == {"agents": 40, "waiting": 40}
+    assert r["left"] == 40 and r["agents"] == 0
+
+
+def test_the_concourse_splits_one_to_three_within_ten_percent():
+    r = example("concourse_round_robin")()
+    assert r["north"] + r["south"] == 400
+    assert abs(r["north"] / 400 - 0.25) <= 0.025, r
+
+
+def small(threads=None, seed=1):
+    sim = throng.Simulation(HALL, dt=0.01, seed=seed, threads=threads)
+    via = sim.add_waypoint_stage((15.0, 10.0), 1.0)
+    out = sim.add_exit_stage([(28.0, 8.0), (30.0, 8.0), (30.0, 12.0), (28.0, 12.0)])
+    j = sim.add_journey(throng.Journey([via, out], chain=True))
+    xy = np.array([(1.0 + 0.7 * (k % 10), 5.0 + 0.7 * (k // 10)) for k in range(60)])
+    ids = sim.add_agents(xy, journey=j, desired_speed=1.2)
+    return sim, ids, via, out
+
+
+def test_agents_carry_their_own_parameters_readable_and_writable_between_steps():
+    sim, ids, via, out = small()
+    assert ids.dtype == np.uint32 and list(ids) == list(range(60))
+    assert np.all(sim.desired_speeds() == np.float32(1.2))
+    sim.set_desired_speeds(ids[:10], 0.5)
+    sim.set_radii(ids[:10], [0.25] * 10)
+    speeds = sim.desired_speeds()
+    assert np.all(speeds[:10] == np.float32(0.5)) and np.all(speeds[10:] == np.float32(1.2))
+    assert np.all(sim.radii()[:10] == np.float32(0.25))
+    one = sim.add_agents((2.0, 18.0), journey=0, desired_speed=0.8, radius=0.18)
+    assert isinstance(one, int) and sim.agent_journey(one) == (0, via)
+    sim.iterate(200)
+    assert sim.iteration_count() == 200 and math.isclose(sim.elapsed_time(), 2.0, rel_tol=1e-6)
+    # The slow ones are behind.
+    x = sim.positions()[:, 0]
+    assert x[:10].mean() < x[10:60].mean()
+
+
+def test_the_same_bits_on_one_and_two_threads():
+    a, *_ = small(threads=1)
+    b, *_ = small(threads=2)
+    a.iterate(500)
+    b.iterate(500)
+    assert np.array_equal(a.positions(), b.positions())
+    assert np.array_equal(a.velocities(), b.velocities())
+
+
+def test_the_walkable_area_is_the_geometry_given():
+    sim = throng.Simulation(HALL)
+    assert sim.walkable_area().startswith("POLYGON")
+    shapely = pytest.importorskip("shapely")
+    assert sim.walkable_area(shapely=True).equals(shapely.from_wkt(HALL))
+    # A shapely polygon is accepted as geometry and as an exit.
+    poly = shapely.from_wkt(HALL)
+    s2 = throng.Simulation(poly)
+    s2.add_exit_stage(shapely.box(28, 8, 30, 12))
+
+
+def test_bad_input_raises_throng_error_naming_the_thing():
+    sim, ids, via, out = small()
+    with pytest.raises(throng.ThrongError, match="no stage 9"):
+        sim.add_journey(throng.Journey([via, 9]))
+    cycle = throng.Journey([via, out])
+    a = sim.add_waypoint_stage((5.0, 5.0), 1.0)
+    b = sim.add_waypoint_stage((9.0, 5.0), 1.0)
+    cycle = throng.Journey([a, b])
+    cycle.set_transition(a, throng.Transition.fixed(b))
+    cycle.set_transition(b, throng.Transition.fixed(a))
+    with pytest.raises(throng.ThrongError, match="for ever"):
+        sim.add_journey(cycle)
+    q = sim.add_queue_stage([(10.0, 2.0), (10.5, 2.0)])
+    with pytest.raises(throng.ThrongError, match="cannot pop 3"):
+        q.pop(3)
+    with pytest.raises(throng.ThrongError, match="finite"):
+        sim.add_agents([(1.0, float("nan"))], journey=0)
+    with pytest.raises(throng.ThrongError, match="outside the walkable area"):
+        sim.add_agents([(5.0, 5.0), (50.0, 5.0)], journey=0)
+    assert sim.agent_count() == 60, "a failed add_agents adds nobody"
+    with pytest.raises(throng.ThrongError, match="outside the walkable area"):
+        sim.add_waypoint_stage((-3.0, 5.0), 1.0)
+    with pytest.raises(throng.ThrongError, match="no journey 5"):
+        sim.add_agents([(5.0, 5.0)], journey=5)
+    with pytest.raises(throng.ThrongError, match="desired_speed"):
+        sim.set_desired_speeds(ids[:2], [1.0, float("inf")])
+    assert np.all(sim.desired_speeds()[:2] == np.float32(1.2)), "a failed setter changes nothing"
+    with pytest.raises(throng.ThrongError, match="unknown pedestrian model"):
+        throng.Simulation(HALL, model="boids")
+    with pytest.raises(throng.ThrongError, match="dt"):
+        throng.Simulation(HALL, dt=float("nan"))
+    with pytest.raises(throng.ThrongError):
+        throng.Simulation("POLYGON ((0 0, 1 1, 0 0))")
+
+
+def test_two_models_share_one_simulation_and_keep_apart():
+    room = "POLYGON ((0 0, 10 0, 10 4.5, 14 4.5, 14 5.5, 10 5.5, 10 10, 0 10, 0 0))"
+    sim = throng.Simulation(room, model="cfsm", seed=2)
+    out = sim.add_exit_stage("POLYGON ((13 4.5, 14 4.5, 14 5.5, 13 5.5, 13 4.5))")
+    j = sim.add_journey(throng.Journey([out]))
+    xy = [(1.0 + 0.8 * (k % 10), 1.0 + 0.8 * (k // 10)) for k in range(60)]
+    sim.add_agents(xy[::2], journey=j)
+    sim.add_agents(xy[1::2], journey=j, model="social_force")
+    closest = math.inf
+    while sim.agent_count() > 0 and sim.elapsed_time() < 200:
+        sim.iterate(50)
+        p = sim.positions().astype(np.float64)
+        if len(p) > 1:
+            d = np.sqrt(((p[:, None, :] - p[None, :, :]) ** 2).sum(-1))
+            np.fill_diagonal(d, np.inf)
+            closest = min(closest, d.min())
+    assert sim.exit_counts()[out] == 60
+    # Bodies of 0.2 m: the two models' agents overlap by at most a quarter of a radius.
+    assert closest > 0.35, closest
