@@ -526,3 +526,110 @@ fn a_direct_steering_stage_walks_to_the_point_set_from_outside() {
     let p = w.agent(id).unwrap().position;
     assert!(p.distance(Vec2::new(10.0, 12.0)) < 0.2, "{p}");
 }
+
+#[test]
+fn nobody_walks_into_an_agent_driven_from_outside() {
+    // A robot of radius 0.4 m crosses the path of forty pedestrians at 0.8 m/s, written from
+    // outside every step; they walk round or wait, and it goes exactly where it is put.
+    let mut w = world(HALL, Model::Cfsm);
+    let out = exit_at(&mut w, Vec2::new(28.0, 8.0), Vec2::new(30.0, 12.0));
+    let j = w.add_journey(Journey::chain([out])).unwrap();
+    add_grid(
+        &mut w,
+        40,
+        Vec2::new(1.0, 7.0),
+        Vec2::new(6.0, 13.0),
+        0.8,
+        j,
+    );
+    let mut robot_profile = Profile::kinematic(SteeringProfile::default());
+    robot_profile.radius = 0.4;
+    let g = w.add_group(robot_profile).unwrap();
+    let start = Vec2::new(14.0, 1.0);
+    let robot = w.add_agent(AgentInit::at(start, g)).unwrap();
+    let v = Vec2::new(0.0, 0.8);
+    let mut closest = f32::INFINITY;
+    for k in 0..6000 {
+        let p = start + v * (k as f32 * DT).min(22.0);
+        let p = Vec2::new(p.x, p.y.min(19.0));
+        w.set_external(robot, p, v).unwrap();
+        w.step(DT).unwrap();
+        assert_eq!(w.agent(robot).unwrap().position, p, "step {k}");
+        let a = w.agents();
+        for i in 0..a.len() {
+            if a.id(i) != robot {
+                closest = closest.min(a.position(i).distance(p) - a.radii()[i] - 0.4);
+            }
+        }
+    }
+    assert!(w.is_external(robot));
+    assert_eq!(
+        w.stage_counts()[out.0 as usize].left,
+        40,
+        "everyone passed the robot"
+    );
+    assert!(closest > -0.05 * 0.6, "overlap of {} m", -closest);
+    let e = w
+        .set_external(robot, Vec2::new(-5.0, 5.0), Vec2::ZERO)
+        .unwrap_err()
+        .to_string();
+    assert!(e.contains("outside the walkable area"), "{e}");
+}
+
+/// A room with doors east and north, each into a short corridor.
+const TWO_DOORS: &str =
+    "POLYGON ((0 0, 20 0, 20 4, 24 4, 24 6, 20 6, 20 10, 11 10, 11 14, 9 14, 9 10, 0 10, 0 0))";
+/// The same room with the east door closed.
+const EAST_CLOSED: &str = "POLYGON ((0 0, 20 0, 20 10, 11 10, 11 14, 9 14, 9 10, 0 10, 0 0))";
+
+#[test]
+fn after_a_door_closes_nobody_passes_it() {
+    let mut w = world(TWO_DOORS, Model::Cfsm);
+    let east = exit_at(&mut w, Vec2::new(23.0, 4.0), Vec2::new(24.0, 6.0));
+    let north = exit_at(&mut w, Vec2::new(9.0, 13.0), Vec2::new(11.0, 14.0));
+    let to_east = w.add_journey(Journey::chain([east])).unwrap();
+    let to_north = w.add_journey(Journey::chain([north])).unwrap();
+    let ids = add_grid(
+        &mut w,
+        80,
+        Vec2::new(1.0, 1.0),
+        Vec2::new(9.0, 9.0),
+        0.7,
+        to_east,
+    );
+    run(&mut w, 8.0);
+    // Someone stands in the doorway now and then: the switch waits for a moment it can close.
+    let mut refused = 0;
+    while let Err(e) = w.switch_walkable(Walkable::from_wkt(EAST_CLOSED).unwrap()) {
+        assert!(e.to_string().contains("outside the new area"), "{e}");
+        refused += 1;
+        w.step(DT).unwrap();
+    }
+    let left_east = w.stage_counts()[east.0 as usize].left;
+    assert!(left_east > 0, "some left before the door closed");
+    for &id in &ids {
+        if w.journey_of(id).is_some() {
+            w.set_journey(id, to_north, None).unwrap();
+        }
+    }
+    for _ in 0..(120.0 / DT) as usize {
+        w.step(DT).unwrap();
+        let a = w.agents();
+        assert!(
+            (0..a.len()).all(|i| a.position(i).x <= 20.0),
+            "someone passed the closed door"
+        );
+    }
+    let c = w.stage_counts();
+    assert_eq!(
+        c[east.0 as usize].left, left_east,
+        "nobody left east after the door closed"
+    );
+    assert_eq!(c[east.0 as usize].left + c[north.0 as usize].left, 80);
+    let _ = refused;
+    // The checkpoint carries the current geometry.
+    let mut bytes = Vec::new();
+    w.save(&mut bytes).unwrap();
+    let back = World::load(&bytes[..]).unwrap();
+    assert_eq!(back.walkable(), w.walkable());
+}

@@ -15,6 +15,12 @@
 //! is then a point two metres down the field's flow, and the stage's own point once the agent
 //! stands on one of its goal cells. Without a walkable area the target is the stage's point.
 //!
+//! The same system keeps the agents **driven from outside**
+//! ([`World::set_external`](crate::World::set_external)): a robot, a vehicle, a player, whose
+//! position and velocity are written between steps. The step moves them not at all (they are
+//! put back where they were written at its end), and every other agent sees them as
+//! neighbours and avoids them as its model avoids anyone.
+//!
 //! Invariants: every step's journey update (slot assignment, completion, transitions, exit
 //! removal) visits agents in ascending id order and breaks every tie by id, so its outcome
 //! depends on neither the agents' storage order nor the thread count; stages and journeys are

@@ -37,6 +37,16 @@ pub(crate) struct Routes {
 impl Routes {
     /// Routes on `area` for `stages` (built at once).
     pub(crate) fn new(area: &Walkable, stages: &[Stage]) -> Result<Self> {
+        Routes::build_on(area, stages, false)
+    }
+
+    /// Routes on `area` for `stages`, where a stage that no cell of the area reaches (a door
+    /// since closed) gets no route instead of failing.
+    pub(crate) fn new_cut(area: &Walkable, stages: &[Stage]) -> Result<Self> {
+        Routes::build_on(area, stages, true)
+    }
+
+    fn build_on(area: &Walkable, stages: &[Stage], cut: bool) -> Result<Self> {
         let grid = area.rasterize(CELL_SIZE, area.min())?;
         let channels =
             GoalChannels::new(grid, 0.5, Neighbourhood::Eight)?.with_metric(FlowMetric::Euclidean);
@@ -46,7 +56,12 @@ impl Routes {
             centre: Vec::new(),
         };
         for (k, s) in stages.iter().enumerate() {
-            routes.add(k, s)?;
+            if cut && goal_cells(routes.channels.grid(), s).is_empty() {
+                routes.channel_of.push(None);
+                routes.centre.push(Vec2::ZERO);
+            } else {
+                routes.add(k, s)?;
+            }
         }
         routes.channels.rebuild_dirty()?;
         Ok(routes)

@@ -83,6 +83,9 @@ pub(crate) struct Journeys {
     agent: Vec<(u32, u32)>,
     /// Per agent id: its direct steering target (NaN for none: it stays where it is).
     direct: Vec<Vec2>,
+    /// Agents driven from outside: id, position and velocity, ascending by id.
+    #[serde(default)]
+    external: Vec<(AgentId, Vec2, Vec2)>,
     /// Routing over the walkable area, when the world has one (rebuilt on load).
     #[serde(skip)]
     routes: Option<Routes>,
@@ -98,9 +101,58 @@ pub(crate) struct Journeys {
 }
 
 impl Journeys {
-    /// Whether the world has stages.
+    /// Whether the world has neither stages nor agents driven from outside.
     pub(crate) fn is_empty(&self) -> bool {
-        self.stages.is_empty()
+        self.stages.is_empty() && self.external.is_empty()
+    }
+
+    /// Records agent `id`'s position and velocity as written from outside.
+    pub(crate) fn set_external(&mut self, id: AgentId, position: Vec2, velocity: Vec2) {
+        match self.external.binary_search_by_key(&id, |e| e.0) {
+            Ok(k) => self.external[k] = (id, position, velocity),
+            Err(k) => self.external.insert(k, (id, position, velocity)),
+        }
+    }
+
+    /// Whether agent `id` is driven from outside.
+    pub(crate) fn is_external(&self, id: AgentId) -> bool {
+        self.external.binary_search_by_key(&id, |e| e.0).is_ok()
+    }
+
+    /// At the end of a step: every live agent driven from outside is where it was put, with
+    /// the velocity it was given (whatever the step did to it); the departed are forgotten.
+    pub(crate) fn hold_external(&mut self, agents: &mut Agents) {
+        self.external
+            .retain(|&(id, p, v)| match agents.index_of(id) {
+                Some(i) => {
+                    agents.pos_x[i] = p.x;
+                    agents.pos_y[i] = p.y;
+                    agents.vel_x[i] = v.x;
+                    agents.vel_y[i] = v.y;
+                    true
+                }
+                None => false,
+            });
+    }
+
+    /// Routes built on `area` for the current stages, for a switch of the walkable area.
+    ///
+    /// Stages the new area cuts off get no route.
+    ///
+    /// # Errors
+    /// As [`Routes::new`], for a raster too large.
+    pub(crate) fn routes_on(&self, area: &Walkable) -> Result<Option<Routes>> {
+        if self.stages.is_empty() {
+            return Ok(None);
+        }
+        let stages: Vec<Stage> = self.stages.iter().map(|s| s.stage.clone()).collect();
+        Routes::new_cut(area, &stages).map(Some)
+    }
+
+    /// Installs routes built by [`Journeys::routes_on`].
+    pub(crate) fn set_routes(&mut self, routes: Option<Routes>) {
+        self.routes = routes;
+        self.routes_stale = false;
     }
 
     /// The stages.
@@ -331,7 +383,7 @@ impl Journeys {
         self.routes = match area {
             Some(a) => {
                 let stages: Vec<Stage> = self.stages.iter().map(|s| s.stage.clone()).collect();
-                Some(Routes::new(a, &stages)?)
+                Some(Routes::new_cut(a, &stages)?)
             }
             None => None,
         };
@@ -586,9 +638,12 @@ impl Journeys {
             reason: what,
         };
         let mut fresh = Journeys::default();
+        // Checked without the area: a stage that a later switch of the area cut off is kept.
         for st in &self.stages {
-            fresh.add_stage(st.stage.clone(), area)?;
+            fresh.add_stage(st.stage.clone(), None)?;
         }
+        fresh.routes_stale = true;
+        fresh.ensure_routes(area)?;
         for (k, js) in self.journeys.into_iter().enumerate() {
             if js.counters.len() != js.journey.transitions.len() {
                 return Err(bad(format!(
@@ -649,8 +704,19 @@ impl Journeys {
             f.released = st.released;
             f.left = st.left;
         }
+        for (k, &(id, p, v)) in self.external.iter().enumerate() {
+            if id.0 as usize >= issued || (k > 0 && self.external[k - 1].0 >= id) {
+                return Err(bad(format!(
+                    "external agent #{id} was never added or is out of order"
+                )));
+            }
+            crate::error::coordinate("external position", p)
+                .and_then(|_| crate::error::finite_vec("external velocity", v))
+                .map_err(|e| bad(format!("external agent #{id}: {e}")))?;
+        }
         fresh.agent = self.agent;
         fresh.direct = self.direct;
+        fresh.external = self.external;
         Ok(fresh)
     }
 

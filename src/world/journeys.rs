@@ -144,6 +144,109 @@ impl World {
         self.journeys.counts(&self.agents)
     }
 
+    /// Drives agent `id` from outside: puts it at `position` with `velocity` now and after
+    /// every step until it is removed. The step does not move it; everyone else sees it as a
+    /// neighbour (with that velocity) and avoids it. Call it between steps with the agent's
+    /// new state.
+    ///
+    /// # Errors
+    /// [`Error::UnknownAgent`]; [`Error::NonFinite`] or [`Error::OutOfRange`] for a bad
+    /// number or a speed above [`MAX_SPEED`](crate::error::MAX_SPEED); [`Error::Invalid`] for
+    /// a position outside the walkable area or inside an obstacle. Nothing changes then.
+    pub fn set_external(&mut self, id: AgentId, position: Vec2, velocity: Vec2) -> Result<()> {
+        crate::error::coordinate("external position", position)?;
+        let v = crate::error::finite_vec("external velocity", velocity)?;
+        crate::error::in_range(
+            "external velocity",
+            v.length(),
+            0.0,
+            crate::error::MAX_SPEED,
+            "a speed of at most 1e12",
+        )?;
+        if let Some(area) = &self.walkable
+            && !area.contains(position)
+        {
+            return Err(Error::Invalid {
+                name: "external position".into(),
+                reason: format!(
+                    "agent {id} at ({}, {}) lies outside the walkable area",
+                    position.x, position.y
+                ),
+            });
+        }
+        let i = self.agents.index_of(id).ok_or(Error::UnknownAgent { id })?;
+        self.set_position(id, position)?;
+        self.agents.vel_x[i] = velocity.x;
+        self.agents.vel_y[i] = velocity.y;
+        self.journeys.set_external(id, position, velocity);
+        Ok(())
+    }
+
+    /// Whether agent `id` is driven from outside ([`World::set_external`]).
+    #[must_use]
+    pub fn is_external(&self, id: AgentId) -> bool {
+        self.agents.contains(id) && self.journeys.is_external(id)
+    }
+
+    /// Replaces the walkable area (a door closed or opened, a train that arrived): the old
+    /// area's walls leave the obstacles, the new area's come in, and the stages' routes are
+    /// rebuilt on it at once.
+    ///
+    /// The rule for agents is that none may be left outside the area: when an agent's centre
+    /// lies outside the new area (in a doorway being closed, say), the switch is refused with
+    /// an error naming the lowest such id, and nothing changes; the caller moves or removes it
+    /// and switches again. An agent inside the area whose stage the new area cuts off has no
+    /// route: it heads straight for its stage and the walls hold it.
+    ///
+    /// # Errors
+    /// [`Error::Invalid`] when the world has no walkable area yet (use
+    /// [`World::set_walkable`]), when an agent stands outside the new one, or when a stage
+    /// lies outside it or reaches none of its cells; nothing changes then.
+    pub fn switch_walkable(&mut self, area: crate::geometry::Walkable) -> Result<()> {
+        let Some(old) = &self.walkable else {
+            return Err(Error::Invalid {
+                name: "walkable area".into(),
+                reason: "the world has none to switch from: set one with set_walkable".into(),
+            });
+        };
+        let outside = self
+            .agents
+            .ids()
+            .iter()
+            .zip(0..)
+            .filter(|&(_, i)| !area.contains(self.agents.position(i)))
+            .map(|(&id, _)| id)
+            .min();
+        if let Some(id) = outside {
+            let p = self.agents.position(self.agents.index_of(id).unwrap_or(0));
+            return Err(Error::Invalid {
+                name: "walkable area".into(),
+                reason: format!(
+                    "agent {id} stands outside the new area at ({}, {}): move or remove it first",
+                    p.x, p.y
+                ),
+            });
+        }
+        let routes = self.journeys.routes_on(&area)?;
+        // The walls of every other obstacle stay; the old area's go, once each.
+        let mut old_walls = old.walls();
+        let mut walls = Vec::with_capacity(self.obstacles.walls().len());
+        for w in self.obstacles.walls() {
+            match old_walls.iter().position(|o| o == w) {
+                Some(k) => {
+                    old_walls.swap_remove(k);
+                }
+                None => walls.push(*w),
+            }
+        }
+        walls.extend(area.walls());
+        self.obstacles =
+            crate::obstacles::Obstacles::from_lists(self.obstacles.circles().to_vec(), walls)?;
+        self.walkable = Some(area);
+        self.journeys.set_routes(routes);
+        Ok(())
+    }
+
     /// The cells of the routing raster (0 without a walkable area or stages).
     #[must_use]
     pub fn route_cells(&self) -> usize {

@@ -198,6 +198,9 @@ impl World {
             phases.bounds += t.elapsed();
         }
 
+        // Agents driven from outside stand where they were put, whatever the step did.
+        self.journeys.hold_external(&mut self.agents);
+
         self.frame += 1;
         self.time += f64::from(dt);
         let mean_neighbours = if n == 0 {
