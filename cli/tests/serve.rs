@@ -594,3 +594,28 @@ fn a_bad_bind_address_or_steps_per_frame_is_refused_before_serving() {
         assert!(err.contains(needle), "{args:?}: {err}");
     }
 }
+
+#[cfg(feature = "render")]
+#[test]
+fn the_page_colours_the_heat_map_the_way_the_pictures_do() {
+    use throng::render::Palette;
+    let s = Server::start(&["fields", "--agents", "10", "--paused"]);
+    let (_, world) = s.json("GET", "/world", None);
+    // The page colours layer value v (0 at a goal, 253 farthest) at v / 253 along `heat_ramp`;
+    // `--render` colours a cell at 1 - steps / farthest along its palette's ramp.
+    let ramp: Vec<[u8; 3]> = serde_json::from_value(world["heat_ramp"].clone())
+        .unwrap_or_else(|e| panic!("no heat_ramp in /world ({e}): {world}"));
+    let palette = Palette::standard();
+    assert_eq!(ramp[0], palette.rgb(Palette::heat(1.0)), "at a goal");
+    assert_eq!(
+        ramp[ramp.len() - 1],
+        palette.rgb(Palette::heat(0.0)),
+        "farthest from the goals"
+    );
+    // Halfway, within the palette's 64 steps.
+    let (page, picture) = (ramp[ramp.len() / 2], palette.rgb(Palette::heat(0.5)));
+    assert!(
+        page.iter().zip(picture).all(|(&a, b)| a.abs_diff(b) <= 4),
+        "halfway: the page's {page:?}, the pictures' {picture:?}"
+    );
+}

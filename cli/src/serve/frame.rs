@@ -30,6 +30,16 @@ pub const VERSION: u16 = 1;
 pub const HEADER_LEN: usize = 88;
 /// Flag bit: the simulation is paused.
 pub const FLAG_PAUSED: u16 = 1;
+/// The heat map's colours from a goal (first) to the farthest reachable cell (last), at equal
+/// steps: the ramp of the PNG and GIF pictures (`throng::render::Palette`), bright at the goals
+/// and dark far from them, so that the page and `--render` read the same way.
+pub const HEAT_RAMP: [[u8; 3]; 5] = [
+    [175, 160, 40],
+    [70, 140, 70],
+    [24, 100, 100],
+    [38, 56, 100],
+    [40, 10, 56],
+];
 /// Longest side, in cells, of the field layer in `GET /world` (larger grids are sampled down).
 const MAX_LAYER_SIDE: u32 = 1024;
 
@@ -294,6 +304,7 @@ pub fn world_json(world: &World, version: u32) -> Value {
         "paths": paths,
         "groups": groups,
         "fields": fields,
+        "heat_ramp": HEAT_RAMP,
     })
 }
 
