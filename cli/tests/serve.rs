@@ -619,3 +619,33 @@ fn the_page_colours_the_heat_map_the_way_the_pictures_do() {
         "halfway: the page's {page:?}, the pictures' {picture:?}"
     );
 }
+
+#[test]
+fn the_world_offers_only_click_modes_that_act_and_an_extent_to_fit() {
+    let modes = |scenario: &str| -> Vec<String> {
+        let s = Server::start(&[scenario, "--agents", "50", "--paused"]);
+        let (_, world) = s.json("GET", "/world", None);
+        serde_json::from_value(world["modes"].clone())
+            .unwrap_or_else(|e| panic!("{scenario}: no modes in /world ({e})"))
+    };
+    // Flock agents feel no gravity point and follow no field.
+    assert_eq!(modes("flock"), ["wall", "circle"]);
+    assert_eq!(modes("antigravity"), ["gravity", "wall", "circle"]);
+    assert_eq!(modes("fields"), ["goal", "wall", "circle"]);
+
+    // The bottleneck is an open world: its extent covers the 10 x 10 m room and the corridor,
+    // not a default 100 x 100 box.
+    let s = Server::start(&["bottleneck", "--paused"]);
+    let (_, world) = s.json("GET", "/world", None);
+    let e: Vec<f64> = serde_json::from_value(world["extent"].clone())
+        .unwrap_or_else(|e| panic!("no extent in /world ({e}): {world}"));
+    let (w, h) = (e[2] - e[0], e[3] - e[1]);
+    assert!(
+        e[0] <= 0.0 && e[1] <= 0.0 && e[2] >= 14.0 && e[3] >= 10.0,
+        "{e:?}"
+    );
+    assert!(
+        w < 20.0 && h < 16.0,
+        "the extent {e:?} is much larger than the room"
+    );
+}

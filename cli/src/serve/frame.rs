@@ -261,6 +261,27 @@ fn field_layer(channels: &GoalChannels) -> Value {
     })
 }
 
+/// The click modes of the page that change what happens in `world`: `goal` with a field,
+/// `gravity` when some group has an anti-gravity behaviour (nothing else feels gravity points),
+/// and `wall` and `circle` always (no agent crosses an obstacle).
+fn click_modes(world: &World) -> Vec<&'static str> {
+    let feels_gravity = world.groups().iter().any(|g| {
+        g.steering
+            .behaviours
+            .iter()
+            .any(|w| w.behaviour.name().starts_with("anti_gravity"))
+    });
+    let mut modes = Vec::with_capacity(4);
+    if world.field_count() > 0 {
+        modes.push("goal");
+    }
+    if feels_gravity {
+        modes.push("gravity");
+    }
+    modes.extend(["wall", "circle"]);
+    modes
+}
+
 /// The world's geometry as `GET /world` serves it.
 pub fn world_json(world: &World, version: u32) -> Value {
     let bounds = match world.bounds() {
@@ -292,6 +313,8 @@ pub fn world_json(world: &World, version: u32) -> Value {
         .iter()
         .map(|g| json!({ "name": g.name, "radius": g.radius, "max_speed": g.max_speed }))
         .collect();
+    // What the page fits on load: the world's rectangle, or in an open world everything in it.
+    let (lo, hi) = world.extent();
     let fields: Vec<Value> = (0..world.field_count())
         .filter_map(|f| world.field(f))
         .map(field_layer)
@@ -305,6 +328,8 @@ pub fn world_json(world: &World, version: u32) -> Value {
         "groups": groups,
         "fields": fields,
         "heat_ramp": HEAT_RAMP,
+        "extent": [lo.x, lo.y, hi.x, hi.y],
+        "modes": click_modes(world),
     })
 }
 
