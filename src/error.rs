@@ -112,6 +112,22 @@ pub enum Error {
         /// How many formations the world has.
         count: usize,
     },
+    /// A stage id that names no stage of the world's journeys.
+    #[error("no stage {stage} (the world has {count})")]
+    UnknownStage {
+        /// The stage id given.
+        stage: u32,
+        /// How many stages the world has.
+        count: usize,
+    },
+    /// A journey id that names no journey of the world.
+    #[error("no journey {journey} (the world has {count})")]
+    UnknownJourney {
+        /// The journey id given.
+        journey: u32,
+        /// How many journeys the world has.
+        count: usize,
+    },
     /// A parameter was invalid for a reason other than its numeric range.
     #[error("invalid {}: {}", escaped(name), escaped(reason))]
     Invalid {

@@ -75,6 +75,7 @@ pub mod geometry;
 pub mod gravity;
 pub mod group;
 mod id;
+pub mod journey;
 pub mod limits;
 mod lines;
 pub mod measure;

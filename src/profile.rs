@@ -98,6 +98,30 @@ impl Profile {
         }
     }
 
+    /// Pedestrians of `model` that walk their journeys ([`crate::journey`]): kinematic, bodies
+    /// of radius 0.2 m, a speed limit of 2.5 m/s, Weidmann's desired speeds, and one behaviour,
+    /// `arrive` at their own target (which the journey system sets every step) slowing within
+    /// 1 m, so that they stop on a queue's slot and walk at their desired speed elsewhere.
+    #[must_use]
+    pub fn journey_walkers(model: crate::ped::Model) -> Self {
+        let arrive = crate::steering::Behaviour::Arrive {
+            target: crate::steering::Target::Own,
+            params: crate::steering::ArriveParams {
+                target_radius: 0.05,
+                slow_radius: 1.0,
+                time_to_target: 0.1,
+            },
+        };
+        Profile {
+            model: MovementModel::Kinematic,
+            steering: SteeringProfile::single(arrive),
+            max_speed: 2.5,
+            radius: 0.2,
+            pedestrian: Some(crate::ped::Pedestrian::new(model)),
+            ..Self::default()
+        }
+    }
+
     /// Checks every limit and behaviour.
     ///
     /// # Errors

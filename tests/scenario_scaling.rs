@@ -83,11 +83,48 @@ fn a_hundred_thousand_agent_formation_sets_up_in_seconds() {
 }
 
 #[test]
-fn tiles_are_refused_without_a_size_or_with_a_field() {
+fn tiles_are_refused_without_a_size() {
     let text = "[world]\nkind = \"torus\"\ndensity = { neighbours = 5, radius = 2 }\nscale = \"tiles\"\n[[groups]]\ncount = 4\n";
     let s = Scenario::from_toml(text, "t.toml").unwrap();
     assert!(s.with_agents(40).is_err());
     // At or below the file's own count it scales by counts.
     let s = Scenario::from_toml(text, "t.toml").unwrap();
     assert_eq!(s.with_agents(3).unwrap().agent_count(), 3);
+}
+
+#[test]
+fn a_field_tiles_only_as_an_ascii_map_that_covers_the_tile() {
+    let with = |size: &str, map: &str, channels: &str| {
+        format!(
+            "[world]\nkind = \"bounded\"\nsize = {size}\nscale = \"tiles\"\n[field]\nmap = {map}\nchannels = {channels}\n[[groups]]\ncount = 4\nspawn = {{ kind = \"free_cells\" }}\n"
+        )
+    };
+    let ascii = "{ ascii = \"..G\\n.#.\\n\" }";
+    let tiled = |text: String| {
+        Scenario::from_toml(&text, "t.toml")
+            .unwrap()
+            .with_agents(12)
+    };
+    let s = tiled(with("[3, 2]", ascii, "[\"map\", { cells = [[0, 0]] }]")).unwrap();
+    let w = s.build().unwrap();
+    let grid = w.field(0).unwrap().grid();
+    // Three copies on 2 x 2 tiles: the fourth tile is walls.
+    assert_eq!((grid.width(), grid.height()), (6, 4));
+    assert_eq!(grid.free_count(), 3 * 5);
+    assert_eq!(
+        w.field(0).unwrap().goals(1).unwrap(),
+        &[(0, 0), (3, 0), (0, 2)]
+    );
+    for (size, map, channels) in [
+        ("[4, 2]", ascii, "[\"map\"]"),
+        (
+            "[3, 2]",
+            "{ caves = { width = 3, height = 2, obstacles = 0.1 } }",
+            "[{ random = 1 }]",
+        ),
+        ("[3, 2]", ascii, "[{ exit = 0 }]"),
+    ] {
+        let e = tiled(with(size, map, channels)).unwrap_err();
+        assert!(e.to_string().contains("world.scale"), "{size} {map}: {e}");
+    }
 }

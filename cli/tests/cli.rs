@@ -24,6 +24,7 @@ fn list_names_every_builtin_scenario() {
         "path",
         "leader",
         "formation",
+        "city",
     ] {
         assert!(
             out.lines()

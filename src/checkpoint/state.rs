@@ -64,6 +64,10 @@ pub(super) struct WorldState {
     #[serde(default)]
     chosen: Vec<(u32, u8)>,
     field_rebuilds: u64,
+    /// Stages, journeys, queue states and the agents on them (absent from files written before
+    /// journeys existed: none).
+    #[serde(default)]
+    journeys: Option<crate::journey::Journeys>,
 }
 
 #[derive(Serialize, Deserialize)]
@@ -164,6 +168,7 @@ impl WorldState {
                 .filter_map(|k| w.fields.chosen_of(AgentId(k)).map(|c| (k, c as u8)))
                 .collect(),
             field_rebuilds: w.fields.rebuilds,
+            journeys: (!w.journeys.is_empty()).then(|| w.journeys.clone()),
         }
     }
 
@@ -250,6 +255,12 @@ impl WorldState {
         }
         w.fields.rebuilds = self.field_rebuilds;
         restore_formations(&mut w, self.formations, issued)?;
+        if let Some(j) = self.journeys {
+            w.journeys = at(
+                || "journeys".into(),
+                j.restored(w.walkable.as_ref(), issued),
+            )?;
+        }
         // Profiles may name fields and channels: check every reference now, not at the first step.
         w.plans_stale = true;
         at(|| "groups".into(), w.ensure_plans())?;

@@ -40,6 +40,7 @@ pub const BUILTIN: &[(&str, &str)] = &[
         "bottleneck",
         include_str!("../../scenarios/bottleneck.toml"),
     ),
+    ("city", include_str!("../../scenarios/city.toml")),
 ];
 
 /// The names of the built-in scenarios.

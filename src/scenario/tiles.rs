@@ -7,14 +7,19 @@
 //! target slots by `c x targets` (each copy has its own slots, shifted with it),
 //! agent ids by the agents of the copies before it); random obstacles and gravity points are
 //! drawn per copy (from the seed and the copy's index) and written out as explicit ones; the
-//! tiled scenario has the size of the tile grid and scales by counts from then on.
+//! tiled scenario has the size of the tile grid and scales by counts from then on. A `[field]`
+//! whose map covers the tile exactly is repeated with it: copy `c`'s cells hold the map, the
+//! cells of the grid's tiles without a copy are walls, goal cells and walker groups are rebased
+//! per copy, random goal counts multiplied by the copies.
 
 use glam::Vec2;
 
+use super::fields::{FieldSpec, GoalSpec, MapSource, WalkerSpec};
 use super::group::Members;
 use super::spec::{Scenario, Spawn, WorldScale};
 use crate::agents::AgentId;
 use crate::error::{Error, Result};
+use crate::field::OccupancyGrid;
 use crate::gravity::Motion;
 use crate::group::PathId;
 use crate::steering::{Behaviour, Target};
@@ -70,10 +75,10 @@ impl Scenario {
             name: "world.scale".into(),
             reason: "scaling by tiles needs a `size`".into(),
         })?;
-        if self.field.is_some() || self.layout.is_some() {
+        if self.layout.is_some() {
             return Err(Error::Invalid {
                 name: "world.scale".into(),
-                reason: "a scenario with a `[field]` or a `[layout]` cannot scale by tiles".into(),
+                reason: "a scenario with a `[layout]` cannot scale by tiles".into(),
             });
         }
         if self.geometry.is_some() {
@@ -93,6 +98,16 @@ impl Scenario {
         out.obstacles = Default::default();
         out.gravity = Default::default();
         out.exits.clear();
+        if let Some(f) = &self.field {
+            out.field = Some(tiled_field(
+                f,
+                size,
+                copies,
+                cols,
+                rows,
+                plain.groups.len(),
+            )?);
+        }
         let mut agents = 0u32;
         for c in 0..copies {
             let share = total / copies + usize::from(c < total % copies);
@@ -184,4 +199,101 @@ impl Scenario {
         }
         Ok(out)
     }
+}
+
+/// `field` repeated for `copies` copies of a tile of `size` on `cols x rows` tiles (see the module
+/// docs), for a scenario of `groups` groups per copy.
+fn tiled_field(
+    field: &FieldSpec,
+    size: Vec2,
+    copies: usize,
+    cols: usize,
+    rows: usize,
+    groups: usize,
+) -> Result<FieldSpec> {
+    let refuse = |reason: String| Error::Invalid {
+        name: "world.scale".into(),
+        reason,
+    };
+    let map = match &field.map {
+        MapSource::Ascii(text) => OccupancyGrid::parse_ascii(text, "<field.map.ascii>")?,
+        MapSource::File(p) => OccupancyGrid::load_ascii(p)?,
+        _ => {
+            return Err(refuse(
+                "a tiled `[field]` needs an ASCII map (`ascii` or `file`)".into(),
+            ));
+        }
+    };
+    let (w, h) = (map.grid.width() as usize, map.grid.height() as usize);
+    let covered = Vec2::new(w as f32, h as f32) * field.cell_size;
+    if (covered - size).abs().max_element() > 1e-3 * size.max_element() {
+        return Err(refuse(format!(
+            "a tiled `[field]`'s map must cover the tile exactly: {w} x {h} cells of {} cover \
+             [{}, {}], the tile is [{}, {}]",
+            field.cell_size, covered.x, covered.y, size.x, size.y
+        )));
+    }
+    let mut cell = vec![b'.'; w * h];
+    for y in 0..h {
+        for x in 0..w {
+            if !map.grid.is_free(x as u32, y as u32) {
+                cell[y * w + x] = b'#';
+            }
+        }
+    }
+    for &(x, y) in &map.goals {
+        cell[y as usize * w + x as usize] = b'G';
+    }
+    for &(x, y) in &map.spawns {
+        cell[y as usize * w + x as usize] = b'S';
+    }
+    let mut text = String::with_capacity((cols * w + 1) * rows * h);
+    for r in 0..rows {
+        for y in 0..h {
+            for c in 0..cols {
+                if r * cols + c < copies {
+                    text.extend(cell[y * w..(y + 1) * w].iter().map(|&b| b as char));
+                } else {
+                    text.extend(std::iter::repeat_n('#', w));
+                }
+            }
+            text.push('\n');
+        }
+    }
+    let corner = |c: usize| (((c % cols) * w) as u32, ((c / cols) * h) as u32);
+    let mut channels = Vec::with_capacity(field.channels.len());
+    for g in &field.channels {
+        channels.push(match g {
+            GoalSpec::Map => GoalSpec::Map,
+            GoalSpec::Cells(cells) => GoalSpec::Cells(
+                (0..copies)
+                    .flat_map(|c| {
+                        let (dx, dy) = corner(c);
+                        cells.iter().map(move |&(x, y)| (x + dx, y + dy))
+                    })
+                    .collect(),
+            ),
+            GoalSpec::Random(n) => GoalSpec::Random(n.saturating_mul(copies)),
+            GoalSpec::Exit(_) => {
+                return Err(refuse(
+                    "a tiled `[field]` cannot have `exit` channels (every copy has its own exits)"
+                        .into(),
+                ));
+            }
+        });
+    }
+    Ok(FieldSpec {
+        map: MapSource::Ascii(text),
+        channels,
+        shuffle_goals: field.shuffle_goals.saturating_mul(copies),
+        walkers: (0..copies)
+            .flat_map(|c| {
+                field.walkers.iter().map(move |w| WalkerSpec {
+                    group: w.group + c * groups,
+                    ..w.clone()
+                })
+            })
+            .collect(),
+        ..field.clone()
+    })
 }

@@ -67,24 +67,38 @@ pub(crate) fn prepare_nearest(
             within[g] = within[g].max(r);
         }
     }
+    let mut looked_for = 0;
     for (g, &r) in within.iter().enumerate() {
         if r <= 0.0 {
             nearest[g] = None;
             continue;
         }
+        looked_for += 1;
         let ni = nearest[g].get_or_insert_with(NearestIndex::default);
         ni.agents.clear();
         ni.xs.clear();
         ni.ys.clear();
-        for i in 0..agents.len() {
-            if agents.group[i] as usize == g {
-                ni.agents.push(i as u32);
-                ni.xs.push(agents.pos_x[i]);
-                ni.ys.push(agents.pos_y[i]);
-            }
+    }
+    if looked_for == 0 {
+        return;
+    }
+    // One pass over the agents for every group looked for (a tiled scenario has one such group
+    // per copy), each index gathering its agents in storage order.
+    for i in 0..agents.len() {
+        if let Some(ni) = nearest
+            .get_mut(agents.group[i] as usize)
+            .and_then(Option::as_mut)
+        {
+            ni.agents.push(i as u32);
+            ni.xs.push(agents.pos_x[i]);
+            ni.ys.push(agents.pos_y[i]);
         }
-        ni.rebuild(bounds, r);
-        ni.order = agents.order();
+    }
+    for (g, &r) in within.iter().enumerate() {
+        if let Some(ni) = nearest[g].as_mut() {
+            ni.rebuild(bounds, r);
+            ni.order = agents.order();
+        }
     }
 }
 

@@ -197,14 +197,15 @@ impl World {
     /// left.
     pub(crate) fn leave_through_exits(&mut self) -> usize {
         self.departures.clear();
-        if self.exits.is_empty() {
+        if self.exits.is_empty() && self.journeys.is_empty() {
             return 0;
         }
         // At most every agent leaves: one reservation for the run, none per frame after it.
         self.departures.reserve(self.agents.len());
         for i in (0..self.agents.len()).rev() {
             let p = self.agents.position(i);
-            if self.exits.iter().any(|e| e.contains(p)) {
+            let id = self.agents.id(i);
+            if self.journeys.leaves(id, p) || self.exits.iter().any(|e| e.contains(p)) {
                 self.departures.push(Departure {
                     id: self.agents.id(i),
                     position: p,

@@ -21,6 +21,7 @@ mod builder;
 mod exits;
 pub(crate) mod fields;
 mod formation;
+mod journeys;
 mod state;
 mod stats;
 mod step;

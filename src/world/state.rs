@@ -82,6 +82,8 @@ pub struct World {
     pub(crate) departures: Vec<super::Departure>,
     /// The walkable area whose walls were added (`World::set_walkable`), if any.
     pub(crate) walkable: Option<crate::geometry::Walkable>,
+    /// Stages, journeys and the agents on them.
+    pub(crate) journeys: crate::journey::Journeys,
 }
 
 impl World {
@@ -113,6 +115,7 @@ impl World {
             exits: Vec::new(),
             departures: Vec::new(),
             walkable: None,
+            journeys: Default::default(),
         }
     }
 

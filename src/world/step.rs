@@ -134,7 +134,9 @@ impl World {
             return Err(Error::InvalidTimeStep { dt: f64::from(dt) });
         }
         self.ensure_plans()?;
+        self.journeys.ensure_routes(self.walkable.as_ref())?;
         let start = Instant::now();
+        self.journeys.before_step(&mut self.agents, &self.obstacles);
         let n = self.agents.len();
         let mut phases = PhaseTimes::default();
         self.scratch.out.resize(n);

@@ -51,6 +51,7 @@ impl World {
         }
         self.obstacles.add_walls(&area.walls())?;
         self.walkable = Some(area);
+        self.journeys.geometry_changed();
         Ok(())
     }
 

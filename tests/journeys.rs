@@ -1,0 +1,528 @@
+//! Stages and journeys in whole worlds: queues release exactly what is popped, waiting sets hold
+//! everyone until deactivated, round robin splits as weighted, routes go round holes, and the
+//! outcome depends on neither the agents' storage order nor the thread count.
+
+use throng::journey::{Journey, JourneyId, Stage, StageId, Transition};
+use throng::ped::Model;
+use throng::prelude::*;
+use throng::profile::Profile;
+
+const DT: f32 = 0.01;
+
+/// A world on `wkt` with one pedestrian group of `model`.
+fn world(wkt: &str, model: Model) -> World {
+    let area = Walkable::from_wkt(wkt).unwrap();
+    let mut w = World::builder()
+        .bounds(Bounds::Open)
+        .seed(7)
+        .group(Profile::journey_walkers(model))
+        .build()
+        .unwrap();
+    w.set_walkable(area).unwrap();
+    w
+}
+
+/// `n` agents on a grid of `spacing` in `[min, max]`, on `journey`.
+fn add_grid(
+    w: &mut World,
+    n: usize,
+    min: Vec2,
+    max: Vec2,
+    spacing: f32,
+    journey: JourneyId,
+) -> Vec<AgentId> {
+    let cols = (((max.x - min.x) / spacing).floor() as usize).max(1);
+    let mut ids = Vec::new();
+    for k in 0..n {
+        let p = min + Vec2::new((k % cols) as f32, (k / cols) as f32) * spacing;
+        assert!(p.y <= max.y, "the block holds fewer than {n} agents");
+        let id = w.add_agent(AgentInit::at(p, 0)).unwrap();
+        w.set_journey(id, journey, None).unwrap();
+        ids.push(id);
+    }
+    ids
+}
+
+fn run(w: &mut World, seconds: f32) {
+    for _ in 0..(seconds / DT).round() as usize {
+        w.step(DT).unwrap();
+    }
+}
+
+const HALL: &str = "POLYGON ((0 0, 30 0, 30 20, 0 20, 0 0))";
+
+fn exit_at(w: &mut World, min: Vec2, max: Vec2) -> StageId {
+    w.add_stage(Stage::Exit {
+        area: Walkable::rectangle(min, max).unwrap(),
+    })
+    .unwrap()
+}
+
+#[test]
+fn a_queue_releases_exactly_the_popped_count() {
+    for model in [Model::Cfsm, Model::SocialForce] {
+        let mut w = world(HALL, model);
+        let slots: Vec<Vec2> = (0..10)
+            .map(|k| Vec2::new(20.0 - k as f32 * 0.6, 10.0))
+            .collect();
+        let queue = w.add_stage(Stage::Queue { slots }).unwrap();
+        let out = exit_at(&mut w, Vec2::new(28.0, 8.0), Vec2::new(30.0, 12.0));
+        let j = w.add_journey(Journey::chain([queue, out])).unwrap();
+        add_grid(
+            &mut w,
+            20,
+            Vec2::new(2.0, 6.0),
+            Vec2::new(8.0, 14.0),
+            1.0,
+            j,
+        );
+        run(&mut w, 40.0);
+        let q = w.queue(queue).unwrap();
+        assert_eq!(q.occupants.len(), 10, "{model:?}: every slot taken");
+        assert_eq!(w.len(), 20, "{model:?}: nobody leaves before a pop");
+        w.pop_queue(queue, 3).unwrap();
+        run(&mut w, 30.0);
+        assert_eq!(w.stage_counts()[out.0 as usize].left, 3, "{model:?}");
+        assert_eq!(w.len(), 17, "{model:?}");
+        let q = w.queue(queue).unwrap();
+        assert_eq!(q.occupants.len(), 10, "{model:?}: those behind moved up");
+        w.pop_queue(queue, 4).unwrap();
+        run(&mut w, 30.0);
+        assert_eq!(w.stage_counts()[out.0 as usize].left, 7, "{model:?}");
+        let e = w.pop_queue(queue, 11).unwrap_err().to_string();
+        assert!(e.contains("cannot pop 11"), "{e}");
+    }
+}
+
+#[test]
+fn a_waiting_set_holds_everyone_until_deactivated() {
+    let mut w = world(HALL, Model::Cfsm);
+    // Filled from the far side, so that those arriving later need not pass the seated.
+    let slots: Vec<Vec2> = (0..30)
+        .map(|k| Vec2::new(18.0 - (k / 6) as f32, 6.0 + (k % 6) as f32))
+        .collect();
+    let wait = w
+        .add_stage(Stage::WaitingSet {
+            slots,
+            active: true,
+        })
+        .unwrap();
+    let out = exit_at(&mut w, Vec2::new(28.0, 8.0), Vec2::new(30.0, 12.0));
+    let j = w.add_journey(Journey::chain([wait, out])).unwrap();
+    add_grid(
+        &mut w,
+        25,
+        Vec2::new(2.0, 6.0),
+        Vec2::new(8.0, 14.0),
+        1.0,
+        j,
+    );
+    run(&mut w, 60.0);
+    assert_eq!(w.len(), 25, "nobody leaves an active waiting set");
+    assert_eq!(w.queue(wait).unwrap().occupants.len(), 25);
+    w.set_waiting_set_active(wait, false).unwrap();
+    run(&mut w, 60.0);
+    assert_eq!(w.len(), 0, "everyone leaves once it is deactivated");
+    assert_eq!(w.stage_counts()[out.0 as usize].left, 25);
+}
+
+#[test]
+fn round_robin_one_to_three_splits_within_ten_percent() {
+    let mut w = world(HALL, Model::Cfsm);
+    let start = w
+        .add_stage(Stage::Waypoint {
+            position: Vec2::new(15.0, 10.0),
+            distance: 2.0,
+        })
+        .unwrap();
+    let a = exit_at(&mut w, Vec2::new(28.0, 0.0), Vec2::new(30.0, 4.0));
+    let b = exit_at(&mut w, Vec2::new(28.0, 16.0), Vec2::new(30.0, 20.0));
+    let j = w
+        .add_journey(
+            Journey::new([start, a, b])
+                .with_transition(start, Transition::round_robin([(a, 1), (b, 3)])),
+        )
+        .unwrap();
+    add_grid(
+        &mut w,
+        400,
+        Vec2::new(0.5, 0.5),
+        Vec2::new(12.0, 19.5),
+        0.55,
+        j,
+    );
+    run(&mut w, 150.0);
+    assert_eq!(w.len(), 0, "everyone left");
+    let c = w.stage_counts();
+    let (la, lb) = (c[a.0 as usize].left as f64, c[b.0 as usize].left as f64);
+    assert_eq!(la + lb, 400.0);
+    assert!((la / 400.0 - 0.25).abs() <= 0.025, "{la} : {lb}");
+}
+
+#[test]
+fn least_targeted_balances_two_exits() {
+    let mut w = world(HALL, Model::Cfsm);
+    let start = w
+        .add_stage(Stage::Waypoint {
+            position: Vec2::new(6.0, 10.0),
+            distance: 3.0,
+        })
+        .unwrap();
+    let a = exit_at(&mut w, Vec2::new(28.0, 0.0), Vec2::new(30.0, 4.0));
+    let b = exit_at(&mut w, Vec2::new(28.0, 16.0), Vec2::new(30.0, 20.0));
+    let j = w
+        .add_journey(
+            Journey::new([start, a, b]).with_transition(start, Transition::least_targeted([a, b])),
+        )
+        .unwrap();
+    add_grid(
+        &mut w,
+        100,
+        Vec2::new(3.0, 7.0),
+        Vec2::new(9.0, 13.0),
+        0.6,
+        j,
+    );
+    run(&mut w, 100.0);
+    let c = w.stage_counts();
+    let (la, lb) = (c[a.0 as usize].left, c[b.0 as usize].left);
+    assert_eq!(la + lb, 100);
+    assert!(la.abs_diff(lb) <= 2, "{la} : {lb}");
+}
+
+/// A room with a pillar (a hole) between the crowd and the exit: the route goes round it.
+const PILLAR: &str = "POLYGON ((0 0, 20 0, 20 10, 0 10, 0 0), (8 2, 12 2, 12 8, 8 8, 8 2))";
+
+#[test]
+fn routes_go_round_a_hole_of_the_walkable_area() {
+    let mut w = world(PILLAR, Model::Cfsm);
+    let out = exit_at(&mut w, Vec2::new(19.0, 4.0), Vec2::new(20.0, 6.0));
+    let j = w.add_journey(Journey::chain([out])).unwrap();
+    add_grid(&mut w, 12, Vec2::new(1.0, 3.5), Vec2::new(5.0, 6.5), 1.0, j);
+    assert!(w.route_cells() > 0);
+    run(&mut w, 40.0);
+    assert_eq!(w.len(), 0, "everyone found the way round the pillar");
+    // Without routes (a straight line at the exit) they press against the pillar.
+    let mut straight = World::builder()
+        .bounds(Bounds::Open)
+        .seed(7)
+        .group(Profile::journey_walkers(Model::Cfsm))
+        .build()
+        .unwrap();
+    let area = Walkable::from_wkt(PILLAR).unwrap();
+    straight
+        .add_polygon(area.polygons()[0].exterior(), true)
+        .unwrap();
+    straight
+        .add_polygon(&area.polygons()[0].holes()[0], true)
+        .unwrap();
+    let out = exit_at(&mut straight, Vec2::new(19.0, 4.0), Vec2::new(20.0, 6.0));
+    let j = straight.add_journey(Journey::chain([out])).unwrap();
+    add_grid(
+        &mut straight,
+        12,
+        Vec2::new(1.0, 3.5),
+        Vec2::new(5.0, 6.5),
+        1.0,
+        j,
+    );
+    run(&mut straight, 40.0);
+    assert!(
+        !straight.is_empty(),
+        "the test's pillar blocks the straight line"
+    );
+}
+
+/// Every agent's state by id, as bits.
+fn state(w: &World) -> Vec<(u32, [u32; 4])> {
+    let a = w.agents();
+    let mut v: Vec<_> = (0..a.len())
+        .map(|i| {
+            let (p, q) = (a.position(i), a.velocity(i));
+            (a.id(i).0, [p.x, p.y, q.x, q.y].map(f32::to_bits))
+        })
+        .collect();
+    v.sort_unstable();
+    v
+}
+
+/// A journey scene with every kind of stage and transition.
+fn mixed(reorder_every: u32) -> World {
+    let mut w = world(PILLAR, Model::Cfsm);
+    w.set_reorder_every(reorder_every);
+    let via = w
+        .add_stage(Stage::Waypoint {
+            position: Vec2::new(10.0, 9.0),
+            distance: 0.8,
+        })
+        .unwrap();
+    let slots: Vec<Vec2> = (0..6)
+        .map(|k| Vec2::new(15.0 + k as f32 * 0.6, 1.0))
+        .collect();
+    let queue = w.add_stage(Stage::Queue { slots }).unwrap();
+    let a = exit_at(&mut w, Vec2::new(19.0, 4.0), Vec2::new(20.0, 6.0));
+    let b = exit_at(&mut w, Vec2::new(19.0, 8.0), Vec2::new(20.0, 10.0));
+    let j = w
+        .add_journey(
+            Journey::new([via, queue, a, b])
+                .with_transition(via, Transition::round_robin([(queue, 1), (b, 2)]))
+                .with_transition(queue, Transition::least_targeted([a, b])),
+        )
+        .unwrap();
+    add_grid(&mut w, 60, Vec2::new(0.5, 0.5), Vec2::new(7.0, 9.5), 0.7, j);
+    w
+}
+
+fn run_mixed(w: &mut World) {
+    for k in 0..3000 {
+        if k % 300 == 299 {
+            let held = w.queue(StageId(1)).unwrap().occupants.len();
+            w.pop_queue(StageId(1), held.min(2)).unwrap();
+        }
+        w.step(DT).unwrap();
+    }
+}
+
+/// Each agent's journey and stage, and each queue's occupants: what the journey system decides.
+type Decisions = (Vec<(u32, Option<(JourneyId, StageId)>)>, Vec<Vec<AgentId>>);
+
+fn decisions(w: &World) -> Decisions {
+    let mut on: Vec<_> = w
+        .agents()
+        .ids()
+        .iter()
+        .map(|&id| (id.0, w.journey_of(id)))
+        .collect();
+    on.sort_unstable();
+    let queues = (0..w.stage_count() as u32)
+        .filter_map(|s| w.queue(StageId(s)).ok())
+        .map(|q| q.occupants)
+        .collect();
+    (on, queues)
+}
+
+/// The largest distance between the same agent's positions in two states.
+fn worst(a: &[(u32, [u32; 4])], b: &[(u32, [u32; 4])]) -> f32 {
+    assert_eq!(a.len(), b.len());
+    a.iter()
+        .zip(b)
+        .map(|((i, x), (j, y))| {
+            assert_eq!(i, j);
+            let p = Vec2::new(f32::from_bits(x[0]), f32::from_bits(x[1]));
+            let q = Vec2::new(f32::from_bits(y[0]), f32::from_bits(y[1]));
+            p.distance(q)
+        })
+        .fold(0.0, f32::max)
+}
+
+#[test]
+fn journeys_do_not_depend_on_the_agent_order() {
+    // One step from the same saved state in the kept and in a fresh layout, every 100 frames:
+    // the same decisions, and positions equal to rounding (the neighbour sums' order may
+    // differ; a decision taken in storage order would move agents by centimetres).
+    let mut w = mixed(4);
+    for k in 0..3000 {
+        if k % 300 == 299 {
+            let held = w.queue(StageId(1)).unwrap().occupants.len();
+            w.pop_queue(StageId(1), held.min(2)).unwrap();
+        }
+        if k % 100 == 50 {
+            let mut bytes = Vec::new();
+            w.save(&mut bytes).unwrap();
+            let mut kept = World::load(&bytes[..]).unwrap();
+            kept.set_reorder_every(0);
+            let mut sorted = World::load(&bytes[..]).unwrap();
+            sorted.set_reorder_every(1);
+            kept.step(DT).unwrap();
+            sorted.step(DT).unwrap();
+            assert_eq!(decisions(&kept), decisions(&sorted), "frame {k}");
+            let d = worst(&state(&kept), &state(&sorted));
+            assert!(d <= 1e-4, "frame {k}: layouts differ by {d} m");
+        }
+        w.step(DT).unwrap();
+    }
+    assert!(w.len() < 60 && w.stage_counts()[2].left + w.stage_counts()[3].left > 0);
+}
+
+#[test]
+fn simultaneous_completions_are_decided_in_id_order_whatever_the_layout() {
+    // Forty agents complete a waypoint in the same step, in storage orders that differ (one
+    // world kept its insertion order, the other reordered by the grid): the round robin and
+    // the least-targeted choice give each id the same next stage in both.
+    let decide = |reorder_every: u32| {
+        let mut w = world(HALL, Model::Cfsm);
+        w.set_reorder_every(reorder_every);
+        let start = w
+            .add_stage(Stage::Waypoint {
+                position: Vec2::new(6.0, 10.0),
+                distance: 6.0,
+            })
+            .unwrap();
+        let a = exit_at(&mut w, Vec2::new(28.0, 0.0), Vec2::new(30.0, 4.0));
+        let b = exit_at(&mut w, Vec2::new(28.0, 16.0), Vec2::new(30.0, 20.0));
+        let c = exit_at(&mut w, Vec2::new(28.0, 8.0), Vec2::new(30.0, 12.0));
+        let rr = w
+            .add_journey(
+                Journey::new([start, a, b, c])
+                    .with_transition(start, Transition::round_robin([(a, 1), (b, 2), (c, 1)])),
+            )
+            .unwrap();
+        let lt = w
+            .add_journey(
+                Journey::new([start, a, b, c])
+                    .with_transition(start, Transition::least_targeted([a, b, c])),
+            )
+            .unwrap();
+        // Inserted in a scattered order, so that the grid's order differs from the ids'.
+        let mut ids = Vec::new();
+        for k in 0..40u32 {
+            let m = (k * 17) % 40;
+            let p = Vec2::new(3.0 + (m % 8) as f32 * 0.7, 7.5 + (m / 8) as f32 * 0.7);
+            ids.push(w.add_agent(AgentInit::at(p, 0)).unwrap());
+        }
+        w.step(DT).unwrap();
+        for (k, &id) in ids.iter().enumerate() {
+            w.set_journey(id, if k % 2 == 0 { rr } else { lt }, None)
+                .unwrap();
+        }
+        w.step(DT).unwrap();
+        let order: Vec<u32> = w.agents().ids().iter().map(|id| id.0).collect();
+        (decisions(&w).0, order)
+    };
+    let (kept, kept_order) = decide(0);
+    let (sorted, sorted_order) = decide(1);
+    assert_ne!(
+        kept_order, sorted_order,
+        "the test needs two storage orders"
+    );
+    assert!(
+        kept.iter().all(|(_, s)| s.unwrap().1 != StageId(0)),
+        "all completed at once"
+    );
+    assert_eq!(kept, sorted);
+}
+
+#[test]
+fn journeys_give_the_same_bits_on_one_two_and_four_threads_and_after_a_checkpoint() {
+    let mut base = mixed(4);
+    run_mixed(&mut base);
+    let want = state(&base);
+    for threads in [1, 2, 4] {
+        let pool = rayon::ThreadPoolBuilder::new()
+            .num_threads(threads)
+            .build()
+            .unwrap();
+        let mut w = mixed(4);
+        pool.install(|| run_mixed(&mut w));
+        assert_eq!(state(&w), want, "{threads} threads");
+    }
+    // Saved halfway through (with agents seated and released), resumed: the same bits.
+    let mut w = mixed(4);
+    let mut resumed = None;
+    for k in 0..3000 {
+        if k % 300 == 299 {
+            let held = w.queue(StageId(1)).unwrap().occupants.len();
+            w.pop_queue(StageId(1), held.min(2)).unwrap();
+        }
+        if k == 1500 {
+            let mut bytes = Vec::new();
+            w.save(&mut bytes).unwrap();
+            resumed = Some(World::load(&bytes[..]).unwrap());
+        }
+        if let Some(r) = &mut resumed {
+            if k % 300 == 299 {
+                let held = r.queue(StageId(1)).unwrap().occupants.len();
+                r.pop_queue(StageId(1), held.min(2)).unwrap();
+            }
+            r.step(DT).unwrap();
+        }
+        w.step(DT).unwrap();
+    }
+    let r = resumed.unwrap();
+    assert_eq!(state(&r), want);
+    assert_eq!(decisions(&r), decisions(&w));
+    assert_eq!(r.stage_counts(), w.stage_counts());
+}
+
+#[test]
+fn bad_stages_and_journeys_are_errors_naming_them() {
+    let mut w = world(HALL, Model::Cfsm);
+    let e = w
+        .add_stage(Stage::Waypoint {
+            position: Vec2::new(50.0, 5.0),
+            distance: 1.0,
+        })
+        .unwrap_err()
+        .to_string();
+    assert!(
+        e.contains("stage 0") && e.contains("outside the walkable area"),
+        "{e}"
+    );
+    let e = w
+        .add_stage(Stage::Waypoint {
+            position: Vec2::new(f32::NAN, 5.0),
+            distance: 1.0,
+        })
+        .unwrap_err()
+        .to_string();
+    assert!(e.contains("finite"), "{e}");
+    let e = w
+        .add_stage(Stage::Queue { slots: vec![] })
+        .unwrap_err()
+        .to_string();
+    assert!(e.contains("slots"), "{e}");
+    let p = w
+        .add_stage(Stage::Waypoint {
+            position: Vec2::new(5.0, 5.0),
+            distance: 1.0,
+        })
+        .unwrap();
+    let q = w
+        .add_stage(Stage::Waypoint {
+            position: Vec2::new(9.0, 5.0),
+            distance: 1.0,
+        })
+        .unwrap();
+    let cycle = Journey::new([p, q])
+        .with_transition(p, Transition::fixed(q))
+        .with_transition(q, Transition::fixed(p));
+    let e = w.add_journey(cycle).unwrap_err().to_string();
+    assert!(e.contains("journey 0") && e.contains("for ever"), "{e}");
+    let e = w.add_journey(Journey::chain([p, StageId(9)])).unwrap_err();
+    assert!(
+        matches!(e, throng::Error::UnknownStage { stage: 9, .. }),
+        "{e}"
+    );
+    let e = w.pop_queue(p, 1).unwrap_err().to_string();
+    assert!(e.contains("only a queue"), "{e}");
+    let id = w.add_agent(AgentInit::at(Vec2::new(2.0, 2.0), 0)).unwrap();
+    let e = w.set_journey(id, JourneyId(3), None).unwrap_err();
+    assert!(
+        matches!(e, throng::Error::UnknownJourney { journey: 3, .. }),
+        "{e}"
+    );
+    let e = w
+        .set_direct_target(id, Vec2::new(f32::INFINITY, 0.0))
+        .unwrap_err()
+        .to_string();
+    assert!(e.contains("finite"), "{e}");
+}
+
+#[test]
+fn a_direct_steering_stage_walks_to_the_point_set_from_outside() {
+    let mut w = world(HALL, Model::Cfsm);
+    let direct = w.add_stage(Stage::DirectSteering).unwrap();
+    let j = w.add_journey(Journey::chain([direct])).unwrap();
+    let id = w.add_agent(AgentInit::at(Vec2::new(2.0, 2.0), 0)).unwrap();
+    w.set_journey(id, j, None).unwrap();
+    run(&mut w, 2.0);
+    let p = w.agent(id).unwrap().position;
+    assert!(
+        p.distance(Vec2::new(2.0, 2.0)) < 0.05,
+        "no target: it stays"
+    );
+    w.set_direct_target(id, Vec2::new(10.0, 12.0)).unwrap();
+    run(&mut w, 15.0);
+    let p = w.agent(id).unwrap().position;
+    assert!(p.distance(Vec2::new(10.0, 12.0)) < 0.2, "{p}");
+}
