@@ -1,14 +1,13 @@
 //! A crowd of 2,000 chases a target that a script moves around a circle every frame, around
 //! two round obstacles, and prints what each frame costs.
 //!
-//! The target is a slot: `set_target_point` is one write per frame, however many agents chase
-//! it. The spawn helper places the crowd clear of the obstacles.
+//! The target is a slot, handed back by the builder's `target_slot`: `set_target_motion` is one
+//! write per frame, however many agents chase it. The world's own spawner places the crowd clear
+//! of its obstacles.
 //!
 //! Run with `cargo run --release --example chase`.
 
-use throng::obstacles::Circle;
 use throng::prelude::*;
-use throng::spawn::{Spawner, agents};
 
 fn main() -> throng::Result<()> {
     let (centre, orbit, dt) = (Vec2::splat(100.0), 60.0, 1.0 / 30.0);
@@ -16,12 +15,11 @@ fn main() -> throng::Result<()> {
         Circle::new(Vec2::new(70.0, 100.0), 12.0),
         Circle::new(Vec2::new(135.0, 110.0), 9.0),
     ];
-    let mut world = World::builder()
+    let (builder, player) = World::builder()
         .bounds(Bounds::bounded(200.0, 200.0)?)
-        .target(TargetPoint::at(centre + Vec2::X * orbit))
         .circles(rocks)
-        .build()?;
-    let player = TargetSlot(0);
+        .target_slot(TargetPoint::at(centre + Vec2::X * orbit));
+    let mut world = builder.build()?;
     let chase = SteeringProfile::default()
         .with(Behaviour::pursue(Target::Slot(player)), 2.0)
         .with(Behaviour::avoid_obstacles(), 1.0)
@@ -31,9 +29,7 @@ fn main() -> throng::Result<()> {
         max_acceleration: 60.0,
         ..GroupParams::dynamic(chase)
     })?;
-    let start = Spawner::new(1)
-        .avoiding(world.obstacles(), 0.5)
-        .disc(2_000, centre, 40.0)?;
+    let start = world.spawner(1, 0.5).disc(2_000, centre, 40.0)?;
     for a in agents(&start, crowd, 0.0, 1) {
         world.add_agent(a)?;
     }
@@ -52,7 +48,7 @@ fn main() -> throng::Result<()> {
             println!(
                 "frame {:>3}: {:.3} ms ({:.3} steer), mean distance to the target {:.1}",
                 stats.frame,
-                stats.total_ms(),
+                stats.step_ms(),
                 stats.phases.steer.as_secs_f64() * 1e3,
                 mean / a.len() as f32,
             );

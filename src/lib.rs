@@ -19,10 +19,12 @@
 //!     .group(GroupParams { max_speed: 5.0, max_acceleration: 10.0, ..GroupParams::dynamic(arrive) })
 //!     .agent(AgentInit::at(Vec2::new(10.0, 10.0), 0))
 //!     .build()?;
+//! // An agent's id is stable; its storage index changes as the world reorders its agents.
+//! let id = world.agents().id(0);
 //! for _ in 0..600 {
 //!     world.step(1.0 / 30.0)?;
 //! }
-//! let p = world.agents().position(0);
+//! let p = world.agent(id).expect("nobody left").position;
 //! assert!(p.distance(target) < 0.3);
 //! # Ok(())
 //! # }
@@ -120,6 +122,8 @@ pub mod prelude {
     pub use crate::error::{Error, Result};
     pub use crate::geometry::Walkable;
     pub use crate::movement::{MovementModel, OrientationMode};
+    pub use crate::obstacles::{Circle, Obstacles};
+    pub use crate::spawn::{Spawner, agents};
     pub use crate::steering::{
         ArriveParams, Behaviour, Combine, Neighbourhood, Steering, SteeringProfile, Target,
         WanderParams, Weighted,

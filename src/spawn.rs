@@ -312,19 +312,183 @@ impl<'a> Spawner<'a> {
     /// [`Error::Invalid`] when the grid has no free cell (or the obstacles cover them all).
     pub fn free_cells(&self, n: usize, grid: &OccupancyGrid) -> Result<Vec<Vec2>> {
         count(n)?;
-        let free: Vec<(u32, u32)> = (0..grid.height())
-            .flat_map(|y| (0..grid.width()).map(move |x| (x, y)))
-            .filter(|&(x, y)| grid.is_free(x, y))
-            .collect();
+        let free = FreeCells::new(grid);
         if free.is_empty() {
             return Err(invalid("spawn.free_cells", "the grid has no free cell"));
         }
         self.draw(n, 5, |rng| {
-            let (x, y) = free[rng.random_range(0..free.len())];
+            let (x, y) = free.nth(grid, rng.random_range(0..free.len()));
             let inner = Vec2::new(rng.random::<f32>(), rng.random::<f32>())
                 .clamp(Vec2::splat(0.01), Vec2::splat(0.99));
             grid.origin() + (Vec2::new(x as f32, y as f32) + inner) * grid.cell_size()
         })
+    }
+}
+
+/// Cells counted per entry of [`FreeCells`]' running count.
+const FREE_CHUNK: usize = 64;
+
+/// The free cells of an occupancy grid, numbered in row-major order, for uniform draws in
+/// O(log cells) each: a running count of free cells every [`FREE_CHUNK`] cells (an eighth of
+/// a byte per cell), so that a sparse grid costs no more per draw than a dense one.
+#[derive(Clone, Debug, Default)]
+pub(crate) struct FreeCells {
+    /// `before[c]`: free cells in chunks `0..c`; one entry per chunk and the total last.
+    before: Vec<usize>,
+}
+
+impl FreeCells {
+    /// The index of `grid`'s free cells.
+    pub(crate) fn new(grid: &OccupancyGrid) -> Self {
+        let cells = grid.cells();
+        let mut before = Vec::with_capacity(cells.len() / FREE_CHUNK + 2);
+        let mut total = 0;
+        for chunk in cells.chunks(FREE_CHUNK) {
+            before.push(total);
+            total += chunk.iter().filter(|c| c.is_free()).count();
+        }
+        before.push(total);
+        FreeCells { before }
+    }
+
+    /// Number of free cells.
+    pub(crate) fn len(&self) -> usize {
+        self.before.last().copied().unwrap_or(0)
+    }
+
+    /// Whether the grid has no free cell.
+    pub(crate) fn is_empty(&self) -> bool {
+        self.len() == 0
+    }
+
+    /// The `k`-th free cell (`k < len()`) of `grid` (the grid the index was made of), in
+    /// row-major order.
+    pub(crate) fn nth(&self, grid: &OccupancyGrid, k: usize) -> (u32, u32) {
+        // The last chunk whose free cells before it are at most k holds the k-th.
+        let chunk = self.before.partition_point(|&b| b <= k) - 1;
+        let mut left = k - self.before[chunk];
+        let start = chunk * FREE_CHUNK;
+        let cells = grid.cells();
+        let end = (start + FREE_CHUNK).min(cells.len());
+        let mut at = start;
+        for (i, c) in cells[start..end].iter().enumerate() {
+            if c.is_free() {
+                if left == 0 {
+                    at = start + i;
+                    break;
+                }
+                left -= 1;
+            }
+        }
+        let w = grid.width() as usize;
+        ((at % w) as u32, (at / w) as u32)
+    }
+}
+
+/// The most agents a `spread` spawn can place `distance` apart in the rectangle `[min, max]`
+/// by dart throwing: about 0.547 of the plane is covered by the discs of diameter `distance`
+/// around the points when random sequential placement jams (Feder's jamming coverage), here
+/// over the rectangle grown by `distance`, with a tenth and two more for small and thin
+/// rectangles; never more than Oler's bound `2 A / (sqrt 3 d^2) + P / (2 d) + 1`, which no
+/// arrangement exceeds. `None` when any count fits (`distance` is 0).
+pub(crate) fn spread_capacity(min: Vec2, max: Vec2, distance: f32) -> Option<f64> {
+    if distance <= 0.0 {
+        return None;
+    }
+    let (d, size) = (f64::from(distance), (max - min).as_dvec2());
+    let jammed = 0.547 * (size.x + d) * (size.y + d) / (std::f64::consts::PI * d * d / 4.0);
+    let oler = 2.0 / 3f64.sqrt() * size.x * size.y / (d * d) + (size.x + size.y) / d + 1.0;
+    Some((1.1 * jammed + 2.0).min(oler).floor())
+}
+
+/// Checks before any work that `n` agents of a `spread` spawn can be `distance` apart in
+/// `[min, max]` ([`spread_capacity`]).
+///
+/// # Errors
+/// [`Error::Invalid`] naming `spawn` with the capacity when they cannot.
+pub(crate) fn spread_fits(n: usize, min: Vec2, max: Vec2, distance: f32) -> Result<()> {
+    match spread_capacity(min, max, distance) {
+        Some(cap) if n as f64 > cap => Err(invalid(
+            "spawn",
+            &format!(
+                "no room for {n} agents at least {distance} apart in [{}, {}] x [{}, {}]: random \
+                 placement fits about {cap} there (lower the count or the distance, or widen \
+                 the rectangle)",
+                min.x, max.x, min.y, max.y
+            ),
+        )),
+        _ => Ok(()),
+    }
+}
+
+/// Dart throwing for `spread` spawns: the points placed so far (by every `spread` group of a
+/// scenario), hashed by cells of the largest distance asked, so that a draw is checked against
+/// the points of 3 x 3 cells only. A distance of 0 checks nothing: every point fits.
+#[derive(Debug, Default)]
+pub(crate) struct Spread {
+    cell: f32,
+    points: Vec<Vec2>,
+    cells: std::collections::HashMap<(i64, i64), Vec<u32>>,
+}
+
+impl Spread {
+    /// Draws from `[min, max]` until a point lies at least `distance` from every point placed
+    /// before and is accepted by `accept` (clear of the obstacles, inside the walkable area);
+    /// `None` after 10,000 draws.
+    pub(crate) fn place(
+        &mut self,
+        rng: &mut ChaCha8Rng,
+        (min, max): (Vec2, Vec2),
+        distance: f32,
+        accept: impl Fn(Vec2) -> bool,
+    ) -> Option<Vec2> {
+        if distance > self.cell {
+            // Re-hash at the larger cell so that the 3 x 3 block stays enough.
+            self.cell = distance;
+            self.cells.clear();
+            for (k, &p) in self.points.iter().enumerate() {
+                let key = self.key(p);
+                self.cells.entry(key).or_default().push(k as u32);
+            }
+        }
+        let d_sq = distance * distance;
+        for _ in 0..10_000 {
+            let p = sample_rect(rng, min, max);
+            if !accept(p) {
+                continue;
+            }
+            let (kx, ky) = self.key(p);
+            let free = distance <= 0.0
+                || (-1..=1).all(|dx| {
+                    (-1..=1).all(|dy| {
+                        self.cells.get(&(kx + dx, ky + dy)).is_none_or(|v| {
+                            v.iter()
+                                .all(|&q| self.points[q as usize].distance_squared(p) >= d_sq)
+                        })
+                    })
+                });
+            if free {
+                if self.cell > 0.0 {
+                    self.cells
+                        .entry((kx, ky))
+                        .or_default()
+                        .push(self.points.len() as u32);
+                }
+                self.points.push(p);
+                return Some(p);
+            }
+        }
+        None
+    }
+
+    fn key(&self, p: Vec2) -> (i64, i64) {
+        if self.cell <= 0.0 {
+            return (0, 0);
+        }
+        (
+            (p.x / self.cell).floor() as i64,
+            (p.y / self.cell).floor() as i64,
+        )
     }
 }
 
@@ -396,4 +560,67 @@ fn rect_ok(min: Vec2, max: Vec2) -> Result<()> {
         ));
     }
     Ok(())
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use crate::field::Cell;
+
+    #[test]
+    fn the_nth_free_cell_is_the_nth_in_row_major_order() {
+        let mut rng = ChaCha8Rng::seed_from_u64(3);
+        for (w, h, free_share) in [(1, 1, 1.0), (7, 5, 0.5), (130, 3, 0.02), (64, 64, 0.001)] {
+            let cells: Vec<Cell> = (0..w * h)
+                .map(|_| {
+                    if rng.random::<f64>() < free_share {
+                        Cell::Free
+                    } else {
+                        Cell::Wall
+                    }
+                })
+                .collect();
+            let grid = OccupancyGrid::from_cells(w, h, cells).unwrap();
+            let brute: Vec<(u32, u32)> = (0..h)
+                .flat_map(|y| (0..w).map(move |x| (x, y)))
+                .filter(|&(x, y)| grid.is_free(x, y))
+                .collect();
+            let index = FreeCells::new(&grid);
+            assert_eq!(index.len(), brute.len());
+            for (k, &cell) in brute.iter().enumerate() {
+                assert_eq!(index.nth(&grid, k), cell, "{w} x {h}, k = {k}");
+            }
+        }
+    }
+
+    #[test]
+    fn spread_capacity_admits_what_dart_throwing_reaches_and_nothing_impossible() {
+        // Dart throwing until 10,000 draws fail: the count it reaches fits the capacity, and
+        // the capacity stays under Oler's bound.
+        for (size, d) in [
+            (Vec2::new(20.0, 20.0), 1.0),
+            (Vec2::new(10.0, 3.0), 1.0),
+            (Vec2::new(1.0, 1.0), 1.0),
+            (Vec2::new(0.0, 5.0), 1.0),
+            (Vec2::new(5.0, 0.2), 1.0),
+        ] {
+            let cap = spread_capacity(Vec2::ZERO, size, d).unwrap();
+            for seed in 0..3 {
+                let mut rng = ChaCha8Rng::seed_from_u64(seed);
+                let mut spread = Spread::default();
+                let mut n = 0;
+                while spread
+                    .place(&mut rng, (Vec2::ZERO, size), d, |_| true)
+                    .is_some()
+                {
+                    n += 1;
+                }
+                assert!(n as f64 <= cap, "{size} at {d}: {n} placed, capacity {cap}");
+            }
+            let oler =
+                2.0 / 3f64.sqrt() * f64::from(size.x * size.y) + f64::from(size.x + size.y) + 1.0;
+            assert!(cap <= oler, "{size}: {cap} over Oler's {oler}");
+        }
+        assert_eq!(spread_capacity(Vec2::ZERO, Vec2::ONE, 0.0), None);
+    }
 }

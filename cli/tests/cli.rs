@@ -593,20 +593,32 @@ fn measurements_write_one_row_per_frame_and_a_summary() {
         rows[0],
         "frame,t,agents,left,door_positive,door_negative,room_count,room_density,room_speed"
     );
+    // The run stops at the frame at which the last agent left.
+    let end: usize = out
+        .lines()
+        .find_map(|l| l.strip_prefix("stopped at frame "))
+        .and_then(|l| l.split_whitespace().next())
+        .and_then(|n| n.parse().ok())
+        .unwrap_or_else(|| panic!("the run did not stop when the world emptied:\n{out}"));
+    assert!(end < 200, "{out}");
     assert_eq!(
         rows.len(),
-        1 + 201,
-        "a row for frame 0 and for each of the 200 steps"
+        1 + end + 1,
+        "a row for frame 0 and for each step up to the last agent's departure"
     );
     assert!(
         rows[1].starts_with("0,0.000000,20,0,0,0,20,0.200000,"),
         "{}",
         rows[1]
     );
-    assert!(rows[201].starts_with("200,"), "{}", rows[201]);
+    assert!(
+        rows[end + 1].starts_with(&format!("{end},")),
+        "{}",
+        rows[end + 1]
+    );
     // At the end everyone has crossed the door and left.
-    let last: Vec<&str> = rows[201].split(',').collect();
-    assert_eq!(&last[2..6], ["0", "20", "20", "0"], "{}", rows[201]);
+    let last: Vec<&str> = rows[end + 1].split(',').collect();
+    assert_eq!(&last[2..6], ["0", "20", "20", "0"], "{}", rows[end + 1]);
 
     // The scenario file is never an output.
     let o = throng(&[

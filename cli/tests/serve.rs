@@ -594,3 +594,58 @@ fn a_bad_bind_address_or_steps_per_frame_is_refused_before_serving() {
         assert!(err.contains(needle), "{args:?}: {err}");
     }
 }
+
+#[cfg(feature = "render")]
+#[test]
+fn the_page_colours_the_heat_map_the_way_the_pictures_do() {
+    use throng::render::Palette;
+    let s = Server::start(&["fields", "--agents", "10", "--paused"]);
+    let (_, world) = s.json("GET", "/world", None);
+    // The page colours layer value v (0 at a goal, 253 farthest) at v / 253 along `heat_ramp`;
+    // `--render` colours a cell at 1 - steps / farthest along its palette's ramp.
+    let ramp: Vec<[u8; 3]> = serde_json::from_value(world["heat_ramp"].clone())
+        .unwrap_or_else(|e| panic!("no heat_ramp in /world ({e}): {world}"));
+    let palette = Palette::standard();
+    assert_eq!(ramp[0], palette.rgb(Palette::heat(1.0)), "at a goal");
+    assert_eq!(
+        ramp[ramp.len() - 1],
+        palette.rgb(Palette::heat(0.0)),
+        "farthest from the goals"
+    );
+    // Halfway, within the palette's 64 steps.
+    let (page, picture) = (ramp[ramp.len() / 2], palette.rgb(Palette::heat(0.5)));
+    assert!(
+        page.iter().zip(picture).all(|(&a, b)| a.abs_diff(b) <= 4),
+        "halfway: the page's {page:?}, the pictures' {picture:?}"
+    );
+}
+
+#[test]
+fn the_world_offers_only_click_modes_that_act_and_an_extent_to_fit() {
+    let modes = |scenario: &str| -> Vec<String> {
+        let s = Server::start(&[scenario, "--agents", "50", "--paused"]);
+        let (_, world) = s.json("GET", "/world", None);
+        serde_json::from_value(world["modes"].clone())
+            .unwrap_or_else(|e| panic!("{scenario}: no modes in /world ({e})"))
+    };
+    // Flock agents feel no gravity point and follow no field.
+    assert_eq!(modes("flock"), ["wall", "circle"]);
+    assert_eq!(modes("antigravity"), ["gravity", "wall", "circle"]);
+    assert_eq!(modes("fields"), ["goal", "wall", "circle"]);
+
+    // The bottleneck is an open world: its extent covers the 10 x 10 m room and the corridor,
+    // not a default 100 x 100 box.
+    let s = Server::start(&["bottleneck", "--paused"]);
+    let (_, world) = s.json("GET", "/world", None);
+    let e: Vec<f64> = serde_json::from_value(world["extent"].clone())
+        .unwrap_or_else(|e| panic!("no extent in /world ({e}): {world}"));
+    let (w, h) = (e[2] - e[0], e[3] - e[1]);
+    assert!(
+        e[0] <= 0.0 && e[1] <= 0.0 && e[2] >= 14.0 && e[3] >= 10.0,
+        "{e:?}"
+    );
+    assert!(
+        w < 20.0 && h < 16.0,
+        "the extent {e:?} is much larger than the room"
+    );
+}

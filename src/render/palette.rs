@@ -66,6 +66,8 @@ impl Palette {
     pub const WHITE: u8 = 10;
     /// Pure black.
     pub const BLACK: u8 = 11;
+    /// Exits (where agents leave the world), drawn as a hatched area with an outline.
+    pub const EXIT: u8 = 12;
     /// First index of the heat-map ramp.
     pub const RAMP_START: u8 = 16;
     /// Number of entries in the heat-map ramp.
@@ -92,6 +94,7 @@ impl Palette {
         colours[usize::from(Self::ARROW)] = [165, 170, 185];
         colours[usize::from(Self::WHITE)] = [255, 255, 255];
         colours[usize::from(Self::BLACK)] = [0, 0, 0];
+        colours[usize::from(Self::EXIT)] = [46, 204, 113];
         let segments = (RAMP_STOPS.len() - 1) as f32;
         for k in 0..Self::RAMP_LEN {
             let t = f32::from(k) / f32::from(Self::RAMP_LEN - 1) * segments;

@@ -1,4 +1,5 @@
-//! Drawing a whole [`World`]: agents, obstacles, walls, gravity points, paths and the first field.
+//! Drawing a whole [`World`]: agents, obstacles, walls, gravity points, paths, exits and the first
+//! field.
 
 use glam::Vec2;
 
@@ -7,8 +8,9 @@ use crate::error::Result;
 use crate::world::World;
 
 /// Draws frames of one world into a canvas of a fixed size. Things that do not move (obstacles,
-/// walls, paths) are gathered once; gravity points every frame; the field's heat map whenever
-/// the world rebuilt its fields.
+/// walls, paths, exits) are gathered once; gravity points every frame; the field's heat map
+/// whenever the world rebuilt its fields. Exits are hatched in [`Palette::EXIT`] with an outline,
+/// under the agents.
 #[derive(Debug)]
 pub struct WorldPainter {
     canvas: Canvas,
@@ -21,6 +23,8 @@ pub struct WorldPainter {
     blocked: Vec<bool>,
     heat_geometry: Option<(usize, usize, Vec2, f32)>,
     heat_version: Option<u64>,
+    /// Pixels (row-major indices) of the exits' hatching and outlines.
+    exit_pixels: Vec<usize>,
 }
 
 /// The world rectangle a picture of `world` shows: [`World::extent`].
@@ -38,6 +42,7 @@ impl WorldPainter {
         let canvas = Canvas::new(width, height)?;
         let (min, max) = world_extent(world);
         let viewport = Viewport::fit(min, max, &canvas)?;
+        let exit_pixels = exit_pixels(world, &viewport, width, height);
         Ok(WorldPainter {
             canvas,
             viewport,
@@ -59,6 +64,7 @@ impl WorldPainter {
             blocked: Vec::new(),
             heat_geometry: None,
             heat_version: None,
+            exit_pixels,
         })
     }
 
@@ -101,6 +107,13 @@ impl WorldPainter {
             ..Scene::default()
         };
         draw_scene(&mut self.canvas, &self.viewport, &scene)?;
+        // Agents stay on top: only pixels that no agent has coloured are marked.
+        let pixels = self.canvas.pixels_mut();
+        for &k in &self.exit_pixels {
+            if pixels[k] < Palette::GROUP_START {
+                pixels[k] = Palette::EXIT;
+            }
+        }
         draw_legend(&mut self.canvas, world.groups().len());
         Ok(&self.canvas)
     }
@@ -148,6 +161,43 @@ impl WorldPainter {
         self.heat_geometry = Some((w as usize, h as usize, grid.origin(), grid.cell_size()));
         self.heat_version = Some(version);
     }
+}
+
+/// The pixels that mark the world's exits on a `width x height` picture: each exit's border
+/// and a diagonal hatching of its inside (pixel centres tested with [`Exit::contains`]).
+///
+/// [`Exit::contains`]: crate::world::Exit::contains
+fn exit_pixels(world: &World, viewport: &Viewport, width: u32, height: u32) -> Vec<usize> {
+    let (w, h) = (width as i64, height as i64);
+    let mut out = Vec::new();
+    for exit in world.exits() {
+        let (a, b) = (viewport.to_pixel(exit.min), viewport.to_pixel(exit.max));
+        let (lo, hi) = (a.min(b), a.max(b));
+        if !(lo.is_finite() && hi.is_finite()) {
+            continue;
+        }
+        let x0 = (lo.x.floor() as i64).clamp(0, w);
+        let x1 = (hi.x.ceil() as i64).clamp(0, w);
+        let y0 = (lo.y.floor() as i64).clamp(0, h);
+        let y1 = (hi.y.ceil() as i64).clamp(0, h);
+        let inside = |x: i64, y: i64| {
+            let centre = Vec2::new(x as f32 + 0.5, y as f32 + 0.5);
+            exit.contains(viewport.to_world(centre))
+        };
+        for y in y0..y1 {
+            for x in x0..x1 {
+                if !inside(x, y) {
+                    continue;
+                }
+                let border =
+                    !(inside(x - 1, y) && inside(x + 1, y) && inside(x, y - 1) && inside(x, y + 1));
+                if border || (x + y) % 4 == 0 {
+                    out.push((y * w + x) as usize);
+                }
+            }
+        }
+    }
+    out
 }
 
 /// Pixels of the digits 0 to 9 in a 3 x 5 font, one row of three bits per entry, top first.

@@ -420,25 +420,45 @@ fn exit_cells(
 }
 
 /// A uniformly random point on the free cells of the world's first field (rejection sampling).
-pub(crate) fn free_point(world: &World, rng: &mut ChaCha8Rng) -> Result<Vec2> {
+pub(crate) fn free_point(
+    world: &World,
+    rng: &mut ChaCha8Rng,
+    free_cells: &mut Option<crate::spawn::FreeCells>,
+) -> Result<Vec2> {
     let no_field = || Error::Invalid {
         name: "spawn".into(),
         reason: "`free_cells` spawning needs a `[field]` with at least one free cell".into(),
     };
     let grid = world.field(0).ok_or_else(no_field)?.grid();
     let size = Vec2::new(grid.width() as f32, grid.height() as f32);
-    // A field has goals, so some cell is free; give up only on absurdly sparse grids.
-    for _ in 0..1 << 24 {
+    let in_cell = |x: u32, y: u32, inner: Vec2| {
+        let inner = inner.clamp(Vec2::splat(0.01), Vec2::splat(0.99));
+        grid.origin() + (Vec2::new(x as f32, y as f32) + inner) * grid.cell_size()
+    };
+    // A few uniform draws over the whole grid first: on a mostly free grid one of them lands
+    // in a free cell.
+    for _ in 0..64 {
         let u = Vec2::new(rng.random::<f32>(), rng.random::<f32>()) * size;
         let (x, y) = (
             (u.x as u32).min(grid.width() - 1),
             (u.y as u32).min(grid.height() - 1),
         );
-        let inner = (u - Vec2::new(x as f32, y as f32)).clamp(Vec2::splat(0.01), Vec2::splat(0.99));
-        let p = grid.origin() + (Vec2::new(x as f32, y as f32) + inner) * grid.cell_size();
+        let p = in_cell(x, y, u - Vec2::new(x as f32, y as f32));
         if grid.is_free(x, y) && grid.world_to_cell(p) == Some((x, y)) {
             return Ok(p);
         }
     }
-    Err(no_field())
+    // A sparse grid: a free cell drawn uniformly from the index of the free cells (made once
+    // per build), then a point inside it.
+    let free = free_cells.get_or_insert_with(|| crate::spawn::FreeCells::new(grid));
+    if free.is_empty() {
+        return Err(no_field());
+    }
+    let (x, y) = free.nth(grid, rng.random_range(0..free.len()));
+    let mut p = in_cell(x, y, Vec2::new(rng.random::<f32>(), rng.random::<f32>()));
+    if grid.world_to_cell(p) != Some((x, y)) {
+        // Far from the origin the cell's inside may round onto its edge: take its centre.
+        p = grid.cell_center(x, y);
+    }
+    Ok(p)
 }

@@ -625,6 +625,11 @@ impl Scenario {
                             reason: "min must not exceed max".into(),
                         });
                     }
+                    // An impossible request fails here, before any agent is placed.
+                    in_group(
+                        i,
+                        crate::spawn::spread_fits(g.count_of(), *min, *max, *distance),
+                    )?;
                 }
                 Spawn::Layout if self.layout.is_none() => {
                     return Err(Error::Invalid {
@@ -917,7 +922,8 @@ impl Scenario {
             f.check_walkers(&world, id, &self.groups)?;
         }
         world.try_reserve_agents(self.agent_count())?;
-        let mut spread = Spread::default();
+        let mut spread = crate::spawn::Spread::default();
+        let mut free_cells = None;
         for (gi, g) in self.groups.iter().enumerate() {
             let mut rng = ChaCha8Rng::seed_from_u64(
                 self.seed ^ (0x5eed_0000_u64 + gi as u64).wrapping_mul(0x9e37_79b9_7f4a_7c15),
@@ -946,7 +952,13 @@ impl Scenario {
                         origin + cell * spacing
                     }
                     &Spawn::Spread { min, max, distance } => {
-                        spread.place(&mut rng, min, max, distance, world.obstacles())
+                        // Draws outside the circles and, with a walkable area, inside it and
+                        // clear of its walls: a draw in a hole is drawn again.
+                        let accept = |p: Vec2| {
+                            !world.obstacles().inside_circle(p)
+                                && super::geometry::spawn_ok(&world, p, g.params.radius)
+                        };
+                        spread.place(&mut rng, (min, max), distance, accept)
                             .ok_or_else(|| Error::Invalid {
                                 name: format!("groups[{gi}].spawn"),
                                 reason: format!(
@@ -955,7 +967,7 @@ impl Scenario {
                                 ),
                             })?
                     }
-                    _ => g.spawn_point(&mut rng, bounds, &world)?,
+                    _ => g.spawn_point(&mut rng, bounds, &world, &mut free_cells)?,
                 };
                 // A walled world has no room outside it, and explicit points must be in the world;
                 // random regions on a torus wrap around.
@@ -1002,7 +1014,8 @@ impl Scenario {
                             reason: format!("no free spot found{within} in 1000 draws"),
                         });
                     }
-                    position = bounds.wrap(g.spawn_point(&mut rng, bounds, &world)?);
+                    position =
+                        bounds.wrap(g.spawn_point(&mut rng, bounds, &world, &mut free_cells)?);
                 }
                 let heading = rng.random::<f32>() * 2.0 * PI;
                 let velocity = Vec2::from_angle(heading) * g.initial_speed.min(g.params.max_speed);
@@ -1032,66 +1045,6 @@ impl Scenario {
     }
 }
 
-/// The agents placed by `spread` spawns so far, hashed by cell of the largest distance asked.
-#[derive(Default)]
-struct Spread {
-    cell: f32,
-    cells: std::collections::HashMap<(i64, i64), Vec<Vec2>>,
-}
-
-impl Spread {
-    /// Tries random points in `[min, max]` until one lies at least `distance` from every point
-    /// placed before and outside the circle obstacles; `None` after 10,000 tries.
-    fn place(
-        &mut self,
-        rng: &mut ChaCha8Rng,
-        min: Vec2,
-        max: Vec2,
-        distance: f32,
-        obstacles: &crate::obstacles::Obstacles,
-    ) -> Option<Vec2> {
-        if distance > self.cell {
-            // Re-hash at the larger cell so that the 3 x 3 block stays enough.
-            let points: Vec<Vec2> = self.cells.drain().flat_map(|(_, v)| v).collect();
-            self.cell = distance;
-            for p in points {
-                let k = self.key(p);
-                self.cells.entry(k).or_default().push(p);
-            }
-        }
-        let d_sq = distance * distance;
-        for _ in 0..10_000 {
-            let p = crate::spawn::sample_rect(rng, min, max);
-            if obstacles.inside_circle(p) {
-                continue;
-            }
-            let (kx, ky) = self.key(p);
-            let free = (-1..=1).all(|dx| {
-                (-1..=1).all(|dy| {
-                    self.cells
-                        .get(&(kx + dx, ky + dy))
-                        .is_none_or(|v| v.iter().all(|q| q.distance_squared(p) >= d_sq))
-                })
-            });
-            if free {
-                self.cells.entry((kx, ky)).or_default().push(p);
-                return Some(p);
-            }
-        }
-        None
-    }
-
-    fn key(&self, p: Vec2) -> (i64, i64) {
-        if self.cell <= 0.0 {
-            return (0, 0);
-        }
-        (
-            (p.x / self.cell).floor() as i64,
-            (p.y / self.cell).floor() as i64,
-        )
-    }
-}
-
 /// A square world of side `side`, derived from a density key.
 fn derived_side(name: &'static str, side: f64) -> Result<Vec2> {
     let max = crate::limits::MAX_DERIVED_SIDE;
@@ -1106,10 +1059,17 @@ fn derived_side(name: &'static str, side: f64) -> Result<Vec2> {
 }
 
 impl GroupSpec {
-    /// A random spawn position (for [`Spawn::Points`], the first point).
-    fn spawn_point(&self, rng: &mut ChaCha8Rng, bounds: Bounds, world: &World) -> Result<Vec2> {
+    /// A random spawn position (for [`Spawn::Points`], the first point); `free_cells` holds the
+    /// index of the field's free cells once a `free_cells` spawn needed it.
+    fn spawn_point(
+        &self,
+        rng: &mut ChaCha8Rng,
+        bounds: Bounds,
+        world: &World,
+        free_cells: &mut Option<crate::spawn::FreeCells>,
+    ) -> Result<Vec2> {
         Ok(match &self.spawn {
-            Spawn::FreeCells => super::fields::free_point(world, rng)?,
+            Spawn::FreeCells => super::fields::free_point(world, rng, free_cells)?,
             Spawn::Uniform => match world.walkable() {
                 Some(a) => crate::spawn::sample_rect(rng, a.min(), a.max()),
                 None => {

@@ -10,7 +10,7 @@ use crate::field::GoalChannels;
 use crate::gravity::GravityPoint;
 use crate::group::FormationParams;
 use crate::obstacles::{Circle, Wall};
-use crate::targets::TargetPoint;
+use crate::targets::{TargetPoint, TargetSlot};
 
 /// The seed a builder starts with, the same as a scenario file without a `seed` key.
 pub const DEFAULT_SEED: u64 = 1;
@@ -132,6 +132,31 @@ impl WorldBuilder {
     pub fn target(mut self, target: TargetPoint) -> Self {
         self.targets.push(target);
         self
+    }
+
+    /// Adds a target slot as [`WorldBuilder::target`] does and hands back its
+    /// [`TargetSlot`], for behaviours to name with
+    /// [`Target::Slot`](crate::steering::Target::Slot) and for
+    /// [`World::set_target_point`] to move.
+    ///
+    /// # Examples
+    /// ```
+    /// use throng::prelude::*;
+    ///
+    /// # fn main() -> throng::Result<()> {
+    /// let (builder, player) = World::builder().target_slot(TargetPoint::at(Vec2::new(5.0, 5.0)));
+    /// let chase = SteeringProfile::single(Behaviour::pursue(Target::Slot(player)));
+    /// let mut world = builder.group(GroupParams::dynamic(chase)).build()?;
+    /// world.set_target_point(player, Vec2::new(9.0, 1.0))?;
+    /// # Ok(())
+    /// # }
+    /// ```
+    #[must_use]
+    pub fn target_slot(self, target: TargetPoint) -> (Self, TargetSlot) {
+        // Slots are numbered in the order they are added, from 0; u32 holds any count that
+        // fits in memory alongside a world.
+        let slot = TargetSlot(u32::try_from(self.targets.len()).unwrap_or(u32::MAX));
+        (self.target(target), slot)
     }
 
     /// Adds a circular obstacle (as [`World::add_circle`]: no agent may stand inside it).

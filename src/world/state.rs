@@ -125,6 +125,34 @@ impl World {
         &self.obstacles
     }
 
+    /// A [`Spawner`](crate::spawn::Spawner) drawing from `seed` that places no point inside
+    /// this world's circles or within `clearance` of their edges (for agents of radius
+    /// `clearance`): [`Spawner::avoiding`](crate::spawn::Spawner::avoiding) with the world's
+    /// own obstacles, so that they are not repeated for the spawn.
+    ///
+    /// # Examples
+    /// ```
+    /// use throng::prelude::*;
+    ///
+    /// # fn main() -> throng::Result<()> {
+    /// let mut world = World::builder()
+    ///     .bounds(Bounds::bounded(100.0, 100.0)?)
+    ///     .circle(Circle::new(Vec2::splat(50.0), 10.0))
+    ///     .group(GroupParams::dynamic(SteeringProfile::default()))
+    ///     .build()?;
+    /// let start = world.spawner(3, 0.5).disc(200, Vec2::splat(50.0), 30.0)?;
+    /// for a in agents(&start, 0, 0.0, 3) {
+    ///     world.add_agent(a)?;
+    /// }
+    /// assert_eq!(world.len(), 200);
+    /// # Ok(())
+    /// # }
+    /// ```
+    #[must_use]
+    pub fn spawner(&self, seed: u64, clearance: f32) -> crate::spawn::Spawner<'_> {
+        crate::spawn::Spawner::new(seed).avoiding(&self.obstacles, clearance)
+    }
+
     /// Adds a circular obstacle.
     ///
     /// # Errors

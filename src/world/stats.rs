@@ -82,4 +82,11 @@ impl StepStats {
     pub fn total_ms(&self) -> f64 {
         self.total.as_secs_f64() * 1e3
     }
+
+    /// The whole step in milliseconds, under the name the command line's `step` column and
+    /// Python's `"step"` key give it (the same value as [`StepStats::total_ms`]).
+    #[must_use]
+    pub fn step_ms(&self) -> f64 {
+        self.total_ms()
+    }
 }

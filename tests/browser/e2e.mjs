@@ -1,7 +1,9 @@
 // End-to-end test of `throng serve` in a real headless Chromium (Debian's /usr/bin/chromium,
 // driven by playwright-core): the page opens and draws frames, a screenshot shows agents in their
 // group colour, a click on the canvas moves the field's goal (checked through GET /state), the
-// Pause button stops the frame number, and an error from the server is shown on the page.
+// Pause button stops the frame number, and an error from the server is shown on the page; an
+// open world (the bottleneck) is fitted on load, the legend names the groups, and a flock's
+// page offers only the click modes that act on it.
 //
 //   node tests/browser/e2e.mjs [--bin target/release/throng] [--modules DIR/node_modules]
 //                              [--screenshot FILE.png] [--perf [--agents N] [--seconds S] [--threads T]]
@@ -239,6 +241,48 @@ async function endToEnd() {
   });
 }
 
+/** `throng serve bottleneck` (an open world) and `flock`: the view fits the world when it loads,
+ * the legend names the groups, and only click modes that act in the scene are offered. */
+async function firstLook() {
+  const context = await launch();
+  const page = await context.newPage();
+  const pageErrors = [];
+  page.on("pageerror", (e) => pageErrors.push(String(e)));
+  const { url } = await serve(["bottleneck", "--paused"]);
+  await page.goto(url);
+  await check("an open world is fitted when the page loads", async () => {
+    await until("a frame drawn", () => page.evaluate(() => window.throng && window.throng.stats.drawn >= 1 && window.throng.frame()));
+    const world = await getJson(url + "world");
+    const [x0, y0, x1, y1] = world.extent;
+    const cam = await page.evaluate(() => window.throng.camera());
+    const [w, h] = [(x1 - x0) * cam.scale, (y1 - y0) * cam.scale];
+    assert(w <= cam.width + 1 && h <= cam.height + 1, `the extent (${w} x ${h} px) overflows the ${cam.width} x ${cam.height} canvas`);
+    assert(w >= 0.9 * cam.width || h >= 0.9 * cam.height, `the world is ${w.toFixed(0)} x ${h.toFixed(0)} px on a ${cam.width} x ${cam.height} canvas`);
+    assert(Math.abs(cam.cx - (x0 + x1) / 2) < 1e-3 && Math.abs(cam.cy - (y0 + y1) / 2) < 1e-3, "the world is centred");
+  });
+  await check("the pedestrian page offers goal, wall and circle, and names its group", async () => {
+    const shown = await page.evaluate(() => [...document.querySelectorAll("input[name=mode]")]
+      .filter((r) => r.parentElement.style.display !== "none").map((r) => r.value));
+    assert(JSON.stringify(shown) === JSON.stringify(["goal", "wall", "circle"]), `modes offered: ${shown}`);
+    const legend = (await page.textContent("#legend")).trim();
+    assert(legend === "occupants", `legend "${legend}"`);
+  });
+  const flock = await serve(["flock", "--agents", "300", "--paused"]);
+  await page.goto(flock.url);
+  await check("a flock's page offers no gravity or goal mode and starts in one that acts", async () => {
+    await until("a frame drawn", () => page.evaluate(() => window.throng && window.throng.stats.drawn >= 1 && window.throng.frame()));
+    const shown = await page.evaluate(() => [...document.querySelectorAll("input[name=mode]")]
+      .filter((r) => r.parentElement.style.display !== "none").map((r) => r.value));
+    assert(JSON.stringify(shown) === JSON.stringify(["wall", "circle"]), `modes offered: ${shown}`);
+    assert((await page.evaluate(() => window.throng.mode())) === "wall", "the default mode is wall");
+    const legend = (await page.textContent("#legend")).trim();
+    assert(!/^\d/.test(legend), `the legend "${legend}" reads as a count`);
+  });
+  await check("the first-look pages raised no script errors", async () => {
+    assert(pageErrors.length === 0, pageErrors.join("\n"));
+  });
+}
+
 async function perf() {
   const agents = opt("--agents", "100000"), seconds = Number(opt("--seconds", "10"));
   const threads = opt("--threads", null);
@@ -278,7 +322,10 @@ async function perf() {
 const guard = setTimeout(() => { console.log("FAIL the browser test took longer than 180 s"); process.exit(1); }, 180000);
 try {
   if (flag("--perf")) await perf();
-  else await endToEnd();
+  else {
+    await endToEnd();
+    await firstLook();
+  }
 } catch (e) {
   failed++;
   console.log(`FAIL ${e.stack || e}`);

@@ -1,6 +1,6 @@
 //! Streaming outputs of a run: trajectories (CSV, PedPy text or JuPedSim SQLite, by the file's
-//! extension; `trajectory`) and pictures (animated GIF frames as the run goes, or the last frame
-//! as PNG).
+//! extension; `trajectory`) and pictures (animated GIF frames as the run goes, timed to play in
+//! under 30 s; or one frame as PNG: the last, or the one at which half of the agents had left).
 //!
 //! Every file is written through an [`AtomicOutput`]: complete (renamed into place by
 //! [`Outputs::finish`]) or absent (the previous file untouched) after a failure.
@@ -30,8 +30,16 @@ pub struct Outputs {
 #[cfg(feature = "render")]
 #[derive(Debug)]
 enum Target {
-    Gif(Box<throng::render::GifRecorder>),
-    Png,
+    /// An animation: a frame every `period` frames of the run (and the last), the frame last
+    /// pushed.
+    Gif {
+        gif: Box<throng::render::GifRecorder>,
+        period: u64,
+        pushed: Option<u64>,
+    },
+    /// One picture: the last frame, or, once half of the agents the run started with have
+    /// left, the frame at which they had (`frozen` then holds it).
+    Png { start: usize, frozen: bool },
 }
 
 #[cfg(feature = "render")]
@@ -48,8 +56,58 @@ struct Picture {
 pub struct RenderOptions {
     /// Longest side of the picture in pixels.
     pub size: u32,
-    /// Seconds between written frames (for the GIF's frame delay).
-    pub frame_seconds: f32,
+    /// How an animation samples the run.
+    pub gif: GifTiming,
+}
+
+/// Longest an animation plays, hundredths of a second (under 30 s).
+pub const GIF_PLAY_CS: u64 = 2_900;
+/// Most frames an animation holds (frame 0 and the last included), whatever `--every` is.
+pub const GIF_MAX_FRAMES: u64 = 300;
+/// Longest a frame of an animation is shown, hundredths of a second.
+pub const GIF_MAX_DELAY_CS: u64 = 50;
+/// Shortest frame delay that browsers honour, hundredths of a second.
+pub const GIF_MIN_DELAY_CS: u64 = 2;
+
+/// How an animated GIF samples a run: a frame every `period` frames of the run (and the last),
+/// each shown `delay_cs` hundredths of a second.
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+pub struct GifTiming {
+    /// Frames of the run between two frames of the animation.
+    pub period: u64,
+    /// How long each frame is shown, hundredths of a second.
+    pub delay_cs: u16,
+}
+
+impl GifTiming {
+    /// The timing of an animation of a run of `steps` steps of `dt` seconds, with frames every
+    /// `every` frames when given (else about 200 frames over the run).
+    ///
+    /// The period is `every` (or `steps / 200`) times the smallest whole factor that keeps the
+    /// animation within [`GIF_MAX_FRAMES`]; a frame is shown for the simulated time it covers,
+    /// held within [`GIF_MIN_DELAY_CS`] and [`GIF_MAX_DELAY_CS`] and short enough that the whole
+    /// animation plays within [`GIF_PLAY_CS`]. A run that stops early (its world emptied, or
+    /// `--until-arrived`) only plays shorter.
+    #[must_use]
+    pub fn plan(dt: f32, steps: u64, every: Option<u64>) -> Self {
+        let base = every.unwrap_or(steps / 200).max(1);
+        // Frame 0, a frame every `base` frames, and the last.
+        let pictures = steps / base + 2;
+        let thin = pictures.div_ceil(GIF_MAX_FRAMES);
+        let period = base.saturating_mul(thin);
+        let frames = steps / period + 2;
+        let longest = (GIF_PLAY_CS / frames).clamp(GIF_MIN_DELAY_CS, GIF_MAX_DELAY_CS);
+        let real = f64::from(dt) * period as f64 * 100.0;
+        let delay = if real.is_finite() {
+            (real.round() as u64).clamp(GIF_MIN_DELAY_CS, longest)
+        } else {
+            longest
+        };
+        GifTiming {
+            period,
+            delay_cs: delay as u16,
+        }
+    }
 }
 
 impl Outputs {
@@ -98,33 +156,32 @@ impl Outputs {
             .extension()
             .and_then(|e| e.to_str())
             .map(str::to_ascii_lowercase);
+        let wrong = || Error::Invalid {
+            name: "render".into(),
+            reason: format!(
+                "{}: the file must end in .gif (animation) or .png (one frame)",
+                path.display()
+            ),
+        };
         if !matches!(ext.as_deref(), Some("gif" | "png")) {
-            return Err(Error::Invalid {
-                name: "render".into(),
-                reason: format!(
-                    "{}: the file must end in .gif (animation) or .png (last frame)",
-                    path.display()
-                ),
-            });
+            return Err(wrong());
         }
         let (file, _) = AtomicOutput::create(path)?;
         let target = match ext.as_deref() {
             Some("gif") => {
-                let delay = (options.frame_seconds * 100.0).round().clamp(2.0, 65_535.0) as u16;
-                let gif = GifRecorder::create(file.write_path(), w, h, delay)
+                let gif = GifRecorder::create(file.write_path(), w, h, options.gif.delay_cs)
                     .map_err(|e| file.named(e))?;
-                Target::Gif(Box::new(gif))
+                Target::Gif {
+                    gif: Box::new(gif),
+                    period: options.gif.period,
+                    pushed: None,
+                }
             }
-            Some("png") => Target::Png,
-            _ => {
-                return Err(Error::Invalid {
-                    name: "render".into(),
-                    reason: format!(
-                        "{}: the file must end in .gif (animation) or .png (last frame)",
-                        path.display()
-                    ),
-                });
-            }
+            Some("png") => Target::Png {
+                start: world.len(),
+                frozen: false,
+            },
+            _ => return Err(wrong()),
         };
         self.picture = Some(Picture {
             painter,
@@ -142,23 +199,47 @@ impl Outputs {
         })
     }
 
-    /// Writes the world's current frame to every open output.
+    /// Writes the world's current frame to the trajectory file.
     pub fn frame(&mut self, world: &World) -> Result<()> {
         if let Some(t) = &mut self.trajectories {
             t.frame(world)?;
         }
-        #[cfg(feature = "render")]
-        if let Some(p) = &mut self.picture
-            && let Target::Gif(gif) = &mut p.target
-        {
-            let canvas = p.painter.draw(world)?;
-            gif.push(canvas).map_err(|e| p.file.named(e))?;
-        }
         Ok(())
     }
 
-    /// Flushes and closes everything and moves each complete file into place; a PNG gets the
-    /// last frame.
+    /// Shows the world's current frame to the picture: called at the start and after every
+    /// step, it pushes an animation's frame when the frame number is a multiple of its period
+    /// (and at the start), and holds a PNG's frame once half of the agents have left.
+    pub fn picture(&mut self, world: &World) -> Result<()> {
+        #[cfg(feature = "render")]
+        if let Some(p) = &mut self.picture {
+            match &mut p.target {
+                Target::Gif {
+                    gif,
+                    period,
+                    pushed,
+                } => {
+                    if pushed.is_none() || world.frame().is_multiple_of(*period) {
+                        let canvas = p.painter.draw(world)?;
+                        gif.push(canvas).map_err(|e| p.file.named(e))?;
+                        *pushed = Some(world.frame());
+                    }
+                }
+                Target::Png { start, frozen } => {
+                    if !*frozen && *start > 0 && world.len() * 2 <= *start {
+                        p.painter.draw(world)?;
+                        *frozen = true;
+                    }
+                }
+            }
+        }
+        #[cfg(not(feature = "render"))]
+        let _ = world;
+        Ok(())
+    }
+
+    /// Flushes and closes everything and moves each complete file into place; an animation
+    /// ends with the last frame, a PNG is the last frame unless it holds an earlier one.
     pub fn finish(mut self, world: &World) -> Result<()> {
         if let Some(t) = self.trajectories.take() {
             t.finish()?;
@@ -166,9 +247,21 @@ impl Outputs {
         #[cfg(feature = "render")]
         if let Some(mut p) = self.picture.take() {
             match p.target {
-                Target::Gif(gif) => gif.finish().map_err(|e| p.file.named(e))?,
-                Target::Png => {
-                    let canvas = p.painter.draw(world)?;
+                Target::Gif {
+                    mut gif, pushed, ..
+                } => {
+                    if pushed != Some(world.frame()) {
+                        let canvas = p.painter.draw(world)?;
+                        gif.push(canvas).map_err(|e| p.file.named(e))?;
+                    }
+                    gif.finish().map_err(|e| p.file.named(e))?;
+                }
+                Target::Png { frozen, .. } => {
+                    let canvas = if frozen {
+                        p.painter.canvas()
+                    } else {
+                        p.painter.draw(world)?
+                    };
                     throng::render::write_png(canvas, p.file.write_path())
                         .map_err(|e| p.file.named(e))?;
                 }

@@ -30,6 +30,16 @@ pub const VERSION: u16 = 1;
 pub const HEADER_LEN: usize = 88;
 /// Flag bit: the simulation is paused.
 pub const FLAG_PAUSED: u16 = 1;
+/// The heat map's colours from a goal (first) to the farthest reachable cell (last), at equal
+/// steps: the ramp of the PNG and GIF pictures (`throng::render::Palette`), bright at the goals
+/// and dark far from them, so that the page and `--render` read the same way.
+pub const HEAT_RAMP: [[u8; 3]; 5] = [
+    [175, 160, 40],
+    [70, 140, 70],
+    [24, 100, 100],
+    [38, 56, 100],
+    [40, 10, 56],
+];
 /// Longest side, in cells, of the field layer in `GET /world` (larger grids are sampled down).
 const MAX_LAYER_SIDE: u32 = 1024;
 
@@ -251,6 +261,27 @@ fn field_layer(channels: &GoalChannels) -> Value {
     })
 }
 
+/// The click modes of the page that change what happens in `world`: `goal` with a field,
+/// `gravity` when some group has an anti-gravity behaviour (nothing else feels gravity points),
+/// and `wall` and `circle` always (no agent crosses an obstacle).
+fn click_modes(world: &World) -> Vec<&'static str> {
+    let feels_gravity = world.groups().iter().any(|g| {
+        g.steering
+            .behaviours
+            .iter()
+            .any(|w| w.behaviour.name().starts_with("anti_gravity"))
+    });
+    let mut modes = Vec::with_capacity(4);
+    if world.field_count() > 0 {
+        modes.push("goal");
+    }
+    if feels_gravity {
+        modes.push("gravity");
+    }
+    modes.extend(["wall", "circle"]);
+    modes
+}
+
 /// The world's geometry as `GET /world` serves it.
 pub fn world_json(world: &World, version: u32) -> Value {
     let bounds = match world.bounds() {
@@ -282,6 +313,8 @@ pub fn world_json(world: &World, version: u32) -> Value {
         .iter()
         .map(|g| json!({ "name": g.name, "radius": g.radius, "max_speed": g.max_speed }))
         .collect();
+    // What the page fits on load: the world's rectangle, or in an open world everything in it.
+    let (lo, hi) = world.extent();
     let fields: Vec<Value> = (0..world.field_count())
         .filter_map(|f| world.field(f))
         .map(field_layer)
@@ -294,6 +327,9 @@ pub fn world_json(world: &World, version: u32) -> Value {
         "paths": paths,
         "groups": groups,
         "fields": fields,
+        "heat_ramp": HEAT_RAMP,
+        "extent": [lo.x, lo.y, hi.x, hi.y],
+        "modes": click_modes(world),
     })
 }
 
