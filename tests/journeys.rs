@@ -579,8 +579,9 @@ fn nobody_walks_into_an_agent_driven_from_outside() {
 /// A room with doors east and north, each into a short corridor.
 const TWO_DOORS: &str =
     "POLYGON ((0 0, 20 0, 20 4, 24 4, 24 6, 20 6, 20 10, 11 10, 11 14, 9 14, 9 10, 0 10, 0 0))";
-/// The same room with the east door closed.
-const EAST_CLOSED: &str = "POLYGON ((0 0, 20 0, 20 10, 11 10, 11 14, 9 14, 9 10, 0 10, 0 0))";
+/// The same room with the east door closed: a wall 5 cm thick parts the room from the corridor
+/// beyond the door.
+const EAST_CLOSED: &str = "MULTIPOLYGON (((0 0, 20 0, 20 10, 11 10, 11 14, 9 14, 9 10, 0 10, 0 0)), ((20.05 4, 24 4, 24 6, 20.05 6, 20.05 4)))";
 
 #[test]
 fn after_a_door_closes_nobody_passes_it() {
@@ -597,18 +598,36 @@ fn after_a_door_closes_nobody_passes_it() {
         0.7,
         to_east,
     );
-    run(&mut w, 8.0);
-    // Someone stands in the doorway now and then: the switch waits for a moment it can close.
-    let mut refused = 0;
-    while let Err(e) = w.switch_walkable(Walkable::from_wkt(EAST_CLOSED).unwrap()) {
-        assert!(e.to_string().contains("outside the new area"), "{e}");
-        refused += 1;
+    run(&mut w, 14.0);
+    // A world with no walkable area has none to switch from; a new area that leaves an agent
+    // outside is refused, naming it, and nothing changes.
+    let e = w
+        .switch_walkable(Walkable::from_wkt("POLYGON ((0 0, 5 0, 5 5, 0 5, 0 0))").unwrap())
+        .unwrap_err()
+        .to_string();
+    assert!(e.contains("stands outside the new area"), "{e}");
+    // Refused while someone stands in the new wall's 5 cm: a few steps later it closes.
+    let mut tries = 0;
+    while w
+        .switch_walkable(Walkable::from_wkt(EAST_CLOSED).unwrap())
+        .is_err()
+    {
+        tries += 1;
+        assert!(tries < 200, "the doorway never cleared");
         w.step(DT).unwrap();
     }
     let left_east = w.stage_counts()[east.0 as usize].left;
     assert!(left_east > 0, "some left before the door closed");
+    // Those in the room turn north; those in the corridor walk on east.
+    let a = w.agents();
+    let corridor: Vec<AgentId> = (0..a.len())
+        .filter(|&i| a.position(i).x > 20.0)
+        .map(|i| a.id(i))
+        .collect();
     for &id in &ids {
-        if w.journey_of(id).is_some() {
+        if let Some(s) = w.agent(id)
+            && s.position.x < 20.0
+        {
             w.set_journey(id, to_north, None).unwrap();
         }
     }
@@ -616,17 +635,17 @@ fn after_a_door_closes_nobody_passes_it() {
         w.step(DT).unwrap();
         let a = w.agents();
         assert!(
-            (0..a.len()).all(|i| a.position(i).x <= 20.0),
+            (0..a.len()).all(|i| a.position(i).x <= 20.0 || corridor.contains(&a.id(i))),
             "someone passed the closed door"
         );
     }
     let c = w.stage_counts();
     assert_eq!(
-        c[east.0 as usize].left, left_east,
-        "nobody left east after the door closed"
+        c[east.0 as usize].left,
+        left_east + corridor.len() as u64,
+        "after the door closed, only those beyond it left east"
     );
     assert_eq!(c[east.0 as usize].left + c[north.0 as usize].left, 80);
-    let _ = refused;
     // The checkpoint carries the current geometry.
     let mut bytes = Vec::new();
     w.save(&mut bytes).unwrap();

@@ -38,6 +38,11 @@ fn area(name: &str, obj: &Bound<'_, PyAny>) -> PyResult<Walkable> {
         .map_err(|e| raise_in(Some(name), &e))
 }
 
+/// At rest.
+fn glam_zero() -> throng::prelude::Vec2 {
+    throng::prelude::Vec2::ZERO
+}
+
 /// A stage given as its id or as a stage handle (anything with an `id` attribute).
 fn stage_id(obj: &Bound<'_, PyAny>) -> PyResult<StageId> {
     let raw = match obj.extract::<i128>() {
@@ -273,6 +278,8 @@ pub struct PySimulation {
     model: Model,
     /// The group of each pedestrian model used so far.
     groups: Vec<(Model, usize)>,
+    /// The group of agents driven from outside, once one was added.
+    external: Option<usize>,
     pool: Option<rayon::ThreadPool>,
 }
 
@@ -287,6 +294,19 @@ impl PySimulation {
             .add_group(Profile::journey_walkers(model))
             .or_raise()?;
         self.groups.push((model, g));
+        Ok(g)
+    }
+
+    /// The group of agents driven from outside, made on first use: no behaviour, no model.
+    fn external_group(&mut self) -> PyResult<usize> {
+        if let Some(g) = self.external {
+            return Ok(g);
+        }
+        let mut p = Profile::kinematic(throng::steering::SteeringProfile::default());
+        p.radius = 0.2;
+        p.max_speed = 100.0;
+        let g = self.world.add_group(p).or_raise()?;
+        self.external = Some(g);
         Ok(g)
     }
 
@@ -327,6 +347,7 @@ impl PySimulation {
                 dt,
                 model: m,
                 groups: Vec::new(),
+                external: None,
                 pool: crate::world::pool(threads)?,
             })
         })
@@ -410,12 +431,12 @@ impl PySimulation {
         clippy::too_many_arguments,
         reason = "the Python signature: one keyword per per-agent parameter"
     )]
-    #[pyo3(signature = (positions, *, journey, stage=None, desired_speed=None, radius=None, model=None))]
+    #[pyo3(signature = (positions, *, journey=None, stage=None, desired_speed=None, radius=None, model=None))]
     fn add_agents<'py>(
         &mut self,
         py: Python<'py>,
         positions: &Bound<'py, PyAny>,
-        journey: i128,
+        journey: Option<i128>,
         stage: Option<&Bound<'py, PyAny>>,
         desired_speed: Option<&Bound<'py, PyAny>>,
         radius: Option<&Bound<'py, PyAny>>,
@@ -440,8 +461,27 @@ impl PySimulation {
                 arrays::read_pairs("positions", positions)?
             };
             let m = pos.len();
-            let journey = throng::journey::JourneyId(unsigned("journey", journey)?);
-            self.world.journey(journey).or_raise()?;
+            let external = model == Some("external");
+            let journey = match (journey, external) {
+                (Some(j), false) => {
+                    let j = throng::journey::JourneyId(unsigned("journey", j)?);
+                    self.world.journey(j).or_raise()?;
+                    Some(j)
+                }
+                (None, true) => None,
+                (Some(_), true) => {
+                    return Err(invalid(
+                        "journey",
+                        "external agents follow no journey: they go where set_external puts them",
+                    ));
+                }
+                (None, false) => {
+                    return Err(invalid(
+                        "journey",
+                        "a pedestrian needs a journey (model=\"external\" agents need none)",
+                    ));
+                }
+            };
             let stage = stage.map(stage_id).transpose()?;
             let floats =
                 |name: &str, v: Option<&Bound<'py, PyAny>>| -> PyResult<Option<Vec<f32>>> {
@@ -450,7 +490,11 @@ impl PySimulation {
                 };
             let speeds = floats("desired_speed", desired_speed)?;
             let radii = floats("radius", radius)?;
-            let group = self.group(model.map(self::model).transpose()?.unwrap_or(self.model))?;
+            let group = if external {
+                self.external_group()?
+            } else {
+                self.group(model.map(self::model).transpose()?.unwrap_or(self.model))?
+            };
             let mut ids: Vec<u32> = Vec::with_capacity(m);
             let mut add = |k: usize| -> PyResult<u32> {
                 let init = AgentInit {
@@ -465,7 +509,11 @@ impl PySimulation {
                     .world
                     .add_agent(init)
                     .map_err(|e| raise_in(Some(&context), &e))?;
-                if let Err(e) = self.world.set_journey(id, journey, stage) {
+                let placed = match journey {
+                    Some(j) => self.world.set_journey(id, j, stage),
+                    None => self.world.set_external(id, pos[k].into(), glam_zero()),
+                };
+                if let Err(e) = placed {
                     let _ = self.world.remove_agent(id);
                     return Err(raise_in(Some(&context), &e));
                 }
@@ -671,6 +719,67 @@ impl PySimulation {
     fn remove_agent(&mut self, id: i128) -> PyResult<()> {
         let id = AgentId(unsigned("id", id)?);
         guarded(|| self.world.remove_agent(id).or_raise())
+    }
+
+    /// Puts agents `ids` (added with `model="external"`, or any agent) at `positions` with
+    /// `velocities` (default: at rest); call it between iterations. The step moves them not at
+    /// all; every pedestrian sees and avoids them. On an error nothing changes.
+    #[pyo3(signature = (ids, positions, velocities=None))]
+    fn set_external(
+        &mut self,
+        ids: &Bound<'_, PyAny>,
+        positions: &Bound<'_, PyAny>,
+        velocities: Option<&Bound<'_, PyAny>>,
+    ) -> PyResult<()> {
+        guarded(|| {
+            let ids = arrays::read_ints("ids", ids)?;
+            let pos = arrays::read_pairs("positions", positions)?;
+            let vel = match velocities {
+                Some(v) => arrays::read_pairs("velocities", v)?,
+                None => vec![[0.0; 2]; pos.len()],
+            };
+            if pos.len() != ids.len() || vel.len() != ids.len() {
+                return Err(invalid(
+                    "positions",
+                    format!(
+                        "{} ids, {} positions and {} velocities: one of each per agent",
+                        ids.len(),
+                        pos.len(),
+                        vel.len()
+                    ),
+                ));
+            }
+            let ids = ids
+                .iter()
+                .map(|&i| {
+                    u32::try_from(i)
+                        .map(AgentId)
+                        .map_err(|_| invalid("ids", format!("{i} is not an agent id")))
+                })
+                .collect::<PyResult<Vec<_>>>()?;
+            // Checked in full first, so that an error changes nothing.
+            for (k, &id) in ids.iter().enumerate() {
+                self.world
+                    .check_external(id, pos[k].into(), vel[k].into())
+                    .map_err(|e| raise_in(Some(&format!("row {k} (agent {})", id.0)), &e))?;
+            }
+            for (k, &id) in ids.iter().enumerate() {
+                self.world
+                    .set_external(id, pos[k].into(), vel[k].into())
+                    .or_raise()?;
+            }
+            Ok(())
+        })
+    }
+
+    /// Replaces the walkable area (WKT, shapely, or points): a door closed or opened. Refused
+    /// (ThrongError naming the agent, nothing changed) while an agent stands outside the new
+    /// area; stages it cuts off keep no route.
+    fn switch_geometry(&mut self, geometry: &Bound<'_, PyAny>) -> PyResult<()> {
+        guarded(|| {
+            let a = area("geometry", geometry)?;
+            self.world.switch_walkable(a).or_raise()
+        })
     }
 
     /// The walkable area as WKT text (or, with `shapely=True`, a shapely geometry).

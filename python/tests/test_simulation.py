@@ -148,3 +148,34 @@ def test_two_models_share_one_simulation_and_keep_apart():
     assert sim.exit_counts()[out] == 60
     # Bodies of 0.2 m: the two models' agents overlap by at most a quarter of a radius.
     assert closest > 0.35, closest
+
+
+def test_after_the_door_closes_only_those_beyond_it_leave_east():
+    r = example("door_closed")()
+    assert r["east"] == r["east_before"] + r["in_corridor"]
+    assert r["east"] + r["north"] == 80 and r["north"] > 0
+    assert r["crossed_after"] == 0, "nobody in the room passed the closed door"
+
+
+def test_no_pedestrian_comes_closer_to_the_robot_than_their_radii_less_five_percent():
+    r = example("robot_crossing")()
+    assert r["left"] == r["people"] == 40
+    assert r["closest_gap"] > -0.05 * (0.2 + 0.4), r
+
+
+def test_external_agents_are_checked_and_follow_no_journey():
+    sim, ids, via, out = small()
+    robot = sim.add_agents((20.0, 2.0), model="external", radius=0.4)
+    assert sim.agent_journey(robot) is None
+    with pytest.raises(throng.ThrongError, match="outside the walkable area"):
+        sim.set_external([robot], [(40.0, 2.0)])
+    with pytest.raises(throng.ThrongError, match="finite"):
+        sim.set_external([robot], [(20.0, 2.0)], [(float("nan"), 0.0)])
+    with pytest.raises(throng.ThrongError, match="no journey"):
+        sim.add_agents((3.0, 3.0), model="external", journey=0)
+    with pytest.raises(throng.ThrongError, match="needs a journey"):
+        sim.add_agents((3.0, 3.0))
+    sim.set_external([robot], [(21.0, 2.0)], [(1.0, 0.0)])
+    sim.iterate(10)
+    row = list(sim.ids()).index(robot)
+    assert tuple(sim.positions()[row]) == (21.0, 2.0)

@@ -154,6 +154,21 @@ impl World {
     /// number or a speed above [`MAX_SPEED`](crate::error::MAX_SPEED); [`Error::Invalid`] for
     /// a position outside the walkable area or inside an obstacle. Nothing changes then.
     pub fn set_external(&mut self, id: AgentId, position: Vec2, velocity: Vec2) -> Result<()> {
+        self.check_external(id, position, velocity)?;
+        let i = self.agents.index_of(id).ok_or(Error::UnknownAgent { id })?;
+        self.agents.pos_x[i] = position.x;
+        self.agents.pos_y[i] = position.y;
+        self.agents.vel_x[i] = velocity.x;
+        self.agents.vel_y[i] = velocity.y;
+        self.journeys.set_external(id, position, velocity);
+        Ok(())
+    }
+
+    /// Checks what [`World::set_external`] would check, changing nothing.
+    ///
+    /// # Errors
+    /// As [`World::set_external`].
+    pub fn check_external(&self, id: AgentId, position: Vec2, velocity: Vec2) -> Result<()> {
         crate::error::coordinate("external position", position)?;
         let v = crate::error::finite_vec("external velocity", velocity)?;
         crate::error::in_range(
@@ -174,11 +189,19 @@ impl World {
                 ),
             });
         }
-        let i = self.agents.index_of(id).ok_or(Error::UnknownAgent { id })?;
-        self.set_position(id, position)?;
-        self.agents.vel_x[i] = velocity.x;
-        self.agents.vel_y[i] = velocity.y;
-        self.journeys.set_external(id, position, velocity);
+        if !self.agents.contains(id) {
+            return Err(Error::UnknownAgent { id });
+        }
+        self.bounds.check_point("external position", position)?;
+        if self.obstacles.inside_circle(position) {
+            return Err(Error::Invalid {
+                name: "external position".into(),
+                reason: format!(
+                    "agent {id} at ({}, {}) lies inside an obstacle",
+                    position.x, position.y
+                ),
+            });
+        }
         Ok(())
     }
 
