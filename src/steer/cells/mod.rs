@@ -38,6 +38,7 @@ use rayon::prelude::*;
 use super::neighbours::SortedCopies;
 use super::plan::PlanKind;
 use super::view::SteerView;
+use crate::simd::{apply, float_kernel};
 use crate::spatial::{GridIndex, SpatialIndex};
 use crate::steering::NeighbourSums;
 
@@ -311,11 +312,7 @@ pub(crate) fn run(view: &SteerView, out: &mut CellOut, parallel: bool) -> bool {
 /// than one chain of dependent additions), then those in order: the same order on any number of
 /// threads and in every dispatch target (the baseline build converts and adds two lanes at a
 /// time).
-#[multiversion::multiversion(targets(
-    "x86_64+avx2+fma+avx512f+avx512vl+avx512bw+avx512dq",
-    "x86_64+avx2+fma",
-    "x86_64+avx"
-))]
+#[apply(float_kernel!)]
 pub(crate) fn sum_lanes(v: &[f32]) -> f64 {
     let (blocks, rest) = v.as_chunks::<8>();
     let mut acc = [0.0_f64; 8];

@@ -39,6 +39,7 @@ use crate::orca::{
     Line, Orca, WallChains, accepted, agent_line, permits, solve, tested, unconstrained,
 };
 use crate::rng::{self, Stream};
+use crate::simd::{apply, integer_kernel};
 use crate::spatial::{HashGrid, Neighbour};
 use crate::steering::trig;
 
@@ -245,10 +246,7 @@ const FILTER_CHUNK: usize = 256;
 /// of the first times 2 pi, in their range) and a length (the second, in units of the group's
 /// `perturbation`). Eight agents at a time in lanes; the same operations per agent as one at a
 /// time, so the same bits.
-#[multiversion::multiversion(targets(
-    "x86_64+avx2+fma+avx512f+avx512vl+avx512bw+avx512dq",
-    "x86_64+avx2+fma"
-))]
+#[apply(integer_kernel!)]
 fn perturbations(ids: &[AgentId], frame_key: u64, b: &mut Buffers) {
     let n = ids.len();
     for v in [&mut b.turb_cos, &mut b.turb_sin, &mut b.turb_len] {
@@ -299,10 +297,7 @@ const UNTESTED_AFTER_FAILURE: u32 = 3;
 /// `ly` and `near`. Compiled for AVX-512 and AVX2 too, where the candidate scan runs in vectors
 /// (the same arithmetic, so the same bits); dispatched once per chunk, with [`filter`] inlined,
 /// rather than once per agent.
-#[multiversion::multiversion(targets(
-    "x86_64+avx2+fma+avx512f+avx512vl+avx512bw+avx512dq",
-    "x86_64+avx2+fma"
-))]
+#[apply(integer_kernel!)]
 fn filter_chunk(
     view: &SteerView,
     ctx: &Context,
