@@ -134,6 +134,9 @@ impl World {
             return Err(Error::InvalidTimeStep { dt: f64::from(dt) });
         }
         self.ensure_plans()?;
+        self.last_plans.clear();
+        self.last_plans
+            .extend(self.plans.iter().map(|p| p.kind.name()));
         let start = Instant::now();
         let n = self.agents.len();
         let mut phases = PhaseTimes::default();
