@@ -232,13 +232,12 @@ pub(crate) fn run(
 
 /// Agents per task of the parallel filter, each chunk a task of its own (`with_max_len(1)`):
 /// threads that run at different speeds (a core shared with another process) then share the
-/// chunks by how fast they go. In chunks of the pass's 1,024, split by rayon's default into
-/// runs of two or three, one thread of a 10,000-agent circle waited for the other 84 to 171 µs
-/// a step on average (the filter's two threads 0.82 to 0.89 busy); in tasks of 256, 38 to 60
-/// µs (0.93 to 0.95). A chunk's first agent regathers its block and searches without the
-/// previous agent's distance, a few hundred instructions. Which agents share a task changes
-/// only what the buffers carry from one agent to the next (the gathered block, the `k`-th
-/// distance, the skipped tests), never a result.
+/// chunks by how fast they go, rather than one thread finishing a run of several chunks alone.
+/// Smaller than the pass's chunks for that sharing, but not much smaller: a chunk's first agent
+/// regathers its block and searches without the previous agent's distance, a few hundred
+/// instructions (the measurement: docs/PERFORMANCE.md, "Tuning constants"). Which agents share a task changes only what the
+/// buffers carry from one agent to the next (the gathered block, the `k`-th distance, the
+/// skipped tests), never a result.
 const FILTER_CHUNK: usize = 256;
 
 /// Every agent's perturbation of the chunk whose ids are `ids`, into `b.turb_*`: the first two
@@ -288,9 +287,9 @@ fn free_flow_on() -> bool {
 }
 
 /// Agents that skip the free-flow test after one it failed for ([`Buffers::untested`]): in a
-/// crowd in conflict the test is then tried for one agent in four (`crossing` at 20,000
-/// agents: about 1% of agents are free, and a failed test costs two or three neighbours'
-/// tests); a crowd in free flow never fails it, and loses nothing.
+/// crowd in conflict the test is then tried for one agent in four (few agents of such a crowd
+/// are free, and a failed test costs two or three neighbours' tests; docs/PERFORMANCE.md, "Tuning constants"); a crowd in free
+/// flow never fails it, and loses nothing.
 const UNTESTED_AFTER_FAILURE: u32 = 3;
 
 /// The filtered requests of the agents from storage index `base` on, one per slot of `lx`,
