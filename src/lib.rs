@@ -59,6 +59,7 @@
 //! - [`timing`]: step timings, run summaries and the benchmark report.
 //! - [`error`]: the [`Error`] type.
 //! - `lines` (internal): cache lines and the vector loops over long columns.
+//! - `simd` (internal): the processors the SIMD kernels are compiled for, each list in one place.
 //!
 //! ## Features
 //! By default the crate is the simulation core alone.
@@ -92,6 +93,7 @@ pub mod profile;
 pub mod render;
 pub mod rng;
 pub mod scenario;
+mod simd;
 pub mod spatial;
 pub mod spawn;
 mod steer;

@@ -60,8 +60,8 @@ pub const MAX_THREADS: usize = 1024;
 
 /// The most worker threads a pool may have on a machine with `cores` cores: four per core, at
 /// least 16 and at most [`MAX_THREADS`]. Rayon's fork-join cost grows with the pool, so a pool
-/// far larger than the machine only slows each step (1,024 workers on 2 cores made a
-/// 2,000-agent flock step take 0.5 s against 4 ms), and each worker reserves a stack.
+/// far larger than the machine only slows each step (docs/PERFORMANCE.md, "Tuning
+/// constants"), and each worker reserves a stack.
 #[must_use]
 pub fn max_threads(cores: usize) -> usize {
     cores.saturating_mul(4).clamp(16, MAX_THREADS)

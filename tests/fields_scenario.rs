@@ -250,6 +250,8 @@ fn follow_field_run(extra: bool, separation: bool) -> Vec<(throng::AgentId, u32,
         for _ in 0..60 {
             w.step(s.dt).unwrap();
         }
+        let ran = if extra { "general" } else { "follow_field" };
+        assert_eq!(w.last_plans()[0], ran, "the plan that ran");
         let a = w.agents();
         let mut v: Vec<_> = (0..a.len())
             .map(|i| {

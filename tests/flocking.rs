@@ -329,6 +329,8 @@ fn the_flocking_plan_equals_the_general_loop() {
         for _ in 0..40 {
             w.step(DT).unwrap();
         }
+        let ran = if extra { "general" } else { "flock" };
+        assert_eq!(w.last_plans(), [ran], "the plan that ran");
         snapshot(&w)
     };
     assert_eq!(make(false), make(true));

@@ -182,6 +182,8 @@ fn the_keep_formation_plan_equals_the_general_loop_bit_for_bit() {
                     [s.position, s.velocity].map(|v| v.to_array().map(f32::to_bits))
                 }));
             }
+            let ran = if general { "general" } else { "keep_formation" };
+            assert_eq!(w.last_plans()[1], ran, "the plan that ran");
             states
         };
         assert!(run(false) == run(true), "kinematic {kinematic}");
@@ -293,6 +295,8 @@ fn the_follow_leader_plan_equals_the_general_loop_bit_for_bit() {
                         }));
                     }
                 });
+                let ran = if general { "general" } else { "follow_leader" };
+                assert_eq!(w.last_plans()[1..], [ran; 3], "the plans that ran");
                 states
             };
             let plan = run(false, 2);

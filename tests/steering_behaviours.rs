@@ -384,6 +384,9 @@ fn assert_plan_equals_the_general_loop(
                 for _ in 0..60 {
                     w.step(1.0 / 30.0).unwrap();
                 }
+                // The fast plan of a lone behaviour bears the behaviour's name.
+                let ran = if general { "general" } else { behaviour.name() };
+                assert_eq!(w.last_plans(), [ran], "the plan that ran");
                 (0..w.len())
                     .map(|i| {
                         let s = w.agent(w.agents().id(i)).unwrap();
@@ -568,6 +571,12 @@ fn lane_plans_of_interleaved_groups_equal_the_general_loop_bit_for_bit() {
                     }
                     w.step(DT).unwrap();
                 }
+                let ran = if general {
+                    ["general"; 3]
+                } else {
+                    ["seek", "arrive", "seek"]
+                };
+                assert_eq!(w.last_plans(), ran, "the plans that ran");
                 (0..w.len())
                     .map(|i| {
                         let s = w.agent(w.agents().id(i)).unwrap();
@@ -606,6 +615,8 @@ fn lane_plans_with_requests_that_overflow_equal_the_general_loop() {
         for _ in 0..10 {
             w.step(1.0 / 30.0).unwrap();
         }
+        let ran = if general { "general" } else { "seek" };
+        assert_eq!(w.last_plans(), [ran], "the plan that ran");
         (0..w.len())
             .map(|i| w.agent(w.agents().id(i)).unwrap().position)
             .collect::<Vec<_>>()

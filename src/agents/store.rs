@@ -469,9 +469,9 @@ impl Agents {
         let mut columns = f32_columns!(self);
         // Seven of the twelve float columns beside the groups and flags, five beside the ids
         // and their index (a scatter by id, which costs about two columns): two halves of about
-        // equal work (at 1,000,000 agents the join took 11.2 to 13.0 ms with six and six, 10.3
-        // to 11.6 with seven and five). Uniform columns are left as they are (a scan instead of
-        // a gather and a write); the threads then share the rest of the gathers' chunks.
+        // equal work (the measurement: docs/PERFORMANCE.md, "Tuning constants"). Uniform columns are left as they are (a scan
+        // instead of a gather and a write); the threads then share the rest of the gathers'
+        // chunks.
         let half = columns.len() / 2 + 1;
         let (first, second) = columns.split_at_mut(half);
         let (scratch, group, scratch_u32) = (

@@ -8,6 +8,7 @@
 
 use std::f32::consts::TAU;
 
+use crate::simd::{apply, float_kernel};
 use rayon::iter::Either;
 use rayon::prelude::*;
 
@@ -436,11 +437,7 @@ fn wrap_turn(a: f32) -> f32 {
 /// One task's agents, [`LANES`] at a time after a first block up to the positions' first cache
 /// line (runtime dispatch: clones for AVX-512, AVX2 + FMA and AVX, the first the processor has,
 /// else the baseline x86-64 build; the same operations in every clone).
-#[multiversion::multiversion(targets(
-    "x86_64+avx2+fma+avx512f+avx512vl+avx512bw+avx512dq",
-    "x86_64+avx2+fma",
-    "x86_64+avx"
-))]
+#[apply(float_kernel!)]
 fn integrate_chunk(
     s: MotionState<'_>,
     st: SteeringBuffers<'_>,

@@ -101,8 +101,8 @@ pub(crate) struct Prebuilt<'a> {
 
 /// A [`Prebuilt`] grid is searched when fewer than one agent in this many searches: its cells
 /// are the neighbour distance (or twice it), a search of the contact distance reads several
-/// times the candidates of the pass's own cells, while the own grid costs a rebuild (about 130
-/// instructions per agent).
+/// times the candidates of the pass's own cells, while the own grid costs a rebuild per agent
+/// (docs/PERFORMANCE.md, "Tuning constants").
 const PREBUILT_BELOW: usize = 16;
 
 thread_local! {

@@ -9,6 +9,7 @@ use rayon::prelude::*;
 use super::BOUNDS_CHUNK;
 use crate::agents::Agents;
 use crate::bounds::Bounds;
+use crate::simd::{apply, float_kernel};
 
 /// Wraps positions on a torus; on a walled rectangle clamps them and removes the velocity
 /// component that points into the wall.
@@ -67,11 +68,7 @@ fn wrap_lined(v: &mut [f32], side: f32) {
 /// general function for the rare values farther out (kept unchanged by the lanes).
 // `&` rather than a range test: no short circuit, so no branch in the lanes.
 #[allow(clippy::manual_range_contains)]
-#[multiversion::multiversion(targets(
-    "x86_64+avx2+fma+avx512f+avx512vl+avx512bw+avx512dq",
-    "x86_64+avx2+fma",
-    "x86_64+avx"
-))]
+#[apply(float_kernel!)]
 fn wrap_all(v: &mut [f32], side: f32) {
     let mut outside = false;
     for x in v.iter_mut() {
@@ -98,11 +95,7 @@ fn wrap_all(v: &mut [f32], side: f32) {
 /// A bounded world's walls on one axis: a coordinate below 0 or above `side` is put on the wall
 /// and its velocity's outward part dropped. Every value is written, as selects in lanes (a NaN
 /// coordinate is neither below nor above and stays as it is, with its velocity).
-#[multiversion::multiversion(targets(
-    "x86_64+avx2+fma+avx512f+avx512vl+avx512bw+avx512dq",
-    "x86_64+avx2+fma",
-    "x86_64+avx"
-))]
+#[apply(float_kernel!)]
 fn clamp_axis(pos: &mut [f32], vel: &mut [f32], side: f32) {
     let n = pos.len().min(vel.len());
     let (pos, vel) = (&mut pos[..n], &mut vel[..n]);

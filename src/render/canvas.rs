@@ -168,8 +168,8 @@ impl Canvas {
     #[inline]
     fn centre_range(lo: f32, hi: f32, len: u32) -> Option<(usize, usize)> {
         // Clamp first (also keeps the integer conversions exact), then round with integer
-        // arithmetic: `f32::ceil` and `floor` are library calls on baseline x86-64 and cost ~10%
-        // of drawing small triangles.
+        // arithmetic: `f32::ceil` and `floor` are library calls on baseline x86-64, a visible
+        // share of drawing small triangles (docs/PERFORMANCE.md, "Tuning constants").
         let bound = len as f32 + 1.0;
         let lo = (lo - 0.5).clamp(-1.0, bound);
         let hi = (hi - 0.5).clamp(-1.0, bound);

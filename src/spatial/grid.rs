@@ -13,6 +13,7 @@ use rayon::prelude::*;
 use super::sort::CountingSort;
 use super::{Neighbour, NeighbourIndex, exact, gather_radius, to_u32};
 use crate::bounds::Bounds;
+use crate::simd::{apply, rounding_kernel};
 
 /// Below this many points the rebuild runs on the calling thread.
 const PARALLEL_MIN_POINTS: usize = 8 * 1024;
@@ -135,11 +136,7 @@ fn axis_cell(x: f32, origin: f32, inv: f32, n: u32) -> u32 {
 /// the truncation, `n - 1` being an integer that `f32` holds exactly), so the cells are
 /// [`axis_cell`]'s for every input. The SSE4.1 clone truncates with `roundps`, where the
 /// baseline x86-64 build calls libm's `truncf` per value (the same result: truncation is exact).
-#[multiversion::multiversion(targets(
-    "x86_64+avx2+fma+avx512f+avx512vl+avx512bw+avx512dq",
-    "x86_64+avx2+fma",
-    "x86_64+sse4.1"
-))]
+#[apply(rounding_kernel!)]
 fn cell_keys(
     (xs, ys): (&[f32], &[f32]),
     cell: &mut [u32],

@@ -60,9 +60,8 @@ const DIRECT_MAX_POINTS: usize = 1 << 16;
 /// See [`DIRECT_MAX_POINTS`]; also the most keys [`CountingSort::sort_rows`] takes.
 const DIRECT_MAX_KEYS: usize = 1 << 18;
 /// Points up to which more than [`DIRECT_MAX_POINTS`] are sorted in one level on the rayon pool
-/// ([`CountingSort::sort_rows`]), as far as it was measured quicker than the two levels: the
-/// flock's 1,000,000 points in 173,889 keys took 3.8 to 4.0 ms in two levels, 3.0 to 3.3 in rows
-/// (on two threads).
+/// ([`CountingSort::sort_rows`]), as far as it was measured quicker than the two levels
+/// (docs/PERFORMANCE.md, "Tuning constants").
 const ROWS_MAX_POINTS: usize = 1 << 20;
 
 /// Sorted positions per task of the last pass of [`CountingSort::sort_rows`].
@@ -76,9 +75,8 @@ const RANGE_TASKS_PER_PART: usize = 2;
 /// Sorts after [`CountingSort::sort_ranges`] found the points too far from their keys' order
 /// before it tries again.
 const RANGES_RETRY: u32 = 2;
-/// Points from which [`CountingSort::sort`] tries [`CountingSort::sort_ranges`]: the flock's
-/// 1,000,000 agents between reorders rebuilt their grid in 3.6 ms against the rows' 4.3 (on two
-/// threads), but 100,000 in 0.49 against 0.33.
+/// Points from which [`CountingSort::sort`] tries [`CountingSort::sort_ranges`]: quicker than the
+/// rows for many points nearly in their keys' order, slower for fewer (docs/PERFORMANCE.md, "Tuning constants").
 const RANGES_MIN_POINTS: usize = 1 << 19;
 /// The most runs of keys whose owning task [`CountingSort::sort_ranges`] looks up in a table.
 const OWNER_RUNS: usize = 4096;
@@ -346,8 +344,7 @@ impl CountingSort {
     /// each chunk its first slot of each key (chunk order within a key keeps the sort stable);
     /// each chunk scatters its points' indices to its slots; the sorted indices and positions
     /// are then written in order. The same result as [`CountingSort::sort_levels`], quicker
-    /// where each row of counts stays in cache (the flock's 100,000 points in 17,424 keys on two
-    /// threads: 313 to 325 µs in two levels, 205 to 245 in rows).
+    /// where each row of counts stays in cache (see [`ROWS_MAX_POINTS`]).
     fn sort_rows<P>(&mut self, input: Input<'_, P>)
     where
         P: Fn(usize) -> (f32, f32) + Sync,

@@ -27,6 +27,7 @@ use super::view::SteerView;
 use crate::bounds::{Bounds, wrap_delta};
 use crate::group::FollowParams;
 use crate::rng::{Stream, agent_key, frame_key, unit_at};
+use crate::simd::{apply, float_kernel};
 use crate::steering::trig::sin_cos_reduced;
 
 /// The leader of a run, resolved once: its storage index, position, velocity and frame.
@@ -78,11 +79,7 @@ struct Consts {
 /// when `turns` (and for the lanes that take the per-agent path). `cells` holds the batch's
 /// neighbour sums when it computed them; without it, each agent's separation sums come from its
 /// own query ([`SteerView::sums`]), as in the general plan.
-#[multiversion::multiversion(targets(
-    "x86_64+avx2+fma+avx512f+avx512vl+avx512bw+avx512dq",
-    "x86_64+avx2+fma",
-    "x86_64+avx"
-))]
+#[apply(float_kernel!)]
 pub(super) fn run(
     view: &SteerView,
     g: usize,

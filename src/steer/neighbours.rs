@@ -13,12 +13,12 @@
 //!   rounding, not bit for bit; each is deterministic and independent of the thread count.
 
 use glam::Vec2;
-use multiversion::multiversion;
 use rayon::prelude::*;
 
 use super::plan::{ALI, COH, NeighbourSpec, SEP};
 use crate::agents::{AgentOrder, Agents};
 use crate::bounds::Bounds;
+use crate::simd::{apply, float_kernel};
 use crate::spatial::{GridIndex, Neighbour, NeighbourIndex, SORTED_PAD, SpatialIndex};
 use crate::steering::NeighbourSums;
 
@@ -162,11 +162,7 @@ impl SortedCopies {
 
 /// `(hx, hy) = (vx, vy) / |(vx, vy)|` where that is defined (glam's `try_normalize`: the
 /// reciprocal length, when positive and finite); returns whether some velocity has no direction.
-#[multiversion(targets(
-    "x86_64+avx2+fma+avx512f+avx512vl+avx512bw+avx512dq",
-    "x86_64+avx2+fma",
-    "x86_64+avx"
-))]
+#[apply(float_kernel!)]
 fn unit_lanes((vx, vy): (&[f32], &[f32]), (hx, hy): (&mut [f32], &mut [f32])) -> bool {
     let n = hx.len();
     let (hy, vx, vy) = (&mut hy[..n], &vx[..n], &vy[..n]);
@@ -438,11 +434,7 @@ fn add_sums(total: &mut NeighbourSums, part: &NeighbourSums) {
     total.count += part.count;
 }
 
-#[multiversion(targets(
-    "x86_64+avx2+fma+avx512f+avx512vl+avx512bw+avx512dq",
-    "x86_64+avx2+fma",
-    "x86_64+avx"
-))]
+#[apply(float_kernel!)]
 fn kernel(
     runs: &[(u32, u32)],
     s: ((&[f32], &[f32]), &SortedCopies),

@@ -21,6 +21,7 @@ use super::neighbours::LANES;
 use super::plan::{PlanKind, SEP};
 use super::view::SteerView;
 use crate::rng::{AgentRng, Stream};
+use crate::simd::{apply, float_kernel};
 use crate::steering::{self, Combine, Steering, Target};
 
 /// Agents per parallel steering task.
@@ -180,11 +181,7 @@ pub(crate) fn run(
 /// target with the lane evaluations, the model adapter and the copies inlined: the whole run is
 /// vector code of the processor's width (a baseline build of the glue around a dispatched
 /// kernel cost more than the kernel).
-#[multiversion::multiversion(targets(
-    "x86_64+avx2+fma+avx512f+avx512vl+avx512bw+avx512dq",
-    "x86_64+avx2+fma",
-    "x86_64+avx"
-))]
+#[apply(float_kernel!)]
 fn lane_run(
     view: &SteerView,
     g: usize,

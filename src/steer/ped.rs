@@ -22,7 +22,6 @@ use std::cell::RefCell;
 use std::ops::Range;
 
 use glam::Vec2;
-use multiversion::multiversion;
 use rayon::prelude::*;
 
 use super::pack::{Packed, pack_block};
@@ -32,6 +31,7 @@ use crate::agents::Agents;
 use crate::ped::cfsm::{BLOCKED_SPACING, SIDESTEP_WALL_MARGIN};
 use crate::ped::lanes::{LANES, Neighbours, lane_sum};
 use crate::ped::{Cfsm, Model, Pedestrian, SocialForce};
+use crate::simd::{apply, float_kernel};
 use crate::spatial::{GridIndex, Neighbour, NeighbourIndex, SORTED_PAD, SpatialIndex};
 use crate::steering::truncate;
 
@@ -104,11 +104,7 @@ pub(crate) fn run(view: &SteerView, out: &mut SteerOut, parallel: bool) {
 }
 
 /// The requests of agents `base..base + lx.len()`, replaced where the group has a model.
-#[multiversion(targets(
-    "x86_64+avx2+fma+avx512f+avx512vl+avx512bw+avx512dq",
-    "x86_64+avx2+fma",
-    "x86_64+avx"
-))]
+#[apply(float_kernel!)]
 #[allow(clippy::too_many_arguments)]
 fn requests(
     view: &SteerView,
@@ -363,11 +359,7 @@ fn neighbours(b: &Buffers, count: usize, n: usize) -> Neighbours<'_> {
 /// The social force model's pair forces on an agent with velocity `v` and preferred direction
 /// `e` from its `count` filled neighbours (`n` with the padding); without the contact terms
 /// when no neighbour may touch (`touching` false, as [`fill`] finds it).
-#[multiversion(targets(
-    "x86_64+avx2+fma+avx512f+avx512vl+avx512bw+avx512dq",
-    "x86_64+avx2+fma",
-    "x86_64+avx"
-))]
+#[apply(float_kernel!)]
 #[allow(clippy::too_many_arguments)]
 fn social_force_sum(
     sf: &SocialForce,
@@ -399,11 +391,7 @@ fn social_force_sum(
 
 /// The speed model's repulsion of the `count` filled neighbours (`n` with the padding) on an
 /// agent with the preferred direction `e0`; keeps their distances in `b.dist` for the spacing.
-#[multiversion(targets(
-    "x86_64+avx2+fma+avx512f+avx512vl+avx512bw+avx512dq",
-    "x86_64+avx2+fma",
-    "x86_64+avx"
-))]
+#[apply(float_kernel!)]
 fn speed_model_sum(cf: &Cfsm, b: &mut Buffers, count: usize, n: usize, e0: Vec2) -> Vec2 {
     let (mut fx, mut fy) = (std::mem::take(&mut b.fx), std::mem::take(&mut b.fy));
     let mut dist = std::mem::take(&mut b.dist);
@@ -425,11 +413,7 @@ fn speed_model_sum(cf: &Cfsm, b: &mut Buffers, count: usize, n: usize, e0: Vec2)
 
 /// The smallest spacing along `e` to the `count` filled neighbours ([`Cfsm::spacing_to`]) and
 /// how many of them lie behind.
-#[multiversion(targets(
-    "x86_64+avx2+fma+avx512f+avx512vl+avx512bw+avx512dq",
-    "x86_64+avx2+fma",
-    "x86_64+avx"
-))]
+#[apply(float_kernel!)]
 fn speed_model_spacing(cf: &Cfsm, b: &Buffers, count: usize, n: usize, e: Vec2) -> (f32, f32) {
     cf.min_spacing_lanes((e.x, e.y), &neighbours(b, count, n), &b.dist[..n])
 }

@@ -157,6 +157,26 @@ pub(crate) enum PlanKind {
     General,
 }
 
+impl PlanKind {
+    /// The plan's name, as [`World::last_plans`](crate::World::last_plans) reports it:
+    /// `"flock"`, `"follow_field"`, `"seek"`, `"arrive"`, `"wander"`, `"follow_path"`,
+    /// `"keep_formation"`, `"vicsek"`, `"follow_leader"` or `"general"`.
+    pub(crate) fn name(&self) -> &'static str {
+        match self {
+            PlanKind::Flock { .. } => "flock",
+            PlanKind::FollowField { .. } => "follow_field",
+            PlanKind::Seek { .. } => "seek",
+            PlanKind::Arrive { .. } => "arrive",
+            PlanKind::Wander { .. } => "wander",
+            PlanKind::FollowPath { .. } => "follow_path",
+            PlanKind::KeepFormation { .. } => "keep_formation",
+            PlanKind::Vicsek { .. } => "vicsek",
+            PlanKind::FollowLeader { .. } => "follow_leader",
+            PlanKind::General => "general",
+        }
+    }
+}
+
 /// What a profile may refer to, as the world has it when plans are compiled.
 #[derive(Clone, Debug, Default)]
 pub(crate) struct References {

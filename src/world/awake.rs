@@ -11,9 +11,9 @@
 //! now and then yields its core, without sleeping. docs/PERFORMANCE.md has the measurements.
 //!
 //! It is off by default ([`crate::World::set_workers_awake`]): the waiting workers occupy
-//! their cores through the step, which other processes sharing those cores then miss (two
-//! processes of two threads each on two cores ran 12% slower with it). The command line, which
-//! owns its process, turns it on.
+//! their cores through the step, which other processes sharing those cores then miss
+//! (docs/PERFORMANCE.md, "Workers kept awake"). The command line, which owns its process, turns
+//! it on.
 //!
 //! Invariants: which thread runs a piece of work never changes a result (every parallel loop of
 //! the step is deterministic by construction), so this changes timings only; the waiting task
@@ -26,8 +26,8 @@ use std::sync::atomic::{AtomicBool, Ordering};
 /// The agents for which a step keeps the pool's workers awake. Below, a step runs its loops on
 /// one thread or in few pieces, and waiting would only occupy the other cores; from the end on,
 /// its loops are long enough that a wake-up is a small part of them, and the waiting workers'
-/// looks for work would only contend with the step's thread (the 100,000-agent flock measured
-/// 1% slower with them).
+/// looks for work would only contend with the step's thread (docs/PERFORMANCE.md, "Workers kept
+/// awake").
 pub(super) const AWAKE: std::ops::Range<usize> = 4096..65_536;
 
 /// Spin hints between two looks for work: short against a loop, long enough that the looks do

@@ -74,6 +74,9 @@ pub struct World {
     pub(crate) plans: Vec<crate::steer::Plan>,
     /// Set when a group, field or path changed: plans are compiled again before the next step.
     pub(crate) plans_stale: bool,
+    /// Per group, the name of the plan the latest step ran ([`World::last_plans`]; not part of
+    /// a checkpoint).
+    pub(crate) last_plans: Vec<&'static str>,
     /// Shared target slots behaviours refer to.
     pub(crate) targets: crate::targets::TargetSlots,
     /// Rectangles and polygons through which agents leave the world.
@@ -111,12 +114,24 @@ impl World {
             fields: Default::default(),
             plans: Vec::new(),
             plans_stale: true,
+            last_plans: Vec::new(),
             targets: Default::default(),
             exits: Vec::new(),
             departures: Vec::new(),
             walkable: None,
             journeys: Default::default(),
         }
+    }
+
+    /// Per group, in group order, the name of the plan by which the latest step evaluated the
+    /// group's steering: `"general"` for the general loop over the profile's behaviours, else
+    /// the fast plan's (`"flock"`, `"seek"`, `"wander"`, ...); empty before the first step.
+    /// For tests that compare a fast plan with the general one and must know which one ran; the
+    /// names are no stable interface.
+    #[doc(hidden)]
+    #[must_use]
+    pub fn last_plans(&self) -> &[&'static str] {
+        &self.last_plans
     }
 
     /// The world's obstacles.

@@ -135,6 +135,9 @@ impl World {
         }
         self.ensure_plans()?;
         self.journeys.ensure_routes(self.walkable.as_ref())?;
+        self.last_plans.clear();
+        self.last_plans
+            .extend(self.plans.iter().map(|p| p.kind.name()));
         let start = Instant::now();
         self.journeys.before_step(&mut self.agents, &self.obstacles);
         let n = self.agents.len();

@@ -163,8 +163,8 @@ pub fn encode(world: &World, info: &FrameInfo, out: &mut Vec<u8>) {
 }
 
 /// `v` rounded to the nearest integer (halves away from zero) without `f32::round`, which the
-/// baseline x86-64 target compiles to a library call: encoding 100,000 agents took 2.3 ms with
-/// it and a tenth of that without.
+/// baseline x86-64 target compiles to a library call, per value, in the frame's hottest loop
+/// (docs/PERFORMANCE.md, "Tuning constants").
 #[inline]
 fn round_to_int(v: f32) -> i32 {
     let t = v as i32;

@@ -10,12 +10,12 @@
 //! Invariants: every body gives the masked sums of the scalar reference bit for bit, on every
 //! dispatch target; an agent's sums depend only on the buffer and its own numbers.
 
-use multiversion::multiversion;
 use multiversion::target::target_cfg;
 
 use super::KLANES;
 use super::gather::CellBuf;
 use super::runs::{Reduced, Runs};
+use crate::simd::{apply, float_kernel};
 use crate::steer::plan::{ALI, COH, NeighbourSpec, SEP};
 
 #[cfg(target_arch = "x86_64")]
@@ -180,17 +180,8 @@ impl Query {
 ///
 /// Where the processor has AVX-512, the flock's shape runs two agents at a time, one per half of
 /// a 16-lane vector ([`avx512::pairs`]); each half gives the bits of the 8-lane kernel, so the
-/// sums are the same on every dispatch target. The AVX-512 target string names AVX-512 F, VL, BW
-/// and DQ, but multiversion 0.9 adds the Ice Lake extensions to every AVX-512 target (BITALG,
-/// IFMA, VBMI, VBMI2, VNNI, VPOPCNTDQ, GFNI, VAES, VPCLMULQDQ; unless the build sets `--cfg
-/// multiversion_allow_slow_avx512`): the clone runs on Ice Lake and the later Intel parts with
-/// AVX-512, and on Zen 4, whose 512-bit units do not slow the clock much; Skylake-SP and Cascade
-/// Lake take the AVX2 clone.
-#[multiversion(targets(
-    "x86_64+avx2+fma+avx512f+avx512vl+avx512bw+avx512dq",
-    "x86_64+avx2+fma",
-    "x86_64+avx"
-))]
+/// sums are the same on every dispatch target (which processors get which clone: `crate::simd`).
+#[apply(float_kernel!)]
 pub(super) fn kernel_cell(
     buf: &CellBuf,
     q: &Query,

@@ -38,6 +38,7 @@ use rayon::prelude::*;
 use super::neighbours::SortedCopies;
 use super::plan::PlanKind;
 use super::view::SteerView;
+use crate::simd::{apply, float_kernel};
 use crate::spatial::{GridIndex, SpatialIndex};
 use crate::steering::NeighbourSums;
 
@@ -55,9 +56,9 @@ mod terms;
 /// Agents (in grid order) per parallel task; each chunk is a task of its own
 /// (`with_max_len(1)`), so that two threads running at different speeds (a core shared with
 /// another process) share the tasks by speed rather than in rayon's default runs of several
-/// chunks, which one thread then finishes alone. The flock at 100,000 agents on 2 threads: the
-/// idle time of the batch's loop, median per step, 135 µs in runs of 2,048-agent chunks, 35 µs
-/// in single tasks of 1,024 (docs/notes/performance-history.md).
+/// chunks, which one thread then finishes alone. Small enough for that sharing, large enough
+/// that a task's start-up stays small against its work; the measurement it was chosen by is in
+/// docs/PERFORMANCE.md, "Tuning constants".
 const CELL_CHUNK: usize = 1024;
 /// Lanes of the neighbour kernel: two vectors per operation, for instruction-level parallelism
 /// over the short candidate lists of a cell.
@@ -311,11 +312,7 @@ pub(crate) fn run(view: &SteerView, out: &mut CellOut, parallel: bool) -> bool {
 /// than one chain of dependent additions), then those in order: the same order on any number of
 /// threads and in every dispatch target (the baseline build converts and adds two lanes at a
 /// time).
-#[multiversion::multiversion(targets(
-    "x86_64+avx2+fma+avx512f+avx512vl+avx512bw+avx512dq",
-    "x86_64+avx2+fma",
-    "x86_64+avx"
-))]
+#[apply(float_kernel!)]
 pub(crate) fn sum_lanes(v: &[f32]) -> f64 {
     let (blocks, rest) = v.as_chunks::<8>();
     let mut acc = [0.0_f64; 8];

@@ -7,13 +7,13 @@
 //! agent depends on the agent's cell alone, never on the task's other cells or its size.
 
 use glam::Vec2;
-use multiversion::multiversion;
 
 use super::CELL_CHUNK;
 use super::gather::{CellBuf, Gather};
 use super::kernels::{AgentCols, Query, Slots, VICSEK, kernel_cell};
 use super::runs::Runs;
 use super::terms::{evaluate_run, vicsek_run};
+use crate::simd::{apply, float_kernel};
 use crate::spatial::GridIndex;
 use crate::steer::neighbours::{SortedCopies, unit_headings_at, without_self};
 use crate::steer::plan::{NeighbourSpec, PlanKind};
@@ -220,11 +220,7 @@ impl Batch {
 /// batches of one group); once every cell is done, the sums of each run of agents of one group
 /// go through the flocking terms and the model adapter together ([`Outputs::finish`]).
 #[allow(clippy::too_many_arguments)]
-#[multiversion(targets(
-    "x86_64+avx2+fma+avx512f+avx512vl+avx512bw+avx512dq",
-    "x86_64+avx2+fma",
-    "x86_64+avx"
-))]
+#[apply(float_kernel!)]
 pub(super) fn chunk(
     view: &SteerView,
     grid: &GridIndex,

@@ -5,10 +5,9 @@
 //! Invariant: each agent's request equals its scalar evaluation bit for bit (the same operations
 //! in the same order, exact square roots and divisions).
 
-use multiversion::multiversion;
-
 use super::runs::{Column, Runs};
 use crate::rng::Stream;
+use crate::simd::{apply, float_kernel};
 use crate::steer::adapter::Adapter;
 use crate::steer::neighbours::positive_finite;
 use crate::steer::plan::{ALI, SEP};
@@ -18,11 +17,7 @@ use crate::steer::plan::{ALI, SEP};
 /// order as [`flock_total`](crate::steer::pass::flock_total) and [`Adapter::finish`] per agent
 /// (exact square roots and divisions), so each agent's result equals the scalar evaluation bit
 /// for bit.
-#[multiversion(targets(
-    "x86_64+avx2+fma+avx512f+avx512vl+avx512bw+avx512dq",
-    "x86_64+avx2+fma",
-    "x86_64+avx"
-))]
+#[apply(float_kernel!)]
 pub(super) fn evaluate_run(
     r: &mut Runs,
     range: std::ops::Range<usize>,
@@ -62,11 +57,7 @@ pub(super) fn evaluate_run(
 /// summed heading normalised and turned ([`crate::steering::vicsek_heading`]'s operations),
 /// times its speed and the weight, then the model adapter, in long loops over the run: each
 /// agent equals the scalar evaluation bit for bit.
-#[multiversion(targets(
-    "x86_64+avx2+fma+avx512f+avx512vl+avx512bw+avx512dq",
-    "x86_64+avx2+fma",
-    "x86_64+avx"
-))]
+#[apply(float_kernel!)]
 pub(super) fn vicsek_run(
     r: &mut Runs,
     range: std::ops::Range<usize>,

@@ -39,6 +39,7 @@ use crate::orca::{
     Line, Orca, WallChains, accepted, agent_line, permits, solve, tested, unconstrained,
 };
 use crate::rng::{self, Stream};
+use crate::simd::{apply, integer_kernel};
 use crate::spatial::{HashGrid, Neighbour};
 use crate::steering::trig;
 
@@ -231,13 +232,12 @@ pub(crate) fn run(
 
 /// Agents per task of the parallel filter, each chunk a task of its own (`with_max_len(1)`):
 /// threads that run at different speeds (a core shared with another process) then share the
-/// chunks by how fast they go. In chunks of the pass's 1,024, split by rayon's default into
-/// runs of two or three, one thread of a 10,000-agent circle waited for the other 84 to 171 µs
-/// a step on average (the filter's two threads 0.82 to 0.89 busy); in tasks of 256, 38 to 60
-/// µs (0.93 to 0.95). A chunk's first agent regathers its block and searches without the
-/// previous agent's distance, a few hundred instructions. Which agents share a task changes
-/// only what the buffers carry from one agent to the next (the gathered block, the `k`-th
-/// distance, the skipped tests), never a result.
+/// chunks by how fast they go, rather than one thread finishing a run of several chunks alone.
+/// Smaller than the pass's chunks for that sharing, but not much smaller: a chunk's first agent
+/// regathers its block and searches without the previous agent's distance, a few hundred
+/// instructions (the measurement: docs/PERFORMANCE.md, "Tuning constants"). Which agents share a task changes only what the
+/// buffers carry from one agent to the next (the gathered block, the `k`-th distance, the
+/// skipped tests), never a result.
 const FILTER_CHUNK: usize = 256;
 
 /// Every agent's perturbation of the chunk whose ids are `ids`, into `b.turb_*`: the first two
@@ -245,10 +245,7 @@ const FILTER_CHUNK: usize = 256;
 /// of the first times 2 pi, in their range) and a length (the second, in units of the group's
 /// `perturbation`). Eight agents at a time in lanes; the same operations per agent as one at a
 /// time, so the same bits.
-#[multiversion::multiversion(targets(
-    "x86_64+avx2+fma+avx512f+avx512vl+avx512bw+avx512dq",
-    "x86_64+avx2+fma"
-))]
+#[apply(integer_kernel!)]
 fn perturbations(ids: &[AgentId], frame_key: u64, b: &mut Buffers) {
     let n = ids.len();
     for v in [&mut b.turb_cos, &mut b.turb_sin, &mut b.turb_len] {
@@ -290,19 +287,16 @@ fn free_flow_on() -> bool {
 }
 
 /// Agents that skip the free-flow test after one it failed for ([`Buffers::untested`]): in a
-/// crowd in conflict the test is then tried for one agent in four (`crossing` at 20,000
-/// agents: about 1% of agents are free, and a failed test costs two or three neighbours'
-/// tests); a crowd in free flow never fails it, and loses nothing.
+/// crowd in conflict the test is then tried for one agent in four (few agents of such a crowd
+/// are free, and a failed test costs two or three neighbours' tests; docs/PERFORMANCE.md, "Tuning constants"); a crowd in free
+/// flow never fails it, and loses nothing.
 const UNTESTED_AFTER_FAILURE: u32 = 3;
 
 /// The filtered requests of the agents from storage index `base` on, one per slot of `lx`,
 /// `ly` and `near`. Compiled for AVX-512 and AVX2 too, where the candidate scan runs in vectors
 /// (the same arithmetic, so the same bits); dispatched once per chunk, with [`filter`] inlined,
 /// rather than once per agent.
-#[multiversion::multiversion(targets(
-    "x86_64+avx2+fma+avx512f+avx512vl+avx512bw+avx512dq",
-    "x86_64+avx2+fma"
-))]
+#[apply(integer_kernel!)]
 fn filter_chunk(
     view: &SteerView,
     ctx: &Context,

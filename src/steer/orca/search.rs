@@ -91,9 +91,8 @@ const MAX_SLACK: f32 = 0.25;
 
 /// Whether ORCA's cells should be twice the neighbour distance, given the [`HashGrid::crowding`]
 /// of a grid of such cells over the agents: where fewer than [`WIDE_BELOW`] agents share an
-/// agent's cell. Measured on `circle` (a ring of agents five units apart, about six per wide
-/// cell): 7.5% faster a step at 100,000 agents with wide cells; on `crossing` (hundreds per
-/// wide cell) 7% more instructions, so dense crowds keep the narrow cells.
+/// agent's cell. Wide cells save rows per gather in a sparse crowd and cost candidates in a
+/// dense one, so dense crowds keep the narrow cells (the measurement: docs/PERFORMANCE.md, "Tuning constants").
 pub(crate) fn wide_cells(crowding: f32) -> bool {
     crowding < WIDE_BELOW
 }
