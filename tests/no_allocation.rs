@@ -145,3 +145,79 @@ fn warm_steps_with_workers_awake_do_not_allocate() {
         assert_eq!(n, 0, "{name}: {n} allocations in 8 warm steps");
     }
 }
+
+/// A journey world: a queue popped now and then, a round robin to two exits, a waiting set,
+/// routes round a pillar, an agent driven from outside.
+fn journey_world() -> throng::World {
+    use throng::journey::{Journey, Stage, Transition};
+    use throng::prelude::*;
+    let area = Walkable::from_wkt(
+        "POLYGON ((0 0, 30 0, 30 20, 0 20, 0 0), (14 8, 16 8, 16 12, 14 12, 14 8))",
+    )
+    .unwrap();
+    let mut w = World::builder()
+        .seed(3)
+        .group(throng::profile::Profile::journey_walkers(
+            throng::ped::Model::Cfsm,
+        ))
+        .build()
+        .unwrap();
+    w.set_walkable(area).unwrap();
+    let slots = (0..6)
+        .map(|k| Vec2::new(20.0 - k as f32 * 0.6, 4.0))
+        .collect();
+    let queue = w.add_stage(Stage::Queue { slots }).unwrap();
+    let wait = w
+        .add_stage(Stage::WaitingSet {
+            slots: vec![Vec2::new(22.0, 16.0), Vec2::new(23.0, 16.0)],
+            active: false,
+        })
+        .unwrap();
+    let exit = |w: &mut throng::World, y: f32| {
+        w.add_stage(Stage::Exit {
+            area: Walkable::rectangle(Vec2::new(28.0, y), Vec2::new(30.0, y + 3.0)).unwrap(),
+        })
+        .unwrap()
+    };
+    let (a, b) = (exit(&mut w, 1.0), exit(&mut w, 15.0));
+    let j = w
+        .add_journey(
+            Journey::new([queue, wait, a, b])
+                .with_transition(queue, Transition::round_robin([(a, 1), (wait, 2)]))
+                .with_transition(wait, Transition::least_targeted([b, a])),
+        )
+        .unwrap();
+    for k in 0..600 {
+        let p = Vec2::new(1.0 + (k % 20) as f32 * 0.6, 1.0 + (k / 20) as f32 * 0.6);
+        let id = w.add_agent(AgentInit::at(p, 0)).unwrap();
+        w.set_journey(id, j, None).unwrap();
+    }
+    w
+}
+
+#[test]
+fn warm_journey_steps_do_not_allocate() {
+    let (_one, pool) = counting_with(1);
+    let mut w = journey_world();
+    pool.install(|| {
+        // Past the first pops, seats and departures, whose lists grow to their size once.
+        for k in 0..1200 {
+            if k % 100 == 99 {
+                let _ = w.pop_queue(throng::journey::StageId(0), 1);
+            }
+            w.step(0.01).unwrap();
+        }
+        ALLOCATIONS.store(0, Ordering::SeqCst);
+        COUNTING.store(true, Ordering::SeqCst);
+        for _ in 0..16 {
+            w.step(0.01).unwrap();
+        }
+        COUNTING.store(false, Ordering::SeqCst);
+    });
+    let n = ALLOCATIONS.load(Ordering::SeqCst);
+    assert_eq!(n, 0, "{n} allocations in 16 warm journey steps");
+    assert!(
+        w.stage_counts()[2].left > 0,
+        "agents left through the round robin's exit"
+    );
+}

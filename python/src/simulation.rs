@@ -38,6 +38,9 @@ fn area(name: &str, obj: &Bound<'_, PyAny>) -> PyResult<Walkable> {
         .map_err(|e| raise_in(Some(name), &e))
 }
 
+/// How a simulation's checkpoint names itself in its run settings (then its default model).
+const SAVED_AS: &str = "throng.Simulation:";
+
 /// At rest.
 fn glam_zero() -> throng::prelude::Vec2 {
     throng::prelude::Vec2::ZERO
@@ -769,6 +772,59 @@ impl PySimulation {
                     .or_raise()?;
             }
             Ok(())
+        })
+    }
+
+    /// Saves the whole simulation (agents, stages with their queues, journeys, the current
+    /// walkable area, external agents, the time step) to a checkpoint file at `path`, written
+    /// crash-safe; `Simulation.load(path)` resumes it bit for bit.
+    fn save(&self, path: std::path::PathBuf) -> PyResult<()> {
+        let run = throng::checkpoint::RunInfo {
+            scenario: format!("{SAVED_AS}{}", self.model.name()),
+            dt: self.dt,
+            steps: self.world.frame(),
+            checkpoint_every: 0,
+        };
+        guarded(|| self.world.save_file(&path, Some(&run)).or_raise())
+    }
+
+    /// A simulation resumed from a checkpoint written by `save` (on `threads` workers).
+    #[staticmethod]
+    #[pyo3(signature = (path, *, threads=None))]
+    fn load(path: std::path::PathBuf, threads: Option<i128>) -> PyResult<Self> {
+        guarded(|| {
+            let (world, run) = World::load_file(&path).or_raise()?;
+            let run = run
+                .filter(|r| r.scenario.starts_with(SAVED_AS))
+                .ok_or_else(|| {
+                    invalid(
+                        "path",
+                        "not a checkpoint of a throng.Simulation (World.from_toml and the \
+                         command line resume the others)",
+                    )
+                })?;
+            let model = Model::parse(&run.scenario[SAVED_AS.len()..]).unwrap_or_default();
+            let mut groups = Vec::new();
+            let mut external = None;
+            for (g, p) in world.groups().iter().enumerate() {
+                match p.pedestrian {
+                    Some(ped) if !groups.iter().any(|&(m, _)| m == ped.model) => {
+                        groups.push((ped.model, g));
+                    }
+                    None if p.steering.behaviours.is_empty() && external.is_none() => {
+                        external = Some(g);
+                    }
+                    _ => {}
+                }
+            }
+            Ok(PySimulation {
+                world,
+                dt: run.dt,
+                model,
+                groups,
+                external,
+                pool: crate::world::pool(threads)?,
+            })
         })
     }
 

@@ -179,3 +179,28 @@ def test_external_agents_are_checked_and_follow_no_journey():
     sim.iterate(10)
     row = list(sim.ids()).index(robot)
     assert tuple(sim.positions()[row]) == (21.0, 2.0)
+
+
+def test_a_saved_simulation_resumes_bit_for_bit_with_its_queues_and_journeys(tmp_path):
+    sim = throng.Simulation(HALL, dt=0.01, seed=4)
+    q = sim.add_queue_stage([(20.0 - 0.7 * k, 10.0) for k in range(8)])
+    out = sim.add_exit_stage("POLYGON ((28 8, 30 8, 30 12, 28 12, 28 8))")
+    j = sim.add_journey(throng.Journey([q, out], chain=True))
+    sim.add_agents([(1.0 + k % 5, 5.0 + k // 5) for k in range(20)], journey=j)
+    robot = sim.add_agents((15.0, 2.0), model="external", radius=0.4)
+    sim.iterate(1500)
+    q.pop(2)
+    path = tmp_path / "study.ckpt"
+    sim.save(path)
+    back = throng.Simulation.load(path, threads=1)
+    assert back.dt == sim.dt and back.iteration_count() == sim.iteration_count()
+    for s in (sim, back):
+        s.set_external([robot], [(15.0, 3.0)], [(0.0, 1.0)])
+        s.iterate(800)
+    assert np.array_equal(sim.positions(), back.positions())
+    assert sim.exit_counts() == back.exit_counts() == {out: 2}
+    with pytest.raises(throng.ThrongError):
+        throng.Simulation.load(tmp_path / "missing.ckpt")
+    (tmp_path / "junk.ckpt").write_bytes(b"not a checkpoint")
+    with pytest.raises(throng.ThrongError):
+        throng.Simulation.load(tmp_path / "junk.ckpt")

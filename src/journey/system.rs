@@ -98,6 +98,9 @@ pub(crate) struct Journeys {
     /// Per agent id, its slot in its queue or waiting set (`NONE` for none), every step.
     #[serde(skip)]
     slot_of: Vec<u32>,
+    /// Per stage, the live agents targeting it while transitions are applied, every step.
+    #[serde(skip)]
+    targeting: Vec<usize>,
 }
 
 impl Journeys {
@@ -469,7 +472,9 @@ impl Journeys {
 
     /// Every agent that completed its stage moves on by its transition, in ascending id order.
     fn complete(&mut self, agents: &Agents) {
-        let mut targeting: Vec<usize> = self.on_stage.iter().map(Vec::len).collect();
+        let mut targeting = std::mem::take(&mut self.targeting);
+        targeting.clear();
+        targeting.extend(self.on_stage.iter().map(Vec::len));
         for raw in 0..self.agent.len() {
             let (j, s) = self.agent[raw];
             if j == NONE {
@@ -531,6 +536,7 @@ impl Journeys {
             targeting[next.0 as usize] += 1;
             self.agent[raw].1 = next.0;
         }
+        self.targeting = targeting;
     }
 
     /// Writes each journey agent's own target: down its stage's route, or at the stage's point
