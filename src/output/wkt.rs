@@ -10,9 +10,10 @@
 //! and circle obstacles are left out. Rings are closed (the first point repeated), the outer ring
 //! counter-clockwise and the holes clockwise.
 
-use throng::World;
-use throng::obstacles::{Wall, segment_intersection};
-use throng::prelude::Vec2;
+use glam::Vec2;
+
+use crate::obstacles::{Wall, segment_intersection};
+use crate::world::World;
 
 /// Rings with more edges than this are not checked for self-crossings and left out as holes.
 const MAX_HOLE_EDGES: usize = 4096;
@@ -26,13 +27,13 @@ pub fn walkable_wkt(world: &World) -> String {
     let (min, max) = walkable_bounds(world);
     let outer = [min, Vec2::new(max.x, min.y), max, Vec2::new(min.x, max.y)];
     let mut wkt = String::from("POLYGON (");
-    throng::geometry::write_ring(&mut wkt, &outer);
+    crate::geometry::write_ring(&mut wkt, &outer);
     for mut hole in holes(world.obstacles().walls(), min, max) {
-        if throng::geometry::twice_area(&hole) > 0.0 {
+        if crate::geometry::twice_area(&hole) > 0.0 {
             hole.reverse();
         }
         wkt.push_str(", ");
-        throng::geometry::write_ring(&mut wkt, &hole);
+        crate::geometry::write_ring(&mut wkt, &hole);
     }
     wkt.push(')');
     wkt
@@ -90,7 +91,7 @@ fn bounding_box(points: &[Vec2]) -> (Vec2, Vec2) {
 /// than neighbours at their shared corner.
 fn is_simple(ring: &[Vec2]) -> bool {
     let n = ring.len();
-    if throng::geometry::twice_area(ring) == 0.0 {
+    if crate::geometry::twice_area(ring) == 0.0 {
         return false;
     }
     for i in 0..n {
@@ -117,7 +118,7 @@ fn is_simple(ring: &[Vec2]) -> bool {
 #[cfg(test)]
 mod tests {
     use super::*;
-    use throng::{AgentInit, Bounds};
+    use crate::{AgentInit, Bounds};
 
     fn world(bounds: Bounds) -> World {
         World::builder().bounds(bounds).build().unwrap()
@@ -187,7 +188,7 @@ mod tests {
     #[test]
     fn an_open_world_is_its_content_grown_by_a_margin() {
         let w = World::builder()
-            .group(throng::GroupParams::default())
+            .group(crate::GroupParams::default())
             .agents([Vec2::new(-5.0, 2.0), Vec2::new(15.0, 4.0)].map(|p| AgentInit::at(p, 0)))
             .build()
             .unwrap();
