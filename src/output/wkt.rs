@@ -39,10 +39,14 @@ pub fn walkable_wkt(world: &World) -> String {
     wkt
 }
 
-/// The corners `(min, max)` of the walkable area's outer ring: [`World::extent`].
+/// The corners `(min, max)` of the box around [`walkable_wkt`]'s polygon: the walkable area's
+/// bounding box when the world has one, else [`World::extent`].
 #[must_use]
 pub fn walkable_bounds(world: &World) -> (Vec2, Vec2) {
-    world.extent()
+    match world.walkable() {
+        Some(area) => (area.min(), area.max()),
+        None => world.extent(),
+    }
 }
 
 /// The closed chains of consecutive walls (each wall's end is the next one's start, the last
@@ -183,6 +187,23 @@ mod tests {
         w.add_polygon(&tri.map(|p| p + Vec2::splat(1.5)), true)
             .unwrap();
         assert_eq!(walkable_wkt(&w), "POLYGON ((0 0, 10 0, 10 10, 0 10, 0 0))");
+    }
+
+    #[test]
+    fn a_walkable_area_is_given_as_read_with_its_own_bounds() {
+        let mut w = World::builder()
+            .group(crate::GroupParams::default())
+            .agents([AgentInit::at(Vec2::new(2.0, 2.0), 0)])
+            .build()
+            .unwrap();
+        let wkt = "POLYGON ((0 0, 10 0, 10 4.5, 14 4.5, 14 5.5, 10 5.5, 10 10, 0 10, 0 0))";
+        w.set_walkable(crate::Walkable::from_wkt(wkt).unwrap())
+            .unwrap();
+        assert_eq!(walkable_wkt(&w), wkt);
+        assert_eq!(
+            walkable_bounds(&w),
+            (Vec2::new(0.0, 0.0), Vec2::new(14.0, 10.0))
+        );
     }
 
     #[test]
