@@ -1,15 +1,15 @@
 //! A crate that depends on `throng` gets the simulation core alone: the command line's crates
-//! (clap, indicatif, serde_json) belong to the `throng-cli` package and the image crates (gif,
-//! png) to the opt-in `render` feature, so none of them is among the library's default normal or
-//! build dependencies. Asked of `cargo tree` on this workspace, offline and with the lock file
+//! (clap, indicatif, serde_json) belong to the `throng-cli` package, the image crates (gif, png)
+//! to the opt-in `render` feature and SQLite (rusqlite) to the opt-in `sqlite` feature, so none
+//! of them is among the library's default normal or build dependencies. Asked of `cargo tree` on this workspace, offline and with the lock file
 //! as it is.
 
 use std::collections::BTreeSet;
 use std::path::Path;
 use std::process::Command;
 
-/// Crates that only the `throng` command (or `render`) may bring in.
-const NOT_IN_THE_CORE: [&str; 5] = ["clap", "indicatif", "serde_json", "gif", "png"];
+/// Crates that only the `throng` command (or `render`, or `sqlite`) may bring in.
+const NOT_IN_THE_CORE: [&str; 6] = ["clap", "indicatif", "serde_json", "gif", "png", "rusqlite"];
 
 /// The names of every package in the normal and build dependency tree of `package`.
 fn dependency_names(package: &str, extra: &[&str]) -> BTreeSet<String> {
@@ -55,8 +55,13 @@ fn render_brings_only_the_image_crates_and_the_command_brings_the_rest() {
         render.contains("gif") && render.contains("png"),
         "{render:?}"
     );
-    for name in ["clap", "indicatif", "serde_json"] {
+    for name in ["clap", "indicatif", "serde_json", "rusqlite"] {
         assert!(!render.contains(name), "render pulls in {name}");
+    }
+    let sqlite = dependency_names("throng", &["--features", "sqlite"]);
+    assert!(sqlite.contains("rusqlite"), "{sqlite:?}");
+    for name in ["clap", "indicatif", "serde_json", "gif", "png"] {
+        assert!(!sqlite.contains(name), "sqlite pulls in {name}");
     }
     let cli = dependency_names("throng-cli", &[]);
     for name in NOT_IN_THE_CORE {

@@ -3,6 +3,7 @@
 //!
 //! - [`world`]: `throng.World`, stepped with the GIL released and read out as numpy arrays;
 //! - [`simulation`]: `throng.Simulation`, a pedestrian study with stages and journeys, no TOML;
+//! - [`record`]: the trajectory files `Simulation.record` writes (the library's writers);
 //! - [`bench`]: `throng.bench`, the CLI's benchmark object as a dict;
 //! - [`validate`]: `throng.validate`, one validation case's report as a dict;
 //! - [`scenario`]: built-in names, files and TOML text, with keyword overrides;
@@ -16,6 +17,7 @@ mod arrays;
 mod bench;
 mod convert;
 mod error;
+mod record;
 mod scenario;
 mod simulation;
 mod validate;

@@ -7,7 +7,8 @@
 //! one group ([`Profile::journey_walkers`]), made when the first agent of that model is added.
 //! Stages are named by their ids (ints) or by the handles `add_queue_stage` and
 //! `add_waiting_set_stage` return. Every argument is checked by the library's own validation,
-//! and every error is a `ThrongError`.
+//! and every error is a `ThrongError`. `record` and `close` write trajectory files as it goes
+//! ([`crate::record`]).
 
 use numpy::IntoPyArray;
 use numpy::ndarray::Array1;
@@ -20,6 +21,7 @@ use throng::{AgentId, AgentInit, Bounds, Error, Walkable, World};
 
 use crate::arrays::{self, Order};
 use crate::error::{OrRaise, guarded, invalid, raise, raise_in, unsigned};
+use crate::record::Recorders;
 
 /// A walkable area or polygon given as WKT text, a shapely geometry (its `wkt`), or a sequence
 /// of `(x, y)` points (one ring).
@@ -284,6 +286,8 @@ pub struct PySimulation {
     /// The group of agents driven from outside, once one was added.
     external: Option<usize>,
     pool: Option<rayon::ThreadPool>,
+    /// The trajectory files `record` opened and `close` finishes.
+    recorders: Recorders,
 }
 
 impl PySimulation {
@@ -352,6 +356,7 @@ impl PySimulation {
                 groups: Vec::new(),
                 external: None,
                 pool: crate::world::pool(threads)?,
+                recorders: Recorders::default(),
             })
         })
     }
@@ -559,10 +564,12 @@ impl PySimulation {
         let n: u64 = unsigned("n", n)?;
         guarded(|| {
             let (world, dt, pool) = (&mut self.world, self.dt, &self.pool);
+            let recorders = &mut self.recorders;
             py.detach(|| {
                 let mut run = || -> throng::Result<()> {
                     for _ in 0..n {
                         world.step(dt)?;
+                        recorders.after_step(world)?;
                     }
                     Ok(())
                 };
@@ -824,6 +831,7 @@ impl PySimulation {
                 groups,
                 external,
                 pool: crate::world::pool(threads)?,
+                recorders: Recorders::default(),
             })
         })
     }
@@ -860,6 +868,28 @@ impl PySimulation {
             self.world.stage_count(),
             self.world.time()
         )
+    }
+
+    /// Starts writing trajectories to `path`, in the format its extension names: `.sqlite`
+    /// (also `.sqlite3`, `.db`) JuPedSim's SQLite database (version 2) with the walkable area
+    /// as its geometry, `.txt` PedPy's text format, anything else (`.csv`) throng's CSV. The
+    /// current frame is written now and then one every `every` steps; the file is complete
+    /// (and readable by PedPy) once `close()` has finished it, absent until then.
+    #[pyo3(signature = (path, every=1))]
+    fn record(&mut self, path: std::path::PathBuf, every: i128) -> PyResult<()> {
+        let every: u64 = unsigned("every", every)?;
+        guarded(|| {
+            self.recorders
+                .open(&path, every, self.dt, &self.world)
+                .or_raise()
+        })
+    }
+
+    /// Finishes every trajectory file `record` opened: flushed, closed and moved into place.
+    /// A second call does nothing; the simulation can go on and record again. Garbage
+    /// collection finishes files that were not closed.
+    fn close(&mut self) -> PyResult<()> {
+        guarded(|| self.recorders.close().or_raise())
     }
 }
 

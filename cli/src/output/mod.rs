@@ -1,23 +1,19 @@
 //! Streaming outputs of a run: trajectories (CSV, PedPy text or JuPedSim SQLite, by the file's
-//! extension; `trajectory`) and pictures (animated GIF frames as the run goes, timed to play in
-//! under 30 s; or one frame as PNG: the last, or the one at which half of the agents had left).
+//! extension; the library's writers, [`throng::output::trajectory`]), pictures (animated GIF
+//! frames as the run goes, timed to play in under 30 s; or one frame as PNG: the last, or the
+//! one at which half of the agents had left) and the measurements' CSV.
 //!
 //! Every file is written through an [`AtomicOutput`]: complete (renamed into place by
 //! [`Outputs::finish`]) or absent (the previous file untouched) after a failure.
-
-mod sqlite;
-mod trajectory;
-mod wkt;
 
 use std::fs::File;
 use std::io::{BufWriter, Write};
 use std::path::Path;
 
+use throng::output::AtomicOutput;
 use throng::{Error, Result, World};
 
-use crate::files::AtomicOutput;
-
-pub use trajectory::{Format, Sampling, Trajectories};
+pub use throng::output::{Format, Sampling, Trajectories};
 
 /// The files a run writes as it goes.
 #[derive(Debug, Default)]

@@ -12,7 +12,7 @@
 //! frame.
 //!
 //! Invariants: rows go in through one prepared statement, in a transaction per batch of frames
-//! (at most [`BATCH_FRAMES`] frames or [`BATCH_ROWS`] rows); the index is built once at the end.
+//! (at most 100 frames or 2^20 rows); the index is built once at the end.
 //! The database is a temporary file (no journal, no syncs while it is written) that
 //! [`SqliteTrajectories::finish`] closes, syncs and renames into place, so a failed or killed run
 //! leaves no partial database under the target's name.
@@ -20,10 +20,11 @@
 use std::path::Path;
 
 use rusqlite::{Connection, params};
-use throng::{Error, Result, World};
 
+use super::AtomicOutput;
 use super::wkt::{walkable_bounds, walkable_wkt};
-use crate::files::AtomicOutput;
+use crate::error::{Error, Result};
+use crate::world::World;
 
 /// The schema version JuPedSim's readers check (`metadata` key `version`).
 pub const DATABASE_VERSION: u32 = 2;

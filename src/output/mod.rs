@@ -1,5 +1,11 @@
-//! Where an output file goes: one rule for every file throng writes (checkpoints through
-//! [`write_atomic`], and in the command line pictures, trajectories and measurements).
+//! Output files: where one goes, one rule for every file throng writes (checkpoints through
+//! [`write_atomic`], trajectories, and in the command line pictures and measurements), and the
+//! trajectory writers shared by the command line and the Python bindings.
+//!
+//! - [`trajectory`]: trajectory files in the format their extension names (throng's CSV,
+//!   PedPy's text, and with the `sqlite` feature JuPedSim's SQLite database);
+//! - [`wkt`]: a world's walkable area as WKT, for the files that carry their geometry;
+//! - [`AtomicOutput`]: one output file, complete or absent.
 //!
 //! [`destination`] looks at what the path is before anything is written:
 //!
@@ -17,6 +23,15 @@
 //!
 //! Invariants: nothing but a regular file (or nothing) is ever renamed over; no symbolic link
 //! is replaced.
+
+mod atomic;
+#[cfg(feature = "sqlite")]
+pub mod sqlite;
+pub mod trajectory;
+pub mod wkt;
+
+pub use atomic::AtomicOutput;
+pub use trajectory::{Format, Sampling, Trajectories};
 
 use std::io::Write;
 use std::path::{Path, PathBuf};

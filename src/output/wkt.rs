@@ -10,9 +10,10 @@
 //! and circle obstacles are left out. Rings are closed (the first point repeated), the outer ring
 //! counter-clockwise and the holes clockwise.
 
-use throng::World;
-use throng::obstacles::{Wall, segment_intersection};
-use throng::prelude::Vec2;
+use glam::Vec2;
+
+use crate::obstacles::{Wall, segment_intersection};
+use crate::world::World;
 
 /// Rings with more edges than this are not checked for self-crossings and left out as holes.
 const MAX_HOLE_EDGES: usize = 4096;
@@ -26,22 +27,26 @@ pub fn walkable_wkt(world: &World) -> String {
     let (min, max) = walkable_bounds(world);
     let outer = [min, Vec2::new(max.x, min.y), max, Vec2::new(min.x, max.y)];
     let mut wkt = String::from("POLYGON (");
-    throng::geometry::write_ring(&mut wkt, &outer);
+    crate::geometry::write_ring(&mut wkt, &outer);
     for mut hole in holes(world.obstacles().walls(), min, max) {
-        if throng::geometry::twice_area(&hole) > 0.0 {
+        if crate::geometry::twice_area(&hole) > 0.0 {
             hole.reverse();
         }
         wkt.push_str(", ");
-        throng::geometry::write_ring(&mut wkt, &hole);
+        crate::geometry::write_ring(&mut wkt, &hole);
     }
     wkt.push(')');
     wkt
 }
 
-/// The corners `(min, max)` of the walkable area's outer ring: [`World::extent`].
+/// The corners `(min, max)` of the box around [`walkable_wkt`]'s polygon: the walkable area's
+/// bounding box when the world has one, else [`World::extent`].
 #[must_use]
 pub fn walkable_bounds(world: &World) -> (Vec2, Vec2) {
-    world.extent()
+    match world.walkable() {
+        Some(area) => (area.min(), area.max()),
+        None => world.extent(),
+    }
 }
 
 /// The closed chains of consecutive walls (each wall's end is the next one's start, the last
@@ -90,7 +95,7 @@ fn bounding_box(points: &[Vec2]) -> (Vec2, Vec2) {
 /// than neighbours at their shared corner.
 fn is_simple(ring: &[Vec2]) -> bool {
     let n = ring.len();
-    if throng::geometry::twice_area(ring) == 0.0 {
+    if crate::geometry::twice_area(ring) == 0.0 {
         return false;
     }
     for i in 0..n {
@@ -117,7 +122,7 @@ fn is_simple(ring: &[Vec2]) -> bool {
 #[cfg(test)]
 mod tests {
     use super::*;
-    use throng::{AgentInit, Bounds};
+    use crate::{AgentInit, Bounds};
 
     fn world(bounds: Bounds) -> World {
         World::builder().bounds(bounds).build().unwrap()
@@ -185,9 +190,26 @@ mod tests {
     }
 
     #[test]
+    fn a_walkable_area_is_given_as_read_with_its_own_bounds() {
+        let mut w = World::builder()
+            .group(crate::GroupParams::default())
+            .agents([AgentInit::at(Vec2::new(2.0, 2.0), 0)])
+            .build()
+            .unwrap();
+        let wkt = "POLYGON ((0 0, 10 0, 10 4.5, 14 4.5, 14 5.5, 10 5.5, 10 10, 0 10, 0 0))";
+        w.set_walkable(crate::Walkable::from_wkt(wkt).unwrap())
+            .unwrap();
+        assert_eq!(walkable_wkt(&w), wkt);
+        assert_eq!(
+            walkable_bounds(&w),
+            (Vec2::new(0.0, 0.0), Vec2::new(14.0, 10.0))
+        );
+    }
+
+    #[test]
     fn an_open_world_is_its_content_grown_by_a_margin() {
         let w = World::builder()
-            .group(throng::GroupParams::default())
+            .group(crate::GroupParams::default())
             .agents([Vec2::new(-5.0, 2.0), Vec2::new(15.0, 4.0)].map(|p| AgentInit::at(p, 0)))
             .build()
             .unwrap();

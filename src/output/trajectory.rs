@@ -1,20 +1,23 @@
 //! Trajectory files in the format their extension names: throng's long-format CSV, PedPy's
-//! text format (`.txt`) and JuPedSim's SQLite database (`.sqlite`, `.sqlite3`, `.db`).
+//! text format (`.txt`) and JuPedSim's SQLite database (`.sqlite`, `.sqlite3`, `.db`; written
+//! with the `sqlite` feature, refused with [`Error::Invalid`] without it).
 //!
-//! Invariants: every format holds the same written frames (the run's first frame, every `K`th
-//! and the last) with the same agents in storage order. The CSV numbers a row by the world's
-//! frame; the text and SQLite formats, whose readers take time as `frame / framerate`, number the
-//! written frames 0, 1, 2, ... and state the framerate `1 / (dt K)`. Files are written through
+//! Invariants: every format holds the same written frames (those its caller passes: the command
+//! line's run writes its first frame, every `K`th and the last) with the same agents in storage
+//! order. The CSV numbers a row by the world's frame; the text and SQLite formats, whose readers
+//! take time as `frame / framerate`, number the written frames 0, 1, 2, ... and state the
+//! framerate `1 / (dt K)`. Files are written through
 //! [`AtomicOutput`]: complete when [`Trajectories::finish`] returns, absent otherwise.
 
 use std::fs::File;
 use std::io::{BufWriter, Write};
 use std::path::Path;
 
-use throng::{Error, Result, World};
-
+use super::AtomicOutput;
+#[cfg(feature = "sqlite")]
 use super::sqlite::SqliteTrajectories;
-use crate::files::AtomicOutput;
+use crate::error::{Error, Result};
+use crate::world::World;
 
 /// A trajectory file format, chosen by the file's extension.
 #[derive(Clone, Copy, Debug, PartialEq, Eq)]
@@ -102,6 +105,7 @@ pub struct Trajectories {
 enum Sink {
     Csv(BufWriter<File>, AtomicOutput),
     PedPyText(BufWriter<File>, AtomicOutput),
+    #[cfg(feature = "sqlite")]
     Sqlite(Box<SqliteTrajectories>),
 }
 
@@ -124,11 +128,23 @@ impl Trajectories {
                 pedpy_header(&mut w, sampling).map_err(|e| file.io(e))?;
                 Sink::PedPyText(w, file)
             }
+            #[cfg(feature = "sqlite")]
             Format::JupedsimSqlite => Sink::Sqlite(Box::new(SqliteTrajectories::create(
                 path,
                 sampling.framerate(),
                 world,
             )?)),
+            #[cfg(not(feature = "sqlite"))]
+            Format::JupedsimSqlite => {
+                let _ = world;
+                return Err(Error::Invalid {
+                    name: "trajectories".into(),
+                    reason: format!(
+                        "{}: this build of throng writes no SQLite (the `sqlite` feature is off)",
+                        path.display()
+                    ),
+                });
+            }
         };
         Ok(Trajectories { sink, written: 0 })
     }
@@ -170,6 +186,7 @@ impl Trajectories {
                     .map_err(|e| file.io(e))?;
                 }
             }
+            #[cfg(feature = "sqlite")]
             Sink::Sqlite(db) => db.frame(n, world)?,
         }
         self.written += 1;
@@ -186,6 +203,7 @@ impl Trajectories {
                 w.into_inner().map_err(|e| file.io(e.into_error()))?;
                 file.commit()
             }
+            #[cfg(feature = "sqlite")]
             Sink::Sqlite(db) => db.finish(),
         }
     }
@@ -217,4 +235,69 @@ fn pedpy_header(w: &mut impl Write, s: &Sampling) -> std::io::Result<()> {
     )?;
     writeln!(w, "# x/m y/m z/m: the position in metres (z is 0)")?;
     writeln!(w, "# id\tframe\tx\ty\tz")
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    fn sampling() -> Sampling {
+        Sampling {
+            dt: 0.05,
+            every: 2,
+            scenario: "walk".into(),
+            seed: 3,
+        }
+    }
+
+    #[test]
+    fn the_extension_names_the_format() {
+        assert_eq!(Format::of(Path::new("a.TXT")).unwrap(), Format::PedPyText);
+        assert_eq!(
+            Format::of(Path::new("a.db")).unwrap(),
+            Format::JupedsimSqlite
+        );
+        assert_eq!(Format::of(Path::new("a.out")).unwrap(), Format::Csv);
+        assert!(Format::of(Path::new("a.parquet")).is_err());
+        assert!(Format::of(Path::new("a.csv.gz")).is_err());
+        assert_eq!(sampling().framerate(), 10.0);
+    }
+
+    #[test]
+    fn a_text_file_is_complete_after_finish_and_absent_before() {
+        let dir = std::env::temp_dir().join(format!("throng-trajectory-{}", std::process::id()));
+        std::fs::create_dir_all(&dir).unwrap();
+        let path = dir.join("walk.txt");
+        let world = World::builder()
+            .group(crate::GroupParams::default())
+            .agents([crate::AgentInit::at(glam::Vec2::new(1.5, 2.0), 0)])
+            .build()
+            .unwrap();
+        let mut t = Trajectories::create(&path, Format::PedPyText, &sampling(), &world).unwrap();
+        t.frame(&world).unwrap();
+        assert!(!path.exists());
+        t.finish().unwrap();
+        let text = std::fs::read_to_string(&path).unwrap();
+        assert!(text.starts_with("# framerate: 10\n"), "{text}");
+        assert!(
+            text.ends_with("# id\tframe\tx\ty\tz\n0\t0\t1.5\t2\t0\n"),
+            "{text}"
+        );
+        let _ = std::fs::remove_dir_all(&dir);
+    }
+
+    #[cfg(not(feature = "sqlite"))]
+    #[test]
+    fn without_the_feature_a_database_is_refused() {
+        let world = World::builder().build().unwrap();
+        let e = Trajectories::create(
+            Path::new("never-written.sqlite"),
+            Format::JupedsimSqlite,
+            &sampling(),
+            &world,
+        )
+        .unwrap_err();
+        assert!(e.to_string().contains("`sqlite` feature"), "{e}");
+        assert!(!Path::new("never-written.sqlite").exists());
+    }
 }
