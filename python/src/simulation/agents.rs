@@ -6,7 +6,7 @@ use numpy::ndarray::Array1;
 use pyo3::prelude::*;
 use throng::{AgentId, AgentInit};
 
-use super::{PySimulation, glam_zero, model, stage_id};
+use super::{PySimulation, agent_ids, glam_zero, model, stage_id};
 use crate::arrays;
 use crate::error::{OrRaise, guarded, invalid, raise_in, unsigned};
 
@@ -162,30 +162,12 @@ impl PySimulation {
 
     /// Desired speeds, m/s, by ascending id.
     fn desired_speeds<'py>(&self, py: Python<'py>) -> PyResult<Bound<'py, PyAny>> {
-        let rows = self.rows();
-        let a = self.world.agents();
-        arrays::column(
-            py,
-            rows.len(),
-            Some(&rows),
-            "float32",
-            |i| a.desired_speeds()[i],
-            None,
-        )
+        self.by_id(py, throng::Agents::desired_speeds)
     }
 
     /// Radii, m, by ascending id.
     fn radii<'py>(&self, py: Python<'py>) -> PyResult<Bound<'py, PyAny>> {
-        let rows = self.rows();
-        let a = self.world.agents();
-        arrays::column(
-            py,
-            rows.len(),
-            Some(&rows),
-            "float32",
-            |i| a.radii()[i],
-            None,
-        )
+        self.by_id(py, throng::Agents::radii)
     }
 
     /// Sets the desired speeds of agents `ids` (one value or one per id); on an error nothing
@@ -284,14 +266,7 @@ impl PySimulation {
                     ),
                 ));
             }
-            let ids = ids
-                .iter()
-                .map(|&i| {
-                    u32::try_from(i)
-                        .map(AgentId)
-                        .map_err(|_| invalid("ids", format!("{i} is not an agent id")))
-                })
-                .collect::<PyResult<Vec<_>>>()?;
+            let ids = agent_ids(&ids)?;
             // Checked in full first, so that an error changes nothing.
             for (k, &id) in ids.iter().enumerate() {
                 self.world
@@ -305,5 +280,18 @@ impl PySimulation {
             }
             Ok(())
         })
+    }
+}
+
+impl PySimulation {
+    /// A float32 column of the agents (`column` of the storage), by ascending id.
+    fn by_id<'py>(
+        &self,
+        py: Python<'py>,
+        column: impl Fn(&throng::Agents) -> &[f32],
+    ) -> PyResult<Bound<'py, PyAny>> {
+        let rows = self.rows();
+        let values = column(self.world.agents());
+        arrays::column(py, rows.len(), Some(&rows), "float32", |i| values[i], None)
     }
 }

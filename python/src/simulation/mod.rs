@@ -46,6 +46,17 @@ pub(crate) fn area(name: &str, obj: &Bound<'_, PyAny>) -> PyResult<Walkable> {
         .map_err(|e| raise_in(Some(name), &e))
 }
 
+/// Agent ids read as Python ints, each checked to be one.
+pub(crate) fn agent_ids(ids: &[i64]) -> PyResult<Vec<AgentId>> {
+    ids.iter()
+        .map(|&i| {
+            u32::try_from(i)
+                .map(AgentId)
+                .map_err(|_| invalid("ids", format!("{i} is not an agent id")))
+        })
+        .collect()
+}
+
 /// How a simulation's checkpoint names itself in its run settings (then its default model).
 const SAVED_AS: &str = "throng.Simulation:";
 
@@ -344,14 +355,7 @@ impl PySimulation {
         guarded(|| {
             let ids = arrays::read_ints("ids", ids)?;
             let values = arrays::broadcast(name, arrays::read_floats(name, values)?, ids.len())?;
-            let ids = ids
-                .iter()
-                .map(|&i| {
-                    u32::try_from(i)
-                        .map(AgentId)
-                        .map_err(|_| invalid("ids", format!("{i} is not an agent id")))
-                })
-                .collect::<PyResult<Vec<_>>>()?;
+            let ids = agent_ids(&ids)?;
             // Checked in full first, so that an error changes nothing.
             for (k, (&id, &v)) in ids.iter().zip(&values).enumerate() {
                 let context = format!("{name}[{k}]");
