@@ -239,6 +239,60 @@ fn bottleneck_means(model: Model, every: u32) -> (f64, f64, usize) {
     (t, j, stuck)
 }
 
+/// The bottleneck's mean flow and mean count left inside over `SEEDS` seeds with
+/// `reorder_every` `every`.
+fn bottleneck_flow_and_inside(model: Model, every: u32) -> (f64, f64) {
+    const SEEDS: u64 = 4;
+    let (mut j, mut inside) = (0.0, 0.0);
+    for seed in 0..SEEDS {
+        let (_, left, flow) = bottleneck_in_layout(model, every, seed);
+        j += flow / SEEDS as f64;
+        inside += left as f64 / SEEDS as f64;
+    }
+    (j, inside)
+}
+
+/// The long size of the macroscopic test, for the social force model (`--ignored`, about two
+/// minutes): its bottleneck does not always empty at 1.2 m, so the flow and the number left
+/// inside (means over four seeds) agree, within 2% of the flow and of the 200 pedestrians.
+#[test]
+#[ignore = "long: the social force model's bottleneck over four seeds and four layouts"]
+fn the_social_force_bottleneck_flows_alike_in_every_layout() {
+    let mut failures = Vec::new();
+    let model = Model::SocialForce;
+    let (j0, inside0) = bottleneck_flow_and_inside(model, 0);
+    for every in [1, 4, 16] {
+        let (j, inside) = bottleneck_flow_and_inside(model, every);
+        if !((j / j0 - 1.0).abs() <= 0.02 && (inside - inside0).abs() <= 0.02 * 200.0) {
+            failures.push(format!(
+                "{model:?}, reorder_every {every}: flow {j:.3} against {j0:.3} 1/s, {inside:.1} \
+                 against {inside0:.1} left inside"
+            ));
+        }
+    }
+    all_agree(failures);
+}
+
+/// The long size of the one-step layout tests (`--ignored`): along the whole of every
+/// validation scene's first 2,000 frames (every 97th), both models, and along 200 frames of
+/// every built-in scene at up to 20,000 agents (every 37th, past the size at which the passes
+/// split into parallel tasks).
+#[test]
+#[ignore = "long: full-size scenes over long windows"]
+fn one_step_of_every_full_size_scene_is_the_same_in_any_layout() {
+    let mut failures = Vec::new();
+    for model in [Model::Cfsm, Model::SocialForce] {
+        for (name, s) in validation_with(model) {
+            let name = format!("{name} {model:?}");
+            failures.extend(one_step_in_any_layout(&name, &s, 2000, 97));
+        }
+    }
+    for (name, s) in builtins(20_000) {
+        failures.extend(one_step_in_any_layout(&name, &s, 200, 37));
+    }
+    all_agree(failures);
+}
+
 /// Macroscopic outputs do not depend on the layout: the speed model's bottleneck evacuation
 /// time and flow, averaged over four seeds (a single run moves by a few percent with any
 /// rounding difference), agree within 2% for every `reorder_every`.
@@ -422,13 +476,14 @@ fn put_moved(w: &World, moved: &mut World, map: PlaneMap) -> Vec<AgentId> {
 
 /// Along the first `steps` frames of `s`, the scene moved by `map` (built from the moved
 /// scenario, its agents given the original's state, moved, before every step) takes the moved
-/// step to 0.1 mm, agent by agent. Returns the disagreements, or why the scene cannot be moved.
+/// step to `tolerance` (0.1 mm in CI), agent by agent. Returns the disagreements, or why the
+/// scene cannot be moved.
 fn moved_scene_takes_the_moved_step(
     name: &str,
     s: &Scenario,
-    motion: &str,
-    map: PlaneMap,
+    (motion, map): (&str, PlaneMap),
     steps: u64,
+    tolerance: f32,
 ) -> std::result::Result<Vec<String>, String> {
     let moved = s
         .transformed(map)
@@ -460,7 +515,7 @@ fn moved_scene_takes_the_moved_step(
                 None => unmatched += 1,
             }
         }
-        if !(worst.0 <= 1e-4 && unmatched == 0) {
+        if !(worst.0 <= tolerance && unmatched == 0) {
             failures.push(format!(
                 "{name} {motion}: the step to frame {}: moved by up to {} (agent {:?}), {unmatched} \
                  agents in one only",
@@ -535,10 +590,15 @@ const NOT_INVARIANT: &[(&str, &str, &str)] = &[
     ),
 ];
 
-/// Every scene in `scenes` under every motion of [`motions`]: the disagreements, and the
-/// scenes and motions left out (they cannot be moved, or are in [`NOT_INVARIANT`]) with the
-/// reason.
-fn moved_scenes(scenes: &[(String, Scenario)], steps: u64) -> (Vec<String>, Vec<String>) {
+/// Every scene in `scenes` under every motion of [`motions`], each step within `tolerance`:
+/// the disagreements, and the scenes and motions left out (they cannot be moved, or are in
+/// [`NOT_INVARIANT`]) with the reason. At the sharp tolerance (0.1 mm) a listed scene that
+/// takes the moved step fails too, so that the list stays true.
+fn moved_scenes(
+    scenes: &[(String, Scenario)],
+    steps: u64,
+    tolerance: f32,
+) -> (Vec<String>, Vec<String>) {
     let (mut failures, mut left_out) = (Vec::new(), Vec::new());
     for (name, s) in scenes {
         for (motion, map) in motions(s) {
@@ -546,22 +606,37 @@ fn moved_scenes(scenes: &[(String, Scenario)], steps: u64) -> (Vec<String>, Vec<
                 .iter()
                 .find(|(scene, m, _)| name.starts_with(scene) && *m == motion);
             match (
-                moved_scene_takes_the_moved_step(name, s, motion, map, steps),
+                moved_scene_takes_the_moved_step(name, s, (motion, map), steps, tolerance),
                 known,
             ) {
                 (Ok(f), None) => failures.extend(f),
                 (Ok(f), Some((_, _, why))) if !f.is_empty() => {
                     left_out.push(format!("{} (known: {why})", f.join("; ")));
                 }
-                (Ok(_), Some(_)) => failures.push(format!(
+                (Ok(_), Some(_)) if tolerance <= SHARP => failures.push(format!(
                     "{name} {motion}: listed as not invariant, but takes the moved step"
                 )),
+                (Ok(_), Some(_)) => {}
                 (Err(why), _) => left_out.push(why),
             }
         }
     }
     (failures, left_out)
 }
+
+/// The moved step's tolerance over the first 30 frames: rounding alone.
+const SHARP: f32 = 1e-4;
+
+/// The moved step's tolerance over long windows. The scene's own geometry (walls, exits, the
+/// field's origin) is moved in `f32`, which rounds its coordinates by up to 4e-6 m at 50 m, and
+/// the density raster of the quickest paths bins agents into half-open cells, which a mirror or
+/// a turn does not map onto themselves for an agent on a cell's edge. Over hundreds of frames
+/// some pedestrian comes to stand where such a difference flips one of the speed model's
+/// thresholds (spacing, blocking, side step) or changes a social force contact, and moves by
+/// millimetres in that one step (measured: up to 5.6 mm over 300 frames of every validation
+/// scene, rimea-12 mirrored with the social force model). A term not moved with the scene (a
+/// wall left behind) moves agents by centimetres within a few frames.
+const LONG: f32 = 1e-2;
 
 /// A scene translated, turned a quarter or mirrored takes the same step, moved: one step from
 /// the same state (the original's, moved) agrees to 0.1 mm agent by agent at each of the first
@@ -578,7 +653,7 @@ fn every_validation_scene_moves_alike_translated_turned_and_mirrored() {
             .into_iter()
             .map(|(name, s)| (format!("{name} {model:?}"), s))
             .collect();
-        let (f, left_out) = moved_scenes(&scenes, 30);
+        let (f, left_out) = moved_scenes(&scenes, 30, SHARP);
         failures.extend(f);
         for why in left_out {
             eprintln!("left out: {why}");
@@ -591,7 +666,33 @@ fn every_validation_scene_moves_alike_translated_turned_and_mirrored() {
 /// scenes (flocking, Vicsek, ORCA, fields, group movement) at up to 2,000 agents.
 #[test]
 fn every_builtin_scene_moves_alike_translated_turned_and_mirrored() {
-    let (failures, left_out) = moved_scenes(&builtins(2000), 30);
+    let (failures, left_out) = moved_scenes(&builtins(2000), 30, SHARP);
+    for why in left_out {
+        eprintln!("left out: {why}");
+    }
+    all_agree(failures);
+}
+
+/// The long size of the moved-scene tests (`--ignored`): 300 frames of every validation scene
+/// (both models) and 100 of every built-in scene at up to 20,000 agents, each moved step within
+/// [`LONG`].
+#[test]
+#[ignore = "long: moved scenes over long windows"]
+fn every_full_size_scene_moves_alike_translated_turned_and_mirrored() {
+    let mut failures = Vec::new();
+    for model in [Model::Cfsm, Model::SocialForce] {
+        let scenes: Vec<_> = validation_with(model)
+            .into_iter()
+            .map(|(name, s)| (format!("{name} {model:?}"), s))
+            .collect();
+        let (f, left_out) = moved_scenes(&scenes, 300, LONG);
+        failures.extend(f);
+        for why in left_out {
+            eprintln!("left out: {why}");
+        }
+    }
+    let (f, left_out) = moved_scenes(&builtins(20_000), 100, LONG);
+    failures.extend(f);
     for why in left_out {
         eprintln!("left out: {why}");
     }
