@@ -638,6 +638,28 @@ const SHARP: f32 = 1e-4;
 /// wall left behind) moves agents by centimetres within a few frames.
 const LONG: f32 = 1e-2;
 
+/// [`moved_scenes`] over every validation scene with both pedestrian models, the scenes left
+/// out printed.
+fn moved_validation_scenes(steps: u64, tolerance: f32) -> Vec<String> {
+    let mut failures = Vec::new();
+    for model in [Model::Cfsm, Model::SocialForce] {
+        let scenes: Vec<_> = validation_with(model)
+            .into_iter()
+            .map(|(name, s)| (format!("{name} {model:?}"), s))
+            .collect();
+        failures.extend(printed(moved_scenes(&scenes, steps, tolerance)));
+    }
+    failures
+}
+
+/// The failures, after printing the scenes left out.
+fn printed((failures, left_out): (Vec<String>, Vec<String>)) -> Vec<String> {
+    for why in left_out {
+        eprintln!("left out: {why}");
+    }
+    failures
+}
+
 /// A scene translated, turned a quarter or mirrored takes the same step, moved: one step from
 /// the same state (the original's, moved) agrees to 0.1 mm agent by agent at each of the first
 /// 30 frames of every validation scene, with both pedestrian models. Neighbour grids, the
@@ -647,30 +669,14 @@ const LONG: f32 = 1e-2;
 /// (see `Scenario::transformed`): the test fails only on disagreements.
 #[test]
 fn every_validation_scene_moves_alike_translated_turned_and_mirrored() {
-    let mut failures = Vec::new();
-    for model in [Model::Cfsm, Model::SocialForce] {
-        let scenes: Vec<_> = validation_with(model)
-            .into_iter()
-            .map(|(name, s)| (format!("{name} {model:?}"), s))
-            .collect();
-        let (f, left_out) = moved_scenes(&scenes, 30, SHARP);
-        failures.extend(f);
-        for why in left_out {
-            eprintln!("left out: {why}");
-        }
-    }
-    all_agree(failures);
+    all_agree(moved_validation_scenes(30, SHARP));
 }
 
 /// [`every_validation_scene_moves_alike_translated_turned_and_mirrored`] for the built-in
 /// scenes (flocking, Vicsek, ORCA, fields, group movement) at up to 2,000 agents.
 #[test]
 fn every_builtin_scene_moves_alike_translated_turned_and_mirrored() {
-    let (failures, left_out) = moved_scenes(&builtins(2000), 30, SHARP);
-    for why in left_out {
-        eprintln!("left out: {why}");
-    }
-    all_agree(failures);
+    all_agree(printed(moved_scenes(&builtins(2000), 30, SHARP)));
 }
 
 /// The long size of the moved-scene tests (`--ignored`): 300 frames of every validation scene
@@ -679,22 +685,7 @@ fn every_builtin_scene_moves_alike_translated_turned_and_mirrored() {
 #[test]
 #[ignore = "long: moved scenes over long windows"]
 fn every_full_size_scene_moves_alike_translated_turned_and_mirrored() {
-    let mut failures = Vec::new();
-    for model in [Model::Cfsm, Model::SocialForce] {
-        let scenes: Vec<_> = validation_with(model)
-            .into_iter()
-            .map(|(name, s)| (format!("{name} {model:?}"), s))
-            .collect();
-        let (f, left_out) = moved_scenes(&scenes, 300, LONG);
-        failures.extend(f);
-        for why in left_out {
-            eprintln!("left out: {why}");
-        }
-    }
-    let (f, left_out) = moved_scenes(&builtins(20_000), 100, LONG);
-    failures.extend(f);
-    for why in left_out {
-        eprintln!("left out: {why}");
-    }
+    let mut failures = moved_validation_scenes(300, LONG);
+    failures.extend(printed(moved_scenes(&builtins(20_000), 100, LONG)));
     all_agree(failures);
 }
