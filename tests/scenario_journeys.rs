@@ -387,3 +387,25 @@ fn the_routing_raster_counts_in_the_memory_estimate() {
     let e = s.build_within(Some(1 << 30)).unwrap_err();
     assert!(matches!(e, throng::Error::OutOfMemory { .. }), "{e}");
 }
+
+#[test]
+fn the_measurements_time_the_evacuation_through_exit_stages() {
+    let s = Scenario::from_toml(concourse(), "concourse.toml").unwrap();
+    let mut w = s.build().unwrap();
+    let mut rec = throng::measure::Measurements::new(&s.measurements).unwrap();
+    rec.observe(&w);
+    let mut last_removal = None;
+    while !w.is_empty() && w.frame() < 20_000 {
+        let stats = w.step(s.dt).unwrap();
+        rec.observe(&w);
+        if stats.left > 0 {
+            last_removal = Some(w.time());
+        }
+        if !w.is_empty() {
+            assert_eq!(rec.evacuation_time(), None, "agents remain");
+        }
+    }
+    assert!(w.is_empty());
+    assert_eq!(rec.evacuation_time(), last_removal);
+    assert_eq!(rec.left(), 200);
+}

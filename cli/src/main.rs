@@ -457,14 +457,9 @@ fn run_scenario(s: Scenario, args: &RunArgs, file: Option<&Path>) -> Result<()> 
         output::Format::of(p)?;
     }
     let (s, mut world, pool, threads) = prepare(s, &args.common)?;
-    let exit_stages = (0..world.stage_count() as u32).any(|k| {
-        world
-            .stage(throng::journey::StageId(k))
-            .is_ok_and(|s| matches!(s, throng::journey::Stage::Exit { .. }))
-    });
     if args.until_arrived
         && world.exits().is_empty()
-        && !exit_stages
+        && !world.has_exit_stage()
         && world.groups().iter().all(|g| g.arrival_radius.is_none())
     {
         // Nothing could ever arrive: the run would silently take every step.
