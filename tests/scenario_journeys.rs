@@ -409,3 +409,105 @@ fn the_measurements_time_the_evacuation_through_exit_stages() {
     assert_eq!(rec.evacuation_time(), last_removal);
     assert_eq!(rec.left(), 200);
 }
+
+#[test]
+fn every_stage_kind_and_transition_kind_builds_as_the_rust_api_states_it() {
+    let text = r#"
+[geometry]
+walkable = "POLYGON ((0 0, 30 0, 30 10, 0 10, 0 0))"
+
+[[stages]]
+name = "gate"
+kind = "queue"
+slots = [[10, 5], [9, 5], [8, 5]]
+
+[[stages]]
+name = "hall"
+kind = "waiting_set"
+slots = [[15, 4], [15, 6]]
+active = false
+
+[[stages]]
+name = "guide"
+kind = "direct_steering"
+
+[[stages]]
+name = "left"
+kind = "exit"
+min = [28, 0]
+max = [30, 4]
+
+[[stages]]
+name = "right"
+kind = "exit"
+polygon = "POLYGON ((28 6, 30 6, 30 10, 28 10, 28 6))"
+
+[[journeys]]
+name = "through"
+stages = ["gate", "hall", "left", "right"]
+transitions = [
+  { from = "gate", to = "hall" },
+  { from = "hall", kind = "least_targeted", to = ["left", "right"] },
+]
+
+[[journeys]]
+name = "led"
+stages = ["guide"]
+
+[[groups]]
+count = 4
+spawn = { kind = "grid", origin = [2, 3], spacing = [1, 1], columns = 2 }
+journey = "through"
+
+[[groups]]
+count = 1
+spawn = { kind = "points", points = [[3, 8]] }
+journey = "led"
+"#;
+    let s = Scenario::from_toml(text, "kinds.toml").unwrap();
+    let w = s.build().unwrap();
+    let stage = |k: u32| w.stage(StageId(k)).unwrap().clone();
+    assert_eq!(
+        stage(0),
+        Stage::Queue {
+            slots: vec![
+                Vec2::new(10.0, 5.0),
+                Vec2::new(9.0, 5.0),
+                Vec2::new(8.0, 5.0)
+            ]
+        }
+    );
+    assert_eq!(
+        stage(1),
+        Stage::WaitingSet {
+            slots: vec![Vec2::new(15.0, 4.0), Vec2::new(15.0, 6.0)],
+            active: false
+        }
+    );
+    assert_eq!(stage(2), Stage::DirectSteering);
+    assert_eq!(
+        stage(3),
+        Stage::Exit {
+            area: Walkable::rectangle(Vec2::new(28.0, 0.0), Vec2::new(30.0, 4.0)).unwrap()
+        }
+    );
+    assert_eq!(
+        stage(4),
+        Stage::Exit {
+            area: Walkable::from_wkt("POLYGON ((28 6, 30 6, 30 10, 28 10, 28 6))").unwrap()
+        }
+    );
+    let (gate, hall, left, right) = (StageId(0), StageId(1), StageId(3), StageId(4));
+    let through = w.journey(throng::journey::JourneyId(0)).unwrap();
+    assert_eq!(through.transition(gate), Some(&Transition::fixed(hall)));
+    assert_eq!(
+        through.transition(hall),
+        Some(&Transition::least_targeted([left, right]))
+    );
+    let led = w.journey(throng::journey::JourneyId(1)).unwrap();
+    assert_eq!(led, &Journey::chain([StageId(2)]));
+    assert_eq!(
+        w.journey_of(AgentId(4)),
+        Some((throng::journey::JourneyId(1), StageId(2)))
+    );
+}
