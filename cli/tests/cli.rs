@@ -728,4 +728,9 @@ fn the_concourse_walks_its_journey_to_empty() {
         "{out}"
     );
     assert!((40..=60).contains(&net("north_exit")), "{out}");
+    // The exit stages count as exits: the summary times the evacuation.
+    assert!(
+        out.contains("evacuation: the last agent left at") && out.contains("200 left, none inside"),
+        "{out}"
+    );
 }
