@@ -459,6 +459,7 @@ fn run_scenario(s: Scenario, args: &RunArgs, file: Option<&Path>) -> Result<()> 
     let (s, mut world, pool, threads) = prepare(s, &args.common)?;
     if args.until_arrived
         && world.exits().is_empty()
+        && !world.has_exit_stage()
         && world.groups().iter().all(|g| g.arrival_radius.is_none())
     {
         // Nothing could ever arrive: the run would silently take every step.

@@ -702,3 +702,35 @@ fn an_address_space_limit_is_a_one_line_error_naming_it() {
         "(--max-memory)",
     );
 }
+
+#[test]
+fn the_concourse_walks_its_journey_to_empty() {
+    let o = throng(&["demo", "concourse", "--quiet", "--until-arrived"]);
+    assert!(o.status.success(), "{}", stderr(&o));
+    let out = stdout(&o);
+    assert!(
+        out.contains("every agent has left the world"),
+        "the concourse did not empty:\n{out}"
+    );
+    // Every passenger passes between the pillars; one in four takes the north exit (the lines
+    // before the exits do not span the whole hall, so a passenger may walk round one).
+    let net = |line: &str| -> i64 {
+        let l = out
+            .lines()
+            .find(|l| l.starts_with(&format!("line {line}:")))
+            .unwrap_or_else(|| panic!("no line {line}:\n{out}"));
+        let at = l.find("net ").unwrap() + 4;
+        l[at..].split(')').next().unwrap().parse().unwrap()
+    };
+    assert_eq!(net("between_pillars"), 200, "{out}");
+    assert!(
+        (190..=200).contains(&(net("north_exit") + net("south_exit"))),
+        "{out}"
+    );
+    assert!((40..=60).contains(&net("north_exit")), "{out}");
+    // The exit stages count as exits: the summary times the evacuation.
+    assert!(
+        out.contains("evacuation: the last agent left at") && out.contains("200 left, none inside"),
+        "{out}"
+    );
+}

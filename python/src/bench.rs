@@ -104,6 +104,14 @@ pub(crate) fn bench<'py>(
     let measurements = dict
         .get_item("measurements")?
         .expect("the report has measurements");
+    restore_nones(&measurements)?;
+    Ok(dict.clone().into_any())
+}
+
+/// Puts back the `None`s of a measurement report converted through TOML (which has no null):
+/// every optional key of its lines and areas.
+pub(crate) fn restore_nones(measurements: &Bound<'_, PyAny>) -> PyResult<()> {
+    let py = measurements.py();
     for (list, keys) in [
         ("lines", &LineReport::OPTIONAL_KEYS[..]),
         ("areas", &AreaReport::OPTIONAL_KEYS[..]),
@@ -118,5 +126,5 @@ pub(crate) fn bench<'py>(
             }
         }
     }
-    Ok(dict.clone().into_any())
+    Ok(())
 }

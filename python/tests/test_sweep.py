@@ -30,7 +30,12 @@ def local():
 
 def test_one_row_per_run_with_inputs_then_metrics(local):
     assert len(local) == 8
-    assert list(local.columns) == ["scenario", "agents", "seed", "steps", WEIGHT, *throng.METRICS]
+    assert list(local.columns) == [
+        "scenario", "agents", "seed", "steps", WEIGHT, *throng.METRICS, *throng.STUDY_METRICS
+    ]
+    # A flock has no exits: nobody leaves, and there is no evacuation time.
+    assert (local["remaining"] == 400).all() and (local["exited"] == 0).all()
+    assert local["evacuation_time"].isna().all()
     assert list(local["seed"]) == [1, 1, 1, 1, 2, 2, 2, 2]
     assert (local["n_agents"] == 400).all() and (local["frame"] == 25).all()
     assert local["polarisation"].between(0, 1).all()
@@ -79,6 +84,53 @@ def test_field_worlds_report_arrivals():
     assert math.isnan(row["evacuated_at"]) or 0 <= row["evacuated_at"] <= row["t"]
 
 
+def evacuation(scenario, steps, **keys):
+    """The world of a sweep run stepped one step at a time: its count, the time of the last
+    step in which somebody left, and the count of those who left."""
+    w = throng.World.from_scenario(scenario, **keys)
+    last, exited = math.nan, 0
+    for _ in range(steps):
+        before = len(w)
+        w.step()
+        if len(w) < before:
+            last, exited = w.time, exited + before - len(w)
+    return w, last, exited
+
+
+def test_an_exit_stage_evacuation_reports_its_time_agents_and_flows():
+    df = throng.sweep([
+        {"scenario": "concourse", "steps": 4000},
+        {"scenario": "concourse", "steps": 1000},
+    ])
+    done, partial = df.iloc[0], df.iloc[1]
+    w, last, exited = evacuation("concourse", 4000)
+    assert len(w) == 0 and done["remaining"] == 0 and done["exited"] == exited == 200
+    # The time of the last removal, exactly.
+    assert done["evacuation_time"] == last and done["t"] > last
+    # Cut short, agents remain: no evacuation time, and the counts add up.
+    w, _, exited = evacuation("concourse", 1000)
+    assert partial["remaining"] == len(w) > 0 and partial["exited"] == exited
+    assert partial["remaining"] + partial["exited"] == 200
+    assert math.isnan(partial["evacuation_time"])
+    # The lines' net crossings and flows, as the world's own measurements report them.
+    lines = {l["name"]: l for l in throng.World.from_scenario("concourse").measurements()["lines"]}
+    assert set(lines) == {"between_pillars", "north_exit", "south_exit"}
+    w, _, _ = evacuation("concourse", 4000)
+    for line in w.measurements()["lines"]:
+        assert done[f"net_{line['name']}"] == line["net"]
+        assert done[f"flow_{line['name']}"] == line["flow"]
+    assert done["net_between_pillars"] == 200
+
+
+def test_a_field_evacuation_reports_when_the_last_agent_left():
+    df = throng.sweep([{"scenario": "evacuation", "agents": 200, "seed": 1, "steps": 3000}])
+    row = df.iloc[0]
+    w, last, exited = evacuation("evacuation", 3000, agents=200, seed=1)
+    assert len(w) == 0 and row["remaining"] == 0 and row["exited"] == exited == 200
+    assert row["evacuation_time"] == last
+    assert row["evacuated_at"] == last
+
+
 def test_toml_runs_and_defaults(tmp_path):
     path = tmp_path / "tiny.toml"
     path.write_text(TINY)
@@ -104,6 +156,8 @@ steering = { behaviours = [{ kind = "wander" }] }
     ([{"scenario": "flock", "toml": TINY}], "scenario"),
     ([["flock"]], r"runs\[0\]"),
     ([{"scenario": "flock", "polarisation": 1}], "polarisation"),
+    ([{"scenario": "concourse", "remaining": 1}], "remaining"),
+    ([{"scenario": "concourse", "net_between_pillars": 1}], "net_between_pillars"),
     ([{"scenario": "flock", "steps": -1}], "steps"),
 ])
 def test_bad_runs_raise(runs, match):

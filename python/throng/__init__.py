@@ -37,12 +37,13 @@ from ._throng import (
     scenarios,
     validate,
 )
-from ._sweep import METRICS, VALIDATE_METRICS, run, sweep, threads_per_task
+from ._sweep import METRICS, STUDY_METRICS, VALIDATE_METRICS, run, sweep, threads_per_task
 
 __all__ = [
     "Journey",
     "METRICS",
     "QueueStage",
+    "STUDY_METRICS",
     "Simulation",
     "ThrongError",
     "Transition",

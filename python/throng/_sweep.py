@@ -5,8 +5,14 @@ A run is a dict naming a built-in scenario (``"scenario"``) or a scenario file o
 own); every other key is an override, as the keywords of ``World.from_scenario`` (dotted paths
 into the scenario's TOML: ``"groups.boids.steering.behaviours.alignment.weight"``).
 
-Each row holds the run's own keys, then the metrics of the final state (``METRICS``), then,
-for worlds with grid fields, the arrivals.
+Each row holds the run's own keys, then the metrics of the final state (``METRICS``), then
+what an evacuation study measures (``STUDY_METRICS``): the time at which the last agent left
+through an exit or an exit stage (``evacuation_time``, NaN while agents remain or when nobody
+left), the agents still in the world (``remaining``) and those that left through an exit
+(``exited``); then, per counting line of the scenario's ``[measurements]``, its net crossings
+(``net_<line>``, positive minus negative) and its flow J in 1/s (``flow_<line>``, NaN with
+fewer than two crossings), as ``throng run`` reports them; then, for worlds with grid fields,
+the arrivals.
 
 A run with ``"validate"`` (a case of ``throng validate``) instead runs that case, with
 ``"quick"``, ``"model"`` and ``"seed_offset"`` as ``throng.validate`` takes them and every key
@@ -32,6 +38,10 @@ from ._throng import ThrongError, World
 
 #: The metric columns of every row.
 METRICS = ("n_agents", "frame", "t", "mean_speed", "polarisation", "mean_neighbours")
+#: The columns of what an evacuation study measures, in every row.
+STUDY_METRICS = ("evacuation_time", "remaining", "exited")
+#: The prefixes of the columns of each counting line: net crossings and flow J (1/s).
+LINE_PREFIXES = ("net_", "flow_")
 #: The extra columns of a world with grid fields.
 FIELD_METRICS = ("arrived", "arrived_fraction", "evacuated_at")
 #: The columns of ``timings=True`` (wall-clock, so they differ between runs).
@@ -47,7 +57,7 @@ VALIDATE_METRICS = (
     "max_abs_error",
 )
 
-_RESERVED = frozenset(METRICS + FIELD_METRICS + VALIDATE_METRICS)
+_RESERVED = frozenset(METRICS + STUDY_METRICS + FIELD_METRICS + VALIDATE_METRICS)
 
 
 def _bad_run(where: str, reason: str) -> ThrongError:
@@ -61,7 +71,7 @@ def run(spec: Mapping[str, Any], *, timings: bool = False, threads: Optional[int
 
     ``threads`` limits this run's rayon workers (default: all cores). Worlds with grid fields
     are stepped one step at a time so that ``evacuated_at`` (the simulated time at which every
-    agent had arrived, NaN if that never happened) is exact.
+    agent had arrived or left through an exit, NaN if that never happened) is exact.
     """
     if not isinstance(spec, Mapping):
         raise _bad_run("run", f"expected a dict, got {type(spec).__name__}")
@@ -76,7 +86,7 @@ def run(spec: Mapping[str, Any], *, timings: bool = False, threads: Optional[int
     seed = params.pop("seed", None)
     steps = params.pop("steps", None)
     for key in params:
-        if key in _RESERVED or key.startswith("time_"):
+        if key in _RESERVED or key.startswith(("time_",) + LINE_PREFIXES):
             raise _bad_run(key, "the name of a result column cannot be an override")
 
     start = time.perf_counter()
@@ -99,6 +109,8 @@ def run(spec: Mapping[str, Any], *, timings: bool = False, threads: Optional[int
             stats = world.step()
             if math.isnan(evacuated) and world.arrived_count() == len(world):
                 evacuated = world.time
+        if math.isnan(evacuated) and world.evacuation_time is not None:
+            evacuated = world.evacuation_time
     elif steps > 0:
         stats = world.step(n=steps)
     end = time.perf_counter()
@@ -112,6 +124,17 @@ def run(spec: Mapping[str, Any], *, timings: bool = False, threads: Optional[int
         polarisation=world.polarisation(),
         mean_neighbours=stats["mean_neighbours"] if stats else math.nan,
     )
+    measured = world.measurements()
+    evacuation = world.evacuation_time
+    row.update(
+        evacuation_time=math.nan if evacuation is None else evacuation,
+        remaining=len(world),
+        exited=measured["left"],
+    )
+    for line in measured["lines"]:
+        flow = line["flow"]
+        row[f"net_{line['name']}"] = line["net"]
+        row[f"flow_{line['name']}"] = math.nan if flow is None else flow
     if fields:
         arrived = world.arrived_count()
         row.update(

@@ -39,6 +39,7 @@ use serde::{Deserialize, Serialize};
 use crate::error::{Error, Result};
 use crate::geometry::Walkable;
 
+pub(crate) use routes::CELL_SIZE as ROUTE_CELL_SIZE;
 pub(crate) use system::Journeys;
 pub use system::{QueueState, StageCounts};
 
@@ -301,6 +302,20 @@ impl Journey {
     /// # Errors
     /// [`Error::UnknownStage`] or [`Error::Invalid`] naming the journey and the stage.
     pub fn validate(&self, name: &str, stages: &[Stage]) -> Result<()> {
+        self.validate_named(name, stages, &|s| format!("stage {}", s.0))
+    }
+
+    /// [`Journey::validate`], with each stage named in the errors by `stage_name` (a scenario
+    /// file names its stages by strings).
+    ///
+    /// # Errors
+    /// As [`Journey::validate`].
+    pub fn validate_named(
+        &self,
+        name: &str,
+        stages: &[Stage],
+        stage_name: &dyn Fn(StageId) -> String,
+    ) -> Result<()> {
         let invalid = |reason: String| Error::Invalid {
             name: name.into(),
             reason,
@@ -326,34 +341,39 @@ impl Journey {
             known(*from)?;
             if !member(*from) {
                 return Err(invalid(format!(
-                    "the transition out of stage {} leaves a stage that is not in the journey",
-                    from.0
+                    "the transition out of {} leaves a stage that is not in the journey",
+                    stage_name(*from)
                 )));
             }
             if self.transitions[..k].iter().any(|(f, _)| f == from) {
-                return Err(invalid(format!("stage {} has two transitions", from.0)));
+                return Err(invalid(format!(
+                    "{} has two transitions",
+                    stage_name(*from)
+                )));
             }
             let targets = t.targets();
             if targets.is_empty() {
                 return Err(invalid(format!(
-                    "the transition out of stage {} has no candidates",
-                    from.0
+                    "the transition out of {} has no candidates",
+                    stage_name(*from)
                 )));
             }
             if let Transition::RoundRobin { weighted } = t
                 && let Some((s, _)) = weighted.iter().find(|w| w.1 == 0)
             {
                 return Err(invalid(format!(
-                    "the round robin out of stage {} gives stage {} a weight of 0 (each is at least 1)",
-                    from.0, s.0
+                    "the round robin out of {} gives {} a weight of 0 (each is at least 1)",
+                    stage_name(*from),
+                    stage_name(*s)
                 )));
             }
             for s in targets {
                 known(s)?;
                 if !member(s) {
                     return Err(invalid(format!(
-                        "the transition out of stage {} leads to stage {}, which is not in the journey",
-                        from.0, s.0
+                        "the transition out of {} leads to {}, which is not in the journey",
+                        stage_name(*from),
+                        stage_name(s)
                     )));
                 }
             }
@@ -361,9 +381,9 @@ impl Journey {
         for &s in &self.stages {
             if self.transition(s).is_none() && !stages[s.0 as usize].ends_journey() {
                 return Err(invalid(format!(
-                    "stage {} (a {}) has no transition and does not end the journey: give it one, \
+                    "{} (a {}) has no transition and does not end the journey: give it one, \
                      or end the journey with an exit or a direct steering stage",
-                    s.0,
+                    stage_name(s),
                     stages[s.0 as usize].kind()
                 )));
             }
@@ -388,9 +408,9 @@ impl Journey {
         }
         if let Some(s) = self.stages.iter().find(|s| !reaches.contains(s)) {
             return Err(invalid(format!(
-                "from stage {} no exit or direct steering stage can be reached: its agents would \
+                "from {} no exit or direct steering stage can be reached: its agents would \
                  walk the journey's cycle for ever",
-                s.0
+                stage_name(*s)
             )));
         }
         Ok(())

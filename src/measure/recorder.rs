@@ -361,7 +361,7 @@ impl Measurements {
         self.observe_areas(world, in_window(time));
         self.observations = now;
         self.last = Some((frame, time));
-        self.has_exits = !world.exits().is_empty();
+        self.has_exits = !world.exits().is_empty() || world.has_exit_stage();
         self.inside = world.len();
     }
 
@@ -485,14 +485,14 @@ impl Measurements {
         self.inside
     }
 
-    /// Whether the world had exits at the latest observation.
+    /// Whether the world had exits or exit stages at the latest observation.
     #[must_use]
     pub fn has_exits(&self) -> bool {
         self.has_exits
     }
 
-    /// The time at which the last agent left through an exit: `Some` only when the world has
-    /// exits, is empty, and somebody left while observed.
+    /// The time at which the last agent left through an exit (or an exit stage): `Some` only
+    /// when the world has exits or exit stages, is empty, and somebody left while observed.
     #[must_use]
     pub fn evacuation_time(&self) -> Option<f64> {
         if self.has_exits && self.inside == 0 {

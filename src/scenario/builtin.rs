@@ -41,6 +41,7 @@ pub const BUILTIN: &[(&str, &str)] = &[
         include_str!("../../scenarios/bottleneck.toml"),
     ),
     ("city", include_str!("../../scenarios/city.toml")),
+    ("concourse", include_str!("../../scenarios/concourse.toml")),
 ];
 
 /// The names of the built-in scenarios.

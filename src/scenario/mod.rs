@@ -3,7 +3,7 @@
 //! A scenario names the world (bounds, size or a target density, or a walkable area as WKT
 //! in `[geometry]`), the groups (how many agents,
 //! where they spawn, their movement model, limits and behaviours), the seed, the time step and the
-//! number of steps. Unknown keys are errors, reported with the file, line and column. The
+//! number of steps, and the stages and journeys its pedestrians walk. Unknown keys are errors, reported with the file, line and column. The
 //! built-in scenarios are the TOML files of the repository's `scenarios/` folder, embedded in the
 //! crate; `docs/SCENARIOS.md` documents every key.
 //!
@@ -34,6 +34,7 @@ pub use layout::Layout;
 pub use obstacles::{GravitySpec, ObstacleSpec, PolygonSpec, RandomCircles, RandomGravity};
 pub use overrides::set_path;
 pub use spec::{
-    AgentGoal, DensitySpec, GroupSpec, Scenario, Spawn, WorldKind, WorldScale, WorldSpec,
+    AgentGoal, DensitySpec, GroupSpec, JourneySpec, Scenario, Spawn, StageSpec, TransitionKind,
+    TransitionSpec, WorldKind, WorldScale, WorldSpec,
 };
 pub use transform::PlaneMap;

@@ -4,7 +4,7 @@
 //!
 //! Every coordinate the scenario holds is mapped: spawn regions and points, goals, behaviour
 //! targets and jump points, paths, target slots, obstacles (random ones drawn first and written
-//! out), gravity points and their motion, the walkable area, exits, the field's origin,
+//! out), gravity points and their motion, the walkable area, exits, stages, the field's origin,
 //! measurement lines and areas; a `[layout]` is written out first. What cannot be mapped is an
 //! error that says why: a walled world's walls stand at `0` and its size, so it cannot be
 //! translated, and it turns onto itself only about its centre (a square one) or mirrors only in
@@ -236,6 +236,12 @@ impl Scenario {
                     crate::world::Exit::rect(min, max)
                 }
             };
+        }
+        for (i, stage) in s.stages.iter_mut().enumerate() {
+            stage.map(|p| map.point(p)).map_err(|e| Error::Invalid {
+                name: format!("stages[{i}]"),
+                reason: e.to_string(),
+            })?;
         }
         for l in &mut s.measurements.lines {
             (l.from, l.to) = (map.point(l.from), map.point(l.to));

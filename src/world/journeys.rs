@@ -138,6 +138,13 @@ impl World {
         Ok(())
     }
 
+    /// Whether one of the world's stages is an exit (agents on journeys may leave the world).
+    #[must_use]
+    pub fn has_exit_stage(&self) -> bool {
+        (0..self.stage_count() as u32)
+            .any(|k| matches!(self.stage(StageId(k)), Ok(Stage::Exit { .. })))
+    }
+
     /// Per stage (by id), how many live agents target it and how many left through it.
     #[must_use]
     pub fn stage_counts(&self) -> Vec<StageCounts> {

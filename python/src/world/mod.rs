@@ -43,6 +43,9 @@ pub struct PyWorld {
     dt: f32,
     steps: u64,
     pool: Option<rayon::ThreadPool>,
+    /// The scenario's measurements (and the exits), observed at the build and after every
+    /// step.
+    measure: throng::measure::Measurements,
 }
 
 /// A rayon pool of `threads` workers, or none for rayon's global pool.
@@ -114,12 +117,16 @@ fn toml_source(obj: &Bound<'_, PyAny>) -> PyResult<Source> {
 impl PyWorld {
     fn new(s: &Scenario, threads: Option<i128>) -> PyResult<Self> {
         let pool = pool(threads)?;
+        let world = build(s)?;
+        let mut measure = throng::measure::Measurements::new(&s.measurements).or_raise()?;
+        measure.observe(&world);
         Ok(PyWorld {
-            world: build(s)?,
+            world,
             name: s.name.clone(),
             dt: s.dt,
             steps: s.steps,
             pool,
+            measure,
         })
     }
 

@@ -1,4 +1,5 @@
-//! Stepping a `throng.World` from Python: `step` and `trajectories`.
+//! Stepping a `throng.World` from Python: `step` and `trajectories`, and the measurements
+//! every step observes (`measurements`, `evacuation_time`).
 //!
 //! Steps run on the world's own rayon pool when it was built with `threads=`, else on rayon's
 //! global pool (all cores). A long run goes in slices of at most [`SLICE`] with the GIL
@@ -49,6 +50,7 @@ impl PyWorld {
         let mut last = None;
         while done < n {
             let world = &mut self.world;
+            let measure = &mut self.measure;
             let pool = self.pool.as_ref();
             let each = &mut each;
             let (k, stats, result) = guarded(|| {
@@ -59,6 +61,7 @@ impl PyWorld {
                         while done + k < n {
                             match world.step(dt) {
                                 Ok(s) => {
+                                    measure.observe(world);
                                     each(world, &s);
                                     stats = Some(s);
                                     k += 1;
@@ -143,6 +146,22 @@ impl PyWorld {
             }
         })?;
         t.into_frame(py)
+    }
+
+    /// The scenario's measurements since the world was built (`[measurements]` in the file),
+    /// as `bench` reports them: {"lines", "areas", "left"}, with `left` the agents that left
+    /// through an exit or an exit stage. Every step observes them, as `throng run` does.
+    fn measurements<'py>(&self, py: Python<'py>) -> PyResult<Bound<'py, PyAny>> {
+        let report = crate::convert::serialize_to_py(py, &self.measure.report(), false)?;
+        crate::bench::restore_nones(&report)?;
+        Ok(report)
+    }
+
+    /// The simulated time at which the last agent left through an exit or an exit stage;
+    /// `None` while agents remain, and in a world without exits or that nobody left.
+    #[getter]
+    fn evacuation_time(&self) -> Option<f64> {
+        self.measure.evacuation_time()
     }
 }
 

@@ -1,6 +1,7 @@
 //! The build of a [`World`] from a scenario ([`Scenario::build`] and its variants with a
 //! memory bound): validation and the memory check first, then the world's parts in a fixed
-//! order (index, targets, paths, obstacles, walkable area, exits, groups, field), the agents,
+//! order (index, targets, paths, obstacles, walkable area, exits, stages and journeys, groups,
+//! field), the agents (each on its group's journey),
 //! gravity, formations and the field's last pass.
 //!
 //! Invariant: nothing is built from a scenario that does not validate or whose estimate
@@ -72,6 +73,7 @@ impl Scenario {
         for e in &self.exits {
             world.add_exit(e.clone())?;
         }
+        self.add_journeys(&mut world)?;
         for g in &self.groups {
             world.add_group(g.params.clone())?;
         }

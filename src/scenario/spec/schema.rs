@@ -71,6 +71,14 @@ pub struct Scenario {
     /// The walkable area (`[geometry] walkable = "POLYGON (...)"`). Default: none.
     #[serde(default, skip_serializing_if = "Option::is_none")]
     pub geometry: Option<GeometrySpec>,
+    /// Stages (`[[stages]]`): waypoints, exits, queues, waiting sets and direct steering
+    /// stages, named for the journeys. Default: none.
+    #[serde(default, skip_serializing_if = "Vec::is_empty")]
+    pub stages: Vec<super::StageSpec>,
+    /// Journeys (`[[journeys]]`): stages chained by transitions, which groups walk with
+    /// their `journey` key. Default: none.
+    #[serde(default, skip_serializing_if = "Vec::is_empty")]
+    pub journeys: Vec<super::JourneySpec>,
 }
 
 fn no_measurements(m: &crate::measure::MeasurementSpec) -> bool {
@@ -277,6 +285,14 @@ pub struct GroupSpec {
     /// Each agent's own target point. Default: none (the start position).
     #[serde(default)]
     pub goal: Option<AgentGoal>,
+    /// The journey the group's agents walk, by name. With it, the profile's defaults are
+    /// those of [`Profile::journey_walkers`](crate::profile::Profile::journey_walkers) of the
+    /// group's pedestrian model. Default: none.
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub journey: Option<String>,
+    /// The stage of the journey the agents start at, by name. Default: the journey's first.
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub stage: Option<String>,
     /// The profile.
     #[serde(flatten)]
     pub params: GroupParams,
@@ -300,6 +316,10 @@ struct GroupPlacement {
     initial_speed: f32,
     #[serde(default)]
     goal: Option<AgentGoal>,
+    #[serde(default)]
+    journey: Option<String>,
+    #[serde(default)]
+    stage: Option<String>,
 }
 
 impl<'de> Deserialize<'de> for GroupSpec {
@@ -309,13 +329,34 @@ impl<'de> Deserialize<'de> for GroupSpec {
         use serde::de::Error as _;
         let mut table = toml::Table::deserialize(d)?;
         let mut placement = toml::Table::new();
-        for key in ["count", "fixed", "spawn", "initial_speed", "goal"] {
+        for key in [
+            "count",
+            "fixed",
+            "spawn",
+            "initial_speed",
+            "goal",
+            "journey",
+            "stage",
+        ] {
             if let Some(v) = table.remove(key) {
                 placement.insert(key.to_string(), v);
             }
         }
         let p = GroupPlacement::deserialize(toml::Value::Table(placement))
             .map_err(|e| D::Error::custom(e.message()))?;
+        if p.journey.is_some() {
+            // A group on a journey starts from the journey walkers' profile of its model.
+            let model = table
+                .get("pedestrian")
+                .and_then(|p| p.get("model"))
+                .and_then(toml::Value::as_str)
+                .and_then(crate::ped::Model::parse)
+                .unwrap_or_default();
+            let mut base = toml::Table::try_from(crate::profile::Profile::journey_walkers(model))
+                .map_err(|e| D::Error::custom(e.to_string()))?;
+            merge(&mut base, table);
+            table = base;
+        }
         let params = GroupParams::deserialize(toml::Value::Table(table))
             .map_err(|e| D::Error::custom(e.message()))?;
         Ok(GroupSpec {
@@ -324,8 +365,22 @@ impl<'de> Deserialize<'de> for GroupSpec {
             spawn: p.spawn,
             initial_speed: p.initial_speed,
             goal: p.goal,
+            journey: p.journey,
+            stage: p.stage,
             params,
         })
+    }
+}
+
+/// `over` written onto `base`, key by key: tables merged, anything else replaced.
+fn merge(base: &mut toml::Table, over: toml::Table) {
+    for (k, v) in over {
+        match (base.get_mut(&k), v) {
+            (Some(toml::Value::Table(b)), toml::Value::Table(o)) => merge(b, o),
+            (_, v) => {
+                base.insert(k, v);
+            }
+        }
     }
 }
 

@@ -1,5 +1,5 @@
 //! Spawning: where each group's agents start (every [`Spawn`] kind), their initial heading and
-//! speed, and their own goals.
+//! speed, and their own goals or journeys.
 //!
 //! Invariants: each group draws from its own random stream, derived from the seed and the
 //! group's index, so adding a group changes no other group's positions; explicitly placed
@@ -134,6 +134,11 @@ impl Scenario {
                 })?;
                 if let Some(goal) = &g.goal {
                     world.set_target(id, goal.of(position))?;
+                }
+                if let Some((journey, stage)) = self.journey_of(g) {
+                    world.set_journey(id, journey, stage).map_err(|e| {
+                        super::validate::at_path(format!("groups[{gi}].journey"), e)
+                    })?;
                 }
             }
         }

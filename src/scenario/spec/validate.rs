@@ -107,7 +107,7 @@ impl Scenario {
         if let Some(g) = &self.geometry {
             g.check_world(self.bounds()?)?;
         }
-        Ok(())
+        self.check_journeys()
     }
     /// Checks a group's spawn region and that the scenario has what it needs (a walled or
     /// wrapped world or a walkable area for `uniform`, a `[layout]`, a `[field]`).
