@@ -267,3 +267,11 @@ impl WorldBuilder {
         Ok(world)
     }
 }
+
+impl World {
+    /// A builder for a world.
+    #[must_use]
+    pub fn builder() -> WorldBuilder {
+        WorldBuilder::new()
+    }
+}

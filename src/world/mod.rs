@@ -22,6 +22,8 @@ mod exits;
 pub(crate) mod fields;
 mod formation;
 mod journeys;
+mod leave;
+mod scratch;
 mod state;
 mod stats;
 mod step;

@@ -7,7 +7,7 @@
 use glam::Vec2;
 
 use super::GroupParams;
-use super::step::Scratch;
+use super::scratch::Scratch;
 use crate::agents::{AgentId, AgentInit, Agents};
 use crate::bounds::Bounds;
 use crate::error::{Error, Result, finite, finite_vec, non_negative, positive};
@@ -90,12 +90,6 @@ pub struct World {
 }
 
 impl World {
-    /// A builder for a world.
-    #[must_use]
-    pub fn builder() -> super::WorldBuilder {
-        super::WorldBuilder::new()
-    }
-
     pub(crate) fn from_parts(groups: Vec<GroupParams>, bounds: Bounds, seed: u64) -> Self {
         World {
             agents: Agents::new(),

@@ -1,12 +1,13 @@
 //! A scenario as its file states it, in child modules by concern: the schema of its tables
 //! (`schema`), reading it from TOML (`parse`), the checks of every value (`validate`), agent
-//! counts and the world's size (`scale`), the memory estimate (`memory`), the build of a
+//! counts and the world's size (`scale`), a `[layout]` written out (`expand`), the memory estimate (`memory`), the build of a
 //! [`World`](crate::world::World) (`build`) and the placement of its agents (`spawn`).
 //!
 //! Invariant: a scenario is validated whole before anything is built, and the error names
 //! the first bad key with its path (`groups[2].spawn.count`).
 
 mod build;
+mod expand;
 mod memory;
 mod parse;
 mod scale;

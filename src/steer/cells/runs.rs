@@ -9,7 +9,7 @@
 use glam::Vec2;
 
 use super::CELL_CHUNK;
-use crate::steer::plan::{ALI, COH};
+use crate::steer::spec::{ALI, COH};
 use crate::steering::NeighbourSums;
 
 /// One agent's kernel sums, reduced: separation x and y, alignment x and y, alignment's count,
@@ -185,7 +185,7 @@ pub(super) mod tests {
 
     use super::*;
     use crate::steer::neighbours::{LANES, without_self};
-    use crate::steer::plan::{NeighbourSpec, SEP};
+    use crate::steer::spec::{NeighbourSpec, SEP};
 
     /// The bits of every sum.
     pub(in crate::steer::cells) fn bits(s: &NeighbourSums) -> [u32; 9] {
