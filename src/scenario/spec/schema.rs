@@ -12,7 +12,7 @@ use crate::scenario::fields::FieldSpec;
 use crate::scenario::layout::Layout;
 use crate::scenario::{FormationSpec, GeometrySpec, GravitySpec, ObstacleSpec};
 use crate::spatial::IndexKind;
-use crate::world::GroupParams;
+use crate::world::Profile;
 
 /// A whole simulation, as read from a TOML file.
 #[derive(Clone, Debug, PartialEq, Serialize, Deserialize)]
@@ -279,7 +279,7 @@ pub struct GroupSpec {
     pub goal: Option<AgentGoal>,
     /// The profile.
     #[serde(flatten)]
-    pub params: GroupParams,
+    pub params: Profile,
 }
 
 fn default_count() -> usize {
@@ -316,7 +316,7 @@ impl<'de> Deserialize<'de> for GroupSpec {
         }
         let p = GroupPlacement::deserialize(toml::Value::Table(placement))
             .map_err(|e| D::Error::custom(e.message()))?;
-        let params = GroupParams::deserialize(toml::Value::Table(table))
+        let params = Profile::deserialize(toml::Value::Table(table))
             .map_err(|e| D::Error::custom(e.message()))?;
         Ok(GroupSpec {
             count: p.count,
