@@ -5,7 +5,7 @@ use throng::prelude::*;
 
 #[path = "support/flocks.rs"]
 mod flocks;
-use flocks::flocking_group;
+use flocks::two_flocks;
 use throng::steering::{Neighbourhood, polarisation};
 use throng::{IndexKind, scenario};
 
@@ -375,21 +375,6 @@ fn the_cell_batch_matches_the_scalar_reference_for_groups_cones_and_walls() {
     // and on a torus: the grid's cell batch against the k-d tree's scalar traversal, to rounding.
     // The second group also seeks a point: a general plan, evaluated per agent over the sums
     // the cell batch computed for it.
-    let profile = |same_group: bool, view_cos: f32, r: f32, seek: bool| {
-        let mut steering = SteeringProfile::default();
-        if seek {
-            steering = steering.with(
-                Behaviour::Seek {
-                    target: Target::Point(Vec2::new(30.0, 20.0)),
-                    threshold: 0.0,
-                },
-                0.5,
-            );
-        }
-        flocking_group(steering, same_group, view_cos, r)
-    };
-    // Groups mixed in every cell, then in halves of the world (cells of one group's agents
-    // alone, which the batch sums straight from the grid's columns, and mixed cells between).
     for (bounds, halves) in [
         (Bounds::bounded(60.0, 40.0).unwrap(), false),
         (Bounds::torus(60.0, 40.0).unwrap(), false),
@@ -397,34 +382,8 @@ fn the_cell_batch_matches_the_scalar_reference_for_groups_cones_and_walls() {
         (Bounds::torus(60.0, 40.0).unwrap(), true),
     ] {
         let outputs = |kind: IndexKind| {
-            let mut b = World::builder()
-                .bounds(bounds)
-                .seed(8)
-                .group(profile(true, 0.3, 4.0, false))
-                .group(profile(false, -0.6, 3.0, true));
-            let mut rng = throng::rng::AgentRng::new(8, 0, 0, 5);
             // More agents than one parallel task of the batch takes: cells cut by tasks too.
-            for k in 0..5000 {
-                let p = Vec2::new(rng.unit() * 60.0, rng.unit() * 40.0);
-                let heading = rng.unit() * std::f32::consts::TAU;
-                // Every fifth agent at rest: it looks along its orientation.
-                let speed = if k % 5 == 0 { 0.0 } else { 2.0 };
-                b = b.agent(AgentInit {
-                    velocity: Vec2::from_angle(heading) * speed,
-                    orientation: heading,
-                    // Speed limits of their own: an output filed for the wrong agent shows.
-                    max_speed: Some(2.5 + (k % 4) as f32 * 0.5),
-                    ..AgentInit::at(
-                        p,
-                        if halves {
-                            usize::from(p.x > 30.0)
-                        } else {
-                            k % 2
-                        },
-                    )
-                });
-            }
-            let mut w = b.build().unwrap();
+            let mut w = two_flocks(bounds, halves, 5000, true);
             w.set_index(kind);
             let mut out = w.steering_outputs(DT).unwrap();
             out.sort_by_key(|(id, _)| *id);

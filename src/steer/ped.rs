@@ -482,6 +482,7 @@ fn agent(
         agent: a.ids[i].0,
         position: pos,
         radius: ped.cutoff(),
+        nearest: None,
         neighbours: b.js[..count].iter().map(|&j| a.ids[j as usize].0).collect(),
     });
 

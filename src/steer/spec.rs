@@ -1,7 +1,8 @@
 //! What a group asks of the fused neighbour traversal: the behaviour slots (separation,
 //! alignment, cohesion), the [`NeighbourSpec`] a plan compiles from its profile, and its
 //! flattened form ([`FlatSpec`]) that the per-agent grid kernel and the cell batch's kernels
-//! both read, so that the two flatten a spec in one place.
+//! both read, so that the two flatten a spec in one place; with the `oracle` feature, the
+//! record of a spec's sums for the neighbour oracle (so that `oracle` names nothing of `steer`).
 //!
 //! Invariant: slot `b` of every array is behaviour [`SEP`], [`ALI`] or [`COH`].
 
@@ -71,6 +72,36 @@ impl NeighbourSpec {
             r_sq: [0, 1, 2].map(|b| if self.on[b] { self.r_sq[b] } else { -1.0 }),
             cos: self.cos,
             any_group: self.same.map(|s| !s || one_group),
+        }
+    }
+}
+
+#[cfg(feature = "oracle")]
+impl NeighbourSpec {
+    /// The oracle's record of `sums` used by `model` for agent `id` at `position` under this
+    /// spec, in radii and cosines.
+    pub(crate) fn summed(
+        &self,
+        model: &'static str,
+        (agent, position): (u32, glam::Vec2),
+        sums: crate::steering::NeighbourSums,
+    ) -> crate::oracle::Summed {
+        crate::oracle::Summed {
+            model,
+            agent,
+            position,
+            query_radius: self.query_r,
+            hoods: [0, 1, 2].map(|b| {
+                self.on[b].then(|| crate::oracle::Hood {
+                    radius: self.r_sq[b].sqrt(),
+                    view_cos: self.cos[b],
+                    same_group: self.same[b],
+                })
+            }),
+            repulsion: self.repel.map(|(s, e, r_sq)| (s, e, r_sq.sqrt())),
+            vicsek_radius: self.vicsek_r_sq.map(f32::sqrt),
+            cap: self.cap,
+            sums,
         }
     }
 }

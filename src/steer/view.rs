@@ -223,7 +223,7 @@ impl SteerView<'_> {
                 .unwrap_or_else(|| Vec2::from_angle(orientation)),
             group: a.group[i],
         };
-        match (self.index, self.sorted) {
+        let sums = match (self.index, self.sorted) {
             (SpatialIndex::Grid(grid), Some(sorted)) if spec.kernel_ok() => neighbours::sums_grid(
                 grid,
                 sorted,
@@ -234,7 +234,10 @@ impl SteerView<'_> {
             ),
             _ => NEIGHBOURS
                 .with_borrow_mut(|buf| neighbours::sums_scalar(self.index, i, &me, spec, a, buf)),
-        }
+        };
+        #[cfg(feature = "oracle")]
+        crate::oracle::record_sums(spec.summed("summed", (a.ids[i].0, me.position), sums));
+        sums
     }
 }
 

@@ -164,7 +164,14 @@ impl CellOut {
     /// The neighbour sums the batch computed for agent `i` (storage index) of a summed group.
     #[inline]
     pub(crate) fn sums_of(&self, view: &SteerView, i: usize) -> &NeighbourSums {
-        &self.sums[ranks(view.index)[i].load(Ordering::Relaxed) as usize]
+        let sums = &self.sums[ranks(view.index)[i].load(Ordering::Relaxed) as usize];
+        #[cfg(feature = "oracle")]
+        {
+            let a = view.agents;
+            let spec = &view.plans[a.group[i] as usize].spec;
+            crate::oracle::record_sums(spec.summed("summed", (a.ids[i].0, a.position(i)), *sums));
+        }
+        sums
     }
 
     /// Copies agent `i`'s batched outputs into slot `k` of the per-agent output chunks.

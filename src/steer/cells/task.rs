@@ -284,6 +284,8 @@ pub(super) fn chunk(
         }
         out.settle_all(view, &order[base..end]);
         out.finish(view);
+        #[cfg(feature = "oracle")]
+        record(view, order, (xs, ys), base..end, out.runs);
         return;
     }
     let mut batch = Batch {
@@ -343,6 +345,45 @@ pub(super) fn chunk(
         }
     }
     out.finish(view);
+    #[cfg(feature = "oracle")]
+    record(view, order, (xs, ys), base..end, out.runs);
+}
+
+/// Records the sums every flocking and Vicsek agent of the task at grid positions `range` used
+/// (the `oracle` feature): the flocking sums without the agent itself, as the terms read them;
+/// the Vicsek headings and count with it.
+#[cfg(feature = "oracle")]
+fn record(
+    view: &SteerView,
+    order: &[u32],
+    (xs, ys): (&[f32], &[f32]),
+    range: std::ops::Range<usize>,
+    runs: &Runs,
+) {
+    for p in range.clone() {
+        let j = p - range.start;
+        let mark = runs.mark[j];
+        if mark == 0 {
+            continue;
+        }
+        let plan = &view.plans[mark as usize - 1];
+        let agent = (
+            view.agents.ids[order[p] as usize].0,
+            Vec2::new(xs[p], ys[p]),
+        );
+        let (model, sums) = match plan.kind {
+            PlanKind::Vicsek { .. } => (
+                "vicsek",
+                NeighbourSums {
+                    heading: Vec2::new(runs.ali[0][j], runs.ali[1][j]),
+                    count: runs.count[j],
+                    ..NeighbourSums::default()
+                },
+            ),
+            _ => ("flocking", runs.sums_at(j)),
+        };
+        crate::oracle::record_sums(plan.spec.summed(model, agent, sums));
+    }
 }
 
 /// The grid positions `range` cut at cell boundaries: `(cell, positions)` for each cell they

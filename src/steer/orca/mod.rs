@@ -444,6 +444,15 @@ fn filter(
         Hits::Ordered => b.near[q] as u32 as usize,
         Hits::All(_) => q,
     };
+    #[cfg(feature = "oracle")]
+    crate::oracle::record(crate::oracle::Seen {
+        model: "orca",
+        agent: id,
+        position: pos,
+        radius: r,
+        nearest: Some(k),
+        neighbours: (0..count).map(|q| ids[js[place(q)] as usize].0).collect(),
+    });
     let me = Pairs {
         view,
         orca,
