@@ -35,20 +35,20 @@ fn formations() -> World {
                 )
                 .unwrap(),
             )
-            .group(GroupParams {
+            .group(Profile {
                 max_speed: 4.0,
                 max_acceleration: 10.0,
-                ..GroupParams::dynamic(SteeringProfile::single(Behaviour::FollowPath {
+                ..Profile::dynamic(SteeringProfile::single(Behaviour::FollowPath {
                     path: PathId(k),
                     params: PathFollowParams::default(),
                 }))
             });
     }
     let members = 100;
-    b = b.group(GroupParams {
+    b = b.group(Profile {
         max_speed: 8.0,
         max_acceleration: 30.0,
-        ..GroupParams::dynamic(SteeringProfile::single(Behaviour::KeepFormation {
+        ..Profile::dynamic(SteeringProfile::single(Behaviour::KeepFormation {
             params: SlotParams::default(),
         }))
     });

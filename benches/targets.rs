@@ -13,7 +13,7 @@ fn world(n: usize) -> (World, TargetSlot) {
         .unwrap();
     let slot = w.add_target(Vec2::splat(500.0)).unwrap();
     let g = w
-        .add_group(GroupParams::kinematic(SteeringProfile::single(
+        .add_group(Profile::kinematic(SteeringProfile::single(
             Behaviour::seek(Target::Slot(slot)),
         )))
         .unwrap();

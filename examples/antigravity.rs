@@ -12,9 +12,9 @@ use throng::prelude::*;
 
 fn main() -> throng::Result<()> {
     let target = Vec2::new(380.0, 200.0);
-    let seeker = GroupParams {
+    let seeker = Profile {
         max_speed: 20.0,
-        ..GroupParams::kinematic(SteeringProfile::single(Behaviour::AntiGravitySeek {
+        ..Profile::kinematic(SteeringProfile::single(Behaviour::AntiGravitySeek {
             target: Target::Point(target),
         }))
     };

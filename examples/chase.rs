@@ -24,10 +24,10 @@ fn main() -> throng::Result<()> {
         .with(Behaviour::pursue(Target::Slot(player)), 2.0)
         .with(Behaviour::avoid_obstacles(), 1.0)
         .with(Behaviour::separation(1.0), 1.0);
-    let crowd = world.add_group(GroupParams {
+    let crowd = world.add_group(Profile {
         max_speed: 25.0,
         max_acceleration: 60.0,
-        ..GroupParams::dynamic(chase)
+        ..Profile::dynamic(chase)
     })?;
     let start = world.spawner(1, 0.5).disc(2_000, centre, 40.0)?;
     for a in agents(&start, crowd, 0.0, 1) {

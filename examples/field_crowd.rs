@@ -32,11 +32,11 @@ fn main() -> throng::Result<()> {
             },
             0.3,
         );
-    let group = GroupParams {
+    let group = Profile {
         max_speed: 6.0,
         max_acceleration: 30.0,
         radius: 0.25,
-        ..GroupParams::dynamic(crowd)
+        ..Profile::dynamic(crowd)
     };
     let agents = starts
         .iter()

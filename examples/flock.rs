@@ -29,10 +29,10 @@ fn main() -> throng::Result<()> {
             },
             0.8,
         );
-    let group = GroupParams {
+    let group = Profile {
         max_speed: 4.0,
         max_acceleration: 8.0,
-        ..GroupParams::dynamic(boids)
+        ..Profile::dynamic(boids)
     };
     // About 18 neighbours within the 5-unit flocking radius.
     let side = (5_000.0 * std::f32::consts::PI * 25.0 / 18.0_f32).sqrt();

@@ -16,7 +16,7 @@
 //! let arrive = SteeringProfile::single(Behaviour::Arrive { target: Target::Point(target), params: ArriveParams::default() });
 //! let mut world = World::builder()
 //!     .bounds(Bounds::bounded(100.0, 100.0)?)
-//!     .group(GroupParams { max_speed: 5.0, max_acceleration: 10.0, ..GroupParams::dynamic(arrive) })
+//!     .group(Profile { max_speed: 5.0, max_acceleration: 10.0, ..Profile::dynamic(arrive) })
 //!     .agent(AgentInit::at(Vec2::new(10.0, 10.0), 0))
 //!     .build()?;
 //! // An agent's id is stable; its storage index changes as the world reorders its agents.
@@ -34,7 +34,7 @@
 //! - [`agents`]: SoA storage with stable [`AgentId`]s.
 //! - [`movement`]: the kinematic and dynamic models and the vectorised integrator.
 //! - [`steering`]: behaviours as pure functions and as data, and their combination.
-//! - [`profile`]: [`Profile`](profile::Profile), what the agents of a group share.
+//! - [`profile`]: [`Profile`], what the agents of a group share.
 //! - [`spatial`]: the neighbour-index contract and its grid, k-d tree and brute-force backends.
 //! - [`field`]: occupancy grids, BFS potential, Dijkstra integration and flow fields, walkers.
 //! - [`obstacles`]: circles and walls, their avoidance and non-penetration.
@@ -43,7 +43,7 @@
 //! - [`orca`]: optimal reciprocal collision avoidance, a velocity filter for crowds.
 //! - [`gravity`]: anti-gravity points and the force they exert.
 //! - [`group`]: group movement: path following, leader following, formations, jumps.
-//! - [`world`]: [`World`], [`WorldBuilder`], [`GroupParams`], the step pipeline and [`StepStats`].
+//! - [`world`]: [`World`], [`WorldBuilder`], the step pipeline and [`StepStats`].
 //! - [`scenario`]: scenario files and the built-in scenarios.
 //! - [`measure`]: pedestrian measurements: flow through lines, density and speed in areas,
 //!   evacuation time.
@@ -58,7 +58,7 @@
 //! - [`rng`]: the counter-based random stream keyed by (seed, agent, frame).
 //! - [`timing`]: step timings, run summaries and the benchmark report.
 //! - [`error`]: the [`Error`] type.
-//! - `lines` (internal): cache lines and the vector loops over long columns.
+//! - `cache_lines` (internal): cache lines and the vector loops over long columns.
 //! - `simd` (internal): the processors the SIMD kernels are compiled for, each list in one place.
 //!
 //! ## Features
@@ -69,6 +69,7 @@
 
 pub mod agents;
 pub mod bounds;
+mod cache_lines;
 pub mod checkpoint;
 pub mod error;
 pub mod field;
@@ -78,7 +79,6 @@ pub mod group;
 mod id;
 pub mod journey;
 pub mod limits;
-mod lines;
 pub mod measure;
 pub mod movement;
 pub mod obstacles;
@@ -111,11 +111,14 @@ pub use field::{
     FlowField, GoalChannels, GridWalkers, IntegrationField, OccupancyGrid, PotentialField,
 };
 pub use geometry::Walkable;
+pub use profile::Profile;
 pub use spatial::{
     BruteIndex, GridIndex, HashGrid, IndexKind, KdTreeIndex, Neighbour, NeighbourIndex,
     SpatialIndex,
 };
-pub use world::{GroupParams, StepStats, World, WorldBuilder};
+#[allow(deprecated)]
+pub use world::GroupParams;
+pub use world::{StepStats, World, WorldBuilder};
 
 /// The types most programs need, for `use throng::prelude::*`.
 pub mod prelude {
@@ -125,13 +128,16 @@ pub mod prelude {
     pub use crate::geometry::Walkable;
     pub use crate::movement::{MovementModel, OrientationMode};
     pub use crate::obstacles::{Circle, Obstacles};
+    pub use crate::profile::Profile;
     pub use crate::spawn::{Spawner, agents};
     pub use crate::steering::{
         ArriveParams, Behaviour, Combine, Neighbourhood, Steering, SteeringProfile, Target,
         WanderParams, Weighted,
     };
     pub use crate::targets::{TargetPoint, TargetSlot};
-    pub use crate::world::{AgentState, GroupParams, StepStats, World, WorldBuilder};
+    #[allow(deprecated)]
+    pub use crate::world::GroupParams;
+    pub use crate::world::{AgentState, StepStats, World, WorldBuilder};
     pub use glam::Vec2;
 }
 

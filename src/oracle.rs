@@ -70,34 +70,6 @@ pub struct Summed {
     pub sums: NeighbourSums,
 }
 
-impl Summed {
-    /// The record of `sums` used by `model` for agent `id` at `position` under `spec`.
-    pub(crate) fn of(
-        model: &'static str,
-        (agent, position): (u32, Vec2),
-        spec: &crate::steer::plan::NeighbourSpec,
-        sums: NeighbourSums,
-    ) -> Summed {
-        Summed {
-            model,
-            agent,
-            position,
-            query_radius: spec.query_r,
-            hoods: [0, 1, 2].map(|b| {
-                spec.on[b].then(|| Hood {
-                    radius: spec.r_sq[b].sqrt(),
-                    view_cos: spec.cos[b],
-                    same_group: spec.same[b],
-                })
-            }),
-            repulsion: spec.repel.map(|(s, e, r_sq)| (s, e, r_sq.sqrt())),
-            vicsek_radius: spec.vicsek_r_sq.map(f32::sqrt),
-            cap: spec.cap,
-            sums,
-        }
-    }
-}
-
 static LOG: Mutex<Vec<Seen>> = Mutex::new(Vec::new());
 static SUMS: Mutex<Vec<Summed>> = Mutex::new(Vec::new());
 

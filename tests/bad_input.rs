@@ -5,7 +5,7 @@ use throng::prelude::*;
 fn world() -> World {
     World::builder()
         .bounds(Bounds::bounded(10.0, 10.0).unwrap())
-        .group(GroupParams::default())
+        .group(Profile::default())
         .agent(AgentInit::at(Vec2::new(1.0, 1.0), 0))
         .build()
         .unwrap()
@@ -47,9 +47,9 @@ fn nan_and_infinite_numbers_are_rejected() {
         .set_target(AgentId(0), Vec2::new(f32::NEG_INFINITY, 0.0))
         .unwrap_err();
     assert!(matches!(err, Error::NonFinite { .. }));
-    let g = GroupParams {
+    let g = Profile {
         max_speed: f32::NAN,
-        ..GroupParams::default()
+        ..Profile::default()
     };
     assert!(matches!(
         w.add_group(g),
@@ -63,7 +63,7 @@ fn nan_and_infinite_numbers_are_rejected() {
         threshold: 0.0,
     });
     assert!(matches!(
-        w.add_group(GroupParams::dynamic(seek)),
+        w.add_group(Profile::dynamic(seek)),
         Err(Error::NonFinite { name: "target", .. })
     ));
     assert_eq!(w.len(), 1, "nothing was added");
@@ -72,9 +72,9 @@ fn nan_and_infinite_numbers_are_rejected() {
 #[test]
 fn negative_radii_and_distances_are_rejected() {
     let mut w = world();
-    let g = GroupParams {
+    let g = Profile {
         radius: -1.0,
-        ..GroupParams::default()
+        ..Profile::default()
     };
     let err = w.add_group(g).unwrap_err();
     assert!(
@@ -97,7 +97,7 @@ fn negative_radii_and_distances_are_rejected() {
         panic_distance: -3.0,
     });
     assert!(matches!(
-        w.add_group(GroupParams::dynamic(flee)),
+        w.add_group(Profile::dynamic(flee)),
         Err(Error::Negative {
             name: "flee.panic_distance",
             ..
@@ -109,9 +109,9 @@ fn negative_radii_and_distances_are_rejected() {
 fn zero_or_negative_limits_are_rejected() {
     let mut w = world();
     assert!(matches!(
-        w.add_group(GroupParams {
+        w.add_group(Profile {
             max_speed: 0.0,
-            ..GroupParams::default()
+            ..Profile::default()
         }),
         Err(Error::NotPositive {
             name: "max_speed",
@@ -119,9 +119,9 @@ fn zero_or_negative_limits_are_rejected() {
         })
     ));
     assert!(matches!(
-        w.add_group(GroupParams {
+        w.add_group(Profile {
             max_acceleration: -1.0,
-            ..GroupParams::default()
+            ..Profile::default()
         }),
         Err(Error::NotPositive {
             name: "max_acceleration",
@@ -142,16 +142,16 @@ fn zero_or_negative_limits_are_rejected() {
 fn zero_mass_is_rejected() {
     let mut w = world();
     assert!(matches!(
-        w.add_group(GroupParams {
+        w.add_group(Profile {
             mass: 0.0,
-            ..GroupParams::default()
+            ..Profile::default()
         }),
         Err(Error::ZeroMass { .. })
     ));
     let err = World::builder()
-        .group(GroupParams {
+        .group(Profile {
             mass: -1.0,
-            ..GroupParams::default()
+            ..Profile::default()
         })
         .build()
         .unwrap_err();
@@ -188,7 +188,7 @@ fn unknown_ids_and_groups_are_rejected() {
         Err(Error::UnknownGroup { group: 3, count: 1 })
     ));
     assert!(matches!(
-        w.set_group_params(9, GroupParams::default()),
+        w.set_group_params(9, Profile::default()),
         Err(Error::UnknownGroup { .. })
     ));
 }
@@ -214,7 +214,7 @@ fn bad_behaviour_parameters_are_rejected() {
         },
     });
     assert!(matches!(
-        w.add_group(GroupParams::dynamic(arrive)),
+        w.add_group(Profile::dynamic(arrive)),
         Err(Error::NotPositive {
             name: "arrive.time_to_target",
             ..
@@ -230,7 +230,7 @@ fn bad_behaviour_parameters_are_rejected() {
         combine: Combine::WeightedSum,
     };
     assert!(matches!(
-        w.add_group(GroupParams::dynamic(weight)),
+        w.add_group(Profile::dynamic(weight)),
         Err(Error::NonFinite { name: "weight", .. })
     ));
 }
@@ -253,7 +253,7 @@ fn set_group_params_refuses_a_field_or_group_the_world_does_not_have() {
             threshold: 0.0,
         },
     ] {
-        let p = GroupParams::dynamic(SteeringProfile::single(behaviour));
+        let p = Profile::dynamic(SteeringProfile::single(behaviour));
         let err = w.set_group_params(0, p).unwrap_err();
         assert!(
             matches!(err, Error::UnknownField { .. } | Error::UnknownGroup { .. }),
@@ -271,7 +271,7 @@ fn references_to_missing_fields_and_groups_are_rejected_at_the_step() {
         channel: 2,
     });
     let mut w = World::builder()
-        .group(GroupParams::dynamic(follow))
+        .group(Profile::dynamic(follow))
         .agent(AgentInit::default())
         .build()
         .unwrap();
@@ -298,7 +298,7 @@ fn references_to_missing_fields_and_groups_are_rejected_at_the_step() {
         threshold: 0.0,
     });
     let mut w = World::builder()
-        .group(GroupParams::dynamic(hunt))
+        .group(Profile::dynamic(hunt))
         .agent(AgentInit::default())
         .build()
         .unwrap();
@@ -313,11 +313,11 @@ fn extreme_but_valid_values_keep_the_buffers_finite() {
     // A repelling point almost exactly on an agent (an overflowing force), a tiny mass, an
     // attracting point at the same spot for a kinematic group, and the largest time step.
     use throng::gravity::GravityPoint;
-    let push = GroupParams {
+    let push = Profile {
         mass: 1e-30,
-        ..GroupParams::dynamic(SteeringProfile::single(Behaviour::AntiGravity))
+        ..Profile::dynamic(SteeringProfile::single(Behaviour::AntiGravity))
     };
-    let pull = GroupParams::kinematic(SteeringProfile::single(Behaviour::AntiGravity));
+    let pull = Profile::kinematic(SteeringProfile::single(Behaviour::AntiGravity));
     let mut w = World::builder()
         .group(push)
         .group(pull)
@@ -358,9 +358,9 @@ fn extreme_but_valid_values_keep_the_buffers_finite() {
         "beyond the largest dt"
     );
     assert!(matches!(
-        w.add_group(GroupParams {
+        w.add_group(Profile {
             max_speed: 1e20,
-            ..GroupParams::default()
+            ..Profile::default()
         }),
         Err(Error::OutOfRange {
             name: "max_speed",
@@ -389,8 +389,8 @@ fn huge_weights_saturate_instead_of_vanishing_or_turning_nan() {
         ..profile
     };
     for g in [
-        GroupParams::dynamic(profile.clone()),
-        GroupParams::kinematic(profile),
+        Profile::dynamic(profile.clone()),
+        Profile::kinematic(profile),
     ] {
         let mut w = World::builder()
             .group(g)

@@ -81,7 +81,7 @@ fn every_builtin_scenario_resumes_bit_for_bit_on_one_and_two_threads() {
 /// gravity points (one riding on an agent), a field with a dirty channel, goal shuffles, walkers
 /// and arrivals.
 fn everything_world(agents: usize) -> (World, f32) {
-    let wander = GroupParams::dynamic(
+    let wander = Profile::dynamic(
         SteeringProfile::single(Behaviour::Wander {
             params: WanderParams::default(),
         })
@@ -93,7 +93,7 @@ fn everything_world(agents: usize) -> (World, f32) {
             1.0,
         ),
     );
-    let flock = GroupParams::dynamic(
+    let flock = Profile::dynamic(
         SteeringProfile::single(Behaviour::Separation {
             hood: Neighbourhood::radius(3.0),
         })
@@ -110,17 +110,17 @@ fn everything_world(agents: usize) -> (World, f32) {
             0.5,
         ),
     );
-    let follow = GroupParams {
+    let follow = Profile {
         max_speed: 3.0,
-        ..GroupParams::kinematic(SteeringProfile::single(Behaviour::FollowField {
+        ..Profile::kinematic(SteeringProfile::single(Behaviour::FollowField {
             field: 0,
             channel: 0,
         }))
     };
-    let keep = GroupParams::dynamic(SteeringProfile::single(Behaviour::KeepFormation {
+    let keep = Profile::dynamic(SteeringProfile::single(Behaviour::KeepFormation {
         params: Default::default(),
     }));
-    let walk = GroupParams::kinematic(SteeringProfile::single(Behaviour::FollowField {
+    let walk = Profile::kinematic(SteeringProfile::single(Behaviour::FollowField {
         field: 0,
         channel: 1,
     }));
@@ -450,7 +450,7 @@ fn a_speed_other_than_the_groups_in_a_file_is_the_agents_own() {
 #[test]
 fn a_checkpoint_written_before_walkable_areas_and_polygon_exits_loads() {
     let mut world = World::builder()
-        .group(GroupParams::default())
+        .group(Profile::default())
         .agent(AgentInit::at(Vec2::new(1.0, 1.0), 0))
         .build()
         .unwrap();

@@ -10,16 +10,16 @@ mod flocks;
 use flocks::flocking_group;
 
 fn mixed_world(n: usize) -> World {
-    let wander = GroupParams::dynamic(SteeringProfile::single(Behaviour::Wander {
+    let wander = Profile::dynamic(SteeringProfile::single(Behaviour::Wander {
         params: WanderParams::default(),
     }));
-    let kin_wander = GroupParams {
+    let kin_wander = Profile {
         orientation: OrientationMode::Integrate,
-        ..GroupParams::kinematic(SteeringProfile::single(Behaviour::Wander {
+        ..Profile::kinematic(SteeringProfile::single(Behaviour::Wander {
             params: WanderParams::default(),
         }))
     };
-    let chase = GroupParams::dynamic(
+    let chase = Profile::dynamic(
         SteeringProfile::single(Behaviour::Pursue {
             target: Target::Agent(AgentId(0)),
             max_prediction: 1.0,
@@ -33,9 +33,9 @@ fn mixed_world(n: usize) -> World {
         )
         .combined(Combine::Priority),
     );
-    let arrive = GroupParams {
+    let arrive = Profile {
         drag: 0.3,
-        ..GroupParams::dynamic(SteeringProfile::single(Behaviour::Arrive {
+        ..Profile::dynamic(SteeringProfile::single(Behaviour::Arrive {
             target: Target::Own,
             params: ArriveParams::default(),
         }))
@@ -135,10 +135,10 @@ fn parallel_flock_step_equals_the_sequential_reference() {
             },
             0.5,
         );
-        let params = |profile| GroupParams {
+        let params = |profile| Profile {
             max_speed: 4.0,
             max_acceleration: 8.0,
-            ..GroupParams::dynamic(profile)
+            ..Profile::dynamic(profile)
         };
         let mut b = World::builder()
             .bounds(Bounds::torus(110.0, 110.0).unwrap())
@@ -177,13 +177,13 @@ fn a_flock_with_orca_or_a_pedestrian_model_steps_as_the_sequential_reference() {
         .with(Behaviour::Separation { hood }, 1.5)
         .with(Behaviour::Alignment { hood }, 1.0)
         .with(Behaviour::Cohesion { hood }, 0.8);
-    let orca = GroupParams {
+    let orca = Profile {
         orca: Some(Orca::default()),
-        ..GroupParams::dynamic(profile.clone())
+        ..Profile::dynamic(profile.clone())
     };
-    let ped = GroupParams {
+    let ped = Profile {
         pedestrian: Some(Pedestrian::new(Model::SocialForce)),
-        ..GroupParams::dynamic(profile)
+        ..Profile::dynamic(profile)
     };
     for (group, bounds) in [
         (orca, Bounds::torus(60.0, 60.0).unwrap()),
@@ -218,10 +218,10 @@ fn parallel_step_equals_the_sequential_reference_against_walls() {
         let mut b = World::builder()
             .bounds(Bounds::bounded(60.0, 60.0).unwrap())
             .seed(9)
-            .group(GroupParams::dynamic(SteeringProfile::single(
+            .group(Profile::dynamic(SteeringProfile::single(
                 Behaviour::wander(),
             )))
-            .group(GroupParams::kinematic(SteeringProfile::single(
+            .group(Profile::kinematic(SteeringProfile::single(
                 Behaviour::wander(),
             )));
         for i in 0..5003 {
@@ -265,7 +265,7 @@ fn groups_in_halves_give_the_same_bits_on_any_thread_count_and_sequentially() {
             .seed(8)
             .group(profile(true, 0.3, 4.0))
             .group(profile(false, -0.6, 3.0))
-            .group(GroupParams::dynamic(SteeringProfile::single(
+            .group(Profile::dynamic(SteeringProfile::single(
                 Behaviour::wander(),
             )));
         let mut rng = throng::rng::AgentRng::new(8, 0, 0, 5);

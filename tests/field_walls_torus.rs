@@ -9,9 +9,9 @@ fn world(map: &str, x: f32, vx: f32) -> World {
     let grid = OccupancyGrid::parse_ascii(map, "<map>").unwrap().grid;
     let mut channels = GoalChannels::new(grid, 0.9, Neighbourhood::Eight).unwrap();
     channels.add_channel(&[(2, 1)]).unwrap();
-    let coast = GroupParams {
+    let coast = Profile {
         max_speed: 5.0,
-        ..GroupParams::dynamic(SteeringProfile::default())
+        ..Profile::dynamic(SteeringProfile::default())
     };
     let mut w = World::builder()
         .bounds(Bounds::torus(10.0, 4.0).unwrap())

@@ -35,10 +35,10 @@ fn flock_world(n: usize, sep: f32, ali: f32, coh: f32, seed: u64) -> World {
         },
         coh,
     );
-    let g = GroupParams {
+    let g = Profile {
         max_speed: 4.0,
         max_acceleration: 8.0,
-        ..GroupParams::dynamic(profile)
+        ..Profile::dynamic(profile)
     };
     // About 18 neighbours within 5 units.
     let side = (n as f32 * std::f32::consts::PI * 25.0 / 18.0).sqrt();
@@ -103,11 +103,11 @@ fn min_pairwise_distance(w: &World) -> f32 {
 #[test]
 fn separation_spreads_a_dense_start() {
     let radius = 2.0;
-    let g = GroupParams {
+    let g = Profile {
         max_speed: 3.0,
         max_acceleration: 10.0,
         drag: 1.0,
-        ..GroupParams::dynamic(SteeringProfile::single(Behaviour::Separation {
+        ..Profile::dynamic(SteeringProfile::single(Behaviour::Separation {
             hood: Neighbourhood::radius(radius),
         }))
     };
@@ -205,7 +205,7 @@ fn nearest_distances(w: &World) -> Vec<f32> {
 fn the_groups_max_speed_and_the_agents_own_steer_alike() {
     let run = |own: bool| {
         let mut w = flock_world(800, 1.5, 1.0, 0.8, 5);
-        let params = GroupParams {
+        let params = Profile {
             max_speed: 3.0,
             ..w.groups()[0].clone()
         };

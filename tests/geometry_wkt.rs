@@ -151,7 +151,7 @@ fn a_field_following_agent_reaches_the_end_of_an_l_shaped_corridor() {
 #[test]
 fn polygon_exits_remove_agents_inside_the_polygon_only() {
     let mut world = World::builder()
-        .group(GroupParams::default())
+        .group(Profile::default())
         .agent(AgentInit::at(Vec2::new(0.2, 0.2), 0))
         .agent(AgentInit::at(Vec2::new(0.8, 0.8), 0))
         .build()
@@ -285,7 +285,7 @@ fn checkpoints_keep_the_area_and_polygon_exits() {
 #[test]
 fn set_walkable_adds_closed_wall_chains_once() {
     let mut world = World::builder()
-        .group(GroupParams::default())
+        .group(Profile::default())
         .agent(AgentInit::at(Vec2::new(1.0, 1.0), 0))
         .build()
         .unwrap();

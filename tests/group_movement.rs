@@ -35,14 +35,14 @@ fn path_followers_stay_inside_the_radius_and_advance_around_the_loop() {
     let mut b = World::builder()
         .bounds(Bounds::bounded(400.0, 400.0).unwrap())
         .path(path.clone())
-        .group(GroupParams {
+        .group(Profile {
             max_speed: 12.0,
             max_acceleration: 30.0,
-            ..GroupParams::dynamic(follow.clone())
+            ..Profile::dynamic(follow.clone())
         })
-        .group(GroupParams {
+        .group(Profile {
             max_speed: 10.0,
-            ..GroupParams::kinematic(follow)
+            ..Profile::kinematic(follow)
         });
     for k in 0..200 {
         let f = k as f32;
@@ -101,17 +101,17 @@ fn path_followers_stay_inside_the_radius_and_advance_around_the_loop() {
 
 fn formation_world(shape: FormationShape, members: usize) -> (World, FormationId) {
     // The anchor is kinematic and seeks its own target at speed 3.
-    let anchor = GroupParams {
+    let anchor = Profile {
         max_speed: 3.0,
-        ..GroupParams::kinematic(SteeringProfile::single(Behaviour::Seek {
+        ..Profile::kinematic(SteeringProfile::single(Behaviour::Seek {
             target: Target::Own,
             threshold: 0.5,
         }))
     };
-    let keep = GroupParams {
+    let keep = Profile {
         max_speed: 8.0,
         max_acceleration: 30.0,
-        ..GroupParams::dynamic(SteeringProfile::single(Behaviour::KeepFormation {
+        ..Profile::dynamic(SteeringProfile::single(Behaviour::KeepFormation {
             params: SlotParams::default(),
         }))
     };
@@ -218,9 +218,9 @@ fn the_follow_leader_plan_equals_the_general_loop_bit_for_bit() {
                 } else {
                     Behaviour::seek(Target::Point(Vec2::new(45.0, 35.0)))
                 };
-                let leaders = GroupParams {
+                let leaders = Profile {
                     max_speed: 4.0,
-                    ..GroupParams::dynamic(SteeringProfile::single(lead))
+                    ..Profile::dynamic(SteeringProfile::single(lead))
                 };
                 let mut b = World::builder().bounds(bounds).seed(21).group(leaders);
                 let mut rng = throng::rng::AgentRng::new(21, 0, 0, 5);
@@ -257,12 +257,12 @@ fn the_follow_leader_plan_equals_the_general_loop_bit_for_bit() {
                     if general {
                         profile = profile.with(Behaviour::look_where_you_are_going(), 1.0);
                     }
-                    b = b.group(GroupParams {
+                    b = b.group(Profile {
                         model,
                         max_speed: 6.0,
                         max_acceleration: 12.0,
                         mass,
-                        ..GroupParams::dynamic(profile)
+                        ..Profile::dynamic(profile)
                     });
                     for k in 0..SQUAD {
                         // Every tenth follower starts at rest.
@@ -482,11 +482,11 @@ fn jump_world(model: MovementModel, start: Vec2) -> (World, Vec2, Vec2, JumpPara
         landing,
         params,
     });
-    let g = GroupParams {
+    let g = Profile {
         model,
         max_speed: 12.0,
         max_acceleration: 20.0,
-        ..GroupParams::dynamic(jump)
+        ..Profile::dynamic(jump)
     };
     let w = World::builder()
         .group(g)
@@ -557,9 +557,9 @@ fn impossible_jumps_are_reported_not_attempted() {
         },
     };
     // 30 units in 1 s needs speed 30; the group has 8.
-    let g = GroupParams {
+    let g = Profile {
         max_speed: 8.0,
-        ..GroupParams::dynamic(SteeringProfile::single(jump.clone()))
+        ..Profile::dynamic(SteeringProfile::single(jump.clone()))
     };
     let err = World::builder().group(g.clone()).build().unwrap_err();
     assert!(matches!(err, Error::Impossible { .. }), "{err}");
@@ -567,9 +567,9 @@ fn impossible_jumps_are_reported_not_attempted() {
     assert!(matches!(w.add_group(g), Err(Error::Impossible { .. })));
     // Possible for the group, impossible for an agent with a lower own maximum speed: reported
     // by `jump_plan`, and the agent is not steered.
-    let fast = GroupParams {
+    let fast = Profile {
         max_speed: 40.0,
-        ..GroupParams::dynamic(SteeringProfile::single(jump))
+        ..Profile::dynamic(SteeringProfile::single(jump))
     };
     let gi = w.add_group(fast).unwrap();
     let id = w
@@ -606,7 +606,7 @@ fn bad_group_parameters_are_errors() {
         Err(Error::Invalid { .. })
     ));
     // A path id that names no path.
-    let follow = GroupParams::dynamic(SteeringProfile::single(Behaviour::FollowPath {
+    let follow = Profile::dynamic(SteeringProfile::single(Behaviour::FollowPath {
         path: PathId(3),
         params: PathFollowParams::default(),
     }));
@@ -618,7 +618,7 @@ fn bad_group_parameters_are_errors() {
     assert!(err.to_string().contains("no path 3"), "{err}");
     // Formations: no slots, bad spacing, anchor as member, duplicates, too many for a custom shape.
     let mut w = World::builder()
-        .group(GroupParams::default())
+        .group(Profile::default())
         .agents((0..4).map(|k| AgentInit::at(Vec2::new(k as f32, 0.0), 0)))
         .build()
         .unwrap();

@@ -36,7 +36,7 @@ fn slot_world() -> (World, TargetSlot, TargetSlot) {
         .with(Behaviour::separation(2.0), 1.0);
     let other = SteeringProfile::single(Behaviour::seek(Target::Slot(s1)));
     for p in [alone, mixed, other] {
-        let g = w.add_group(GroupParams::kinematic(p)).unwrap();
+        let g = w.add_group(Profile::kinematic(p)).unwrap();
         let pts = Spawner::new(g as u64)
             .rect(40, Vec2::new(30.0, 10.0), Vec2::new(70.0, 50.0))
             .unwrap();
@@ -94,7 +94,7 @@ fn a_slot_target_equals_the_same_fixed_point() {
     .into_iter()
     .enumerate()
     {
-        points.add_group(GroupParams::kinematic(p)).unwrap();
+        points.add_group(Profile::kinematic(p)).unwrap();
         let pts = Spawner::new(g as u64)
             .rect(40, Vec2::new(30.0, 10.0), Vec2::new(70.0, 50.0))
             .unwrap();
@@ -117,7 +117,7 @@ fn pursuit_of_a_slot_predicts_with_its_velocity() {
             .add_target_point(TargetPoint::at(Vec2::new(20.0, 0.0)).moving(velocity))
             .unwrap();
         let g = w
-            .add_group(GroupParams::kinematic(SteeringProfile::single(
+            .add_group(Profile::kinematic(SteeringProfile::single(
                 Behaviour::pursue(Target::Slot(s)),
             )))
             .unwrap();
@@ -134,9 +134,9 @@ fn pursuit_of_a_slot_predicts_with_its_velocity() {
 #[test]
 fn bad_slots_and_bad_points_are_errors() {
     let mut w = World::builder().build().unwrap();
-    let seek_missing = GroupParams::kinematic(SteeringProfile::single(Behaviour::seek(
-        Target::Slot(TargetSlot(0)),
-    )));
+    let seek_missing = Profile::kinematic(SteeringProfile::single(Behaviour::seek(Target::Slot(
+        TargetSlot(0),
+    ))));
     assert!(matches!(
         w.add_group(seek_missing.clone()),
         Err(Error::UnknownTarget { slot: 0, count: 0 })
@@ -195,12 +195,12 @@ fn scene_parts() -> (Vec<Circle>, Vec<Wall>, GoalChannels, GravityPoint) {
     (circles, walls, channels, gravity)
 }
 
-fn scene_groups() -> Vec<GroupParams> {
+fn scene_groups() -> Vec<Profile> {
     let seek = SteeringProfile::single(Behaviour::follow_field(0, 0))
         .with(Behaviour::avoid_obstacles(), 2.0)
         .with(Behaviour::anti_gravity(), 1.0)
         .with(Behaviour::separation(1.5), 1.0);
-    vec![GroupParams::dynamic(seek)]
+    vec![Profile::dynamic(seek)]
 }
 
 #[test]
@@ -293,9 +293,9 @@ fn priority_scales_each_request_by_its_weight_before_the_budget() {
             .with(Behaviour::seek(Target::Point(Vec2::new(0.0, 100.0))), 1.0)
             .combined(combine);
         let mut w = World::builder()
-            .group(GroupParams {
+            .group(Profile {
                 max_speed: 4.0,
-                ..GroupParams::kinematic(p)
+                ..Profile::kinematic(p)
             })
             .agent(AgentInit::at(Vec2::ZERO, 0))
             .build()
@@ -491,4 +491,14 @@ fn target_slots_survive_a_checkpoint() {
         loaded.step(DT).unwrap();
     }
     assert_eq!(state(&w), state(&loaded));
+}
+
+/// `GroupParams`, the former name of `Profile`, still compiles where users wrote it, as a
+/// deprecated alias at the crate's root, in the prelude and in `world`.
+#[test]
+#[allow(deprecated)]
+fn the_former_name_of_profile_still_compiles() {
+    let p: throng::GroupParams = throng::Profile::default();
+    let q: throng::prelude::GroupParams = throng::world::GroupParams::default();
+    assert_eq!(p, q);
 }

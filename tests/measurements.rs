@@ -14,9 +14,9 @@ use throng::world::Exit;
 
 /// A world whose agents stand still unless moved (kinematic, no behaviours).
 fn still_world(bounds: Bounds, positions: &[Vec2]) -> World {
-    let mut b = World::builder().bounds(bounds).group(GroupParams {
+    let mut b = World::builder().bounds(bounds).group(Profile {
         max_speed: 10.0,
-        ..GroupParams::kinematic(SteeringProfile::default())
+        ..Profile::kinematic(SteeringProfile::default())
     });
     for &p in positions {
         b = b.agent(AgentInit::at(p, 0));

@@ -8,12 +8,12 @@ use throng::prelude::*;
 fn dynamic_step_matches_newton_euler_by_hand() {
     // Seek straight along +x from rest: force = desired - v = (max_speed, 0) - v.
     let target = Vec2::new(100.0, 0.0);
-    let g = GroupParams {
+    let g = Profile {
         max_speed: 3.0,
         max_acceleration: 100.0,
         mass: 2.0,
         orientation: OrientationMode::Integrate,
-        ..GroupParams::dynamic(SteeringProfile::single(Behaviour::Seek {
+        ..Profile::dynamic(SteeringProfile::single(Behaviour::Seek {
             target: Target::Point(target),
             threshold: 0.0,
         }))
@@ -53,10 +53,10 @@ fn dynamic_step_matches_newton_euler_by_hand() {
 
 #[test]
 fn dynamic_speed_is_clamped_as_in_the_notes() {
-    let g = GroupParams {
+    let g = Profile {
         max_speed: 1.0,
         max_acceleration: 1000.0,
-        ..GroupParams::dynamic(SteeringProfile::single(Behaviour::Seek {
+        ..Profile::dynamic(SteeringProfile::single(Behaviour::Seek {
             target: Target::Point(Vec2::new(0.0, 50.0)),
             threshold: 0.0,
         }))
@@ -87,9 +87,9 @@ fn kinematic_step_matches_the_notes_by_hand() {
     // Kinematic seek: velocity = normalize(target - p) * max_speed; position += velocity * dt;
     // orientation from the new velocity.
     let target = Vec2::new(3.0, 4.0);
-    let g = GroupParams {
+    let g = Profile {
         max_speed: 2.0,
-        ..GroupParams::kinematic(SteeringProfile::single(Behaviour::Seek {
+        ..Profile::kinematic(SteeringProfile::single(Behaviour::Seek {
             target: Target::Point(target),
             threshold: 0.0,
         }))
@@ -108,11 +108,11 @@ fn kinematic_step_matches_the_notes_by_hand() {
     assert!((s.orientation - 4.0_f32.atan2(3.0)).abs() < 1e-6);
 
     // Kinematic wander: velocity = max_speed * orientation vector; orientation += rotation * dt.
-    let g = GroupParams {
+    let g = Profile {
         max_speed: 2.0,
         max_rotation: 1.5,
         orientation: OrientationMode::Integrate,
-        ..GroupParams::kinematic(SteeringProfile::single(Behaviour::Wander {
+        ..Profile::kinematic(SteeringProfile::single(Behaviour::Wander {
             params: WanderParams::default(),
         }))
     };
@@ -134,9 +134,9 @@ fn kinematic_step_matches_the_notes_by_hand() {
 
 #[test]
 fn drag_slows_a_coasting_agent() {
-    let g = GroupParams {
+    let g = Profile {
         drag: 0.5,
-        ..GroupParams::dynamic(SteeringProfile::default())
+        ..Profile::dynamic(SteeringProfile::default())
     };
     let mut w = World::builder()
         .group(g)
@@ -202,9 +202,9 @@ proptest! {
             behaviours: behaviours.into_iter().map(|(b, w)| Weighted::new(b, w)).collect(),
             combine: if priority { Combine::Priority } else { Combine::WeightedSum },
         };
-        let g = GroupParams {
+        let g = Profile {
             model: if kinematic { MovementModel::Kinematic } else { MovementModel::Dynamic },
-            max_speed, max_acceleration, mass, steering: profile, ..GroupParams::default()
+            max_speed, max_acceleration, mass, steering: profile, ..Profile::default()
         };
         let agents = starts.iter().map(|&(x, y, vx, vy)| AgentInit {
             position: Vec2::new(x, y),

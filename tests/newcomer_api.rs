@@ -15,7 +15,7 @@ fn the_builder_hands_back_each_target_slot_it_adds() {
         .target_slot(TargetPoint::at(Vec2::new(30.0, 30.0)));
     let chase = SteeringProfile::single(Behaviour::seek(Target::Slot(second)));
     let mut world = builder
-        .group(GroupParams::kinematic(chase))
+        .group(Profile::kinematic(chase))
         .agent(AgentInit::at(Vec2::new(50.0, 50.0), 0))
         .build()
         .unwrap();
@@ -47,7 +47,7 @@ fn the_worlds_spawner_avoids_its_own_circles() {
     let world = World::builder()
         .bounds(Bounds::bounded(100.0, 100.0).unwrap())
         .circles(rocks)
-        .group(GroupParams::dynamic(SteeringProfile::default()))
+        .group(Profile::dynamic(SteeringProfile::default()))
         .build()
         .unwrap();
     let obstacles: &Obstacles = world.obstacles();
@@ -80,7 +80,7 @@ fn step_time_has_the_command_lines_name_and_ids_outlive_reorders() {
         .with(Behaviour::cohesion(5.0), 0.5);
     let mut world = World::builder()
         .bounds(Bounds::torus(50.0, 50.0).unwrap())
-        .group(GroupParams::dynamic(flock))
+        .group(Profile::dynamic(flock))
         .agents(agents(&start, 0, 3.0, 2))
         .build()
         .unwrap();

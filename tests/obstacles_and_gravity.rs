@@ -66,10 +66,10 @@ fn resolve_stops_an_agent_driven_into_a_wall_and_a_circle() {
     });
     let mut w = World::builder()
         .bounds(Bounds::bounded(100.0, 100.0).unwrap())
-        .group(GroupParams {
+        .group(Profile {
             max_speed: 20.0,
             max_acceleration: 100.0,
-            ..GroupParams::dynamic(seek)
+            ..Profile::dynamic(seek)
         })
         .agent(AgentInit::at(Vec2::new(10.0, 50.0), 0))
         .agent(AgentInit::at(Vec2::new(10.0, 20.0), 0))
@@ -113,10 +113,10 @@ fn antigravity_seek_reaches_the_target_without_entering_exclusion_radii() {
     let strength = 2000.0_f32;
     let exclusion = strength.sqrt();
     let target = Vec2::new(950.0, 500.0);
-    let g = GroupParams {
+    let g = Profile {
         model: MovementModel::Kinematic,
         max_speed: 30.0,
-        ..GroupParams::kinematic(SteeringProfile::single(Behaviour::AntiGravitySeek {
+        ..Profile::kinematic(SteeringProfile::single(Behaviour::AntiGravitySeek {
             target: Target::Point(target),
         }))
     };
@@ -162,7 +162,7 @@ fn antigravity_seek_reaches_the_target_without_entering_exclusion_radii() {
 
 #[test]
 fn attracting_points_pull_and_moving_points_move() {
-    let g = GroupParams::dynamic(SteeringProfile::single(Behaviour::AntiGravity));
+    let g = Profile::dynamic(SteeringProfile::single(Behaviour::AntiGravity));
     let mut w = World::builder()
         .group(g)
         .agent(AgentInit::at(Vec2::ZERO, 0))
@@ -190,10 +190,10 @@ fn attracting_points_pull_and_moving_points_move() {
 
 #[test]
 fn nearest_target_picks_the_nearest_agent_of_the_group() {
-    let prey = GroupParams::default();
-    let hunter = GroupParams {
+    let prey = Profile::default();
+    let hunter = Profile {
         max_speed: 5.0,
-        ..GroupParams::dynamic(SteeringProfile::single(Behaviour::Seek {
+        ..Profile::dynamic(SteeringProfile::single(Behaviour::Seek {
             target: Target::Nearest {
                 group: 0,
                 within: 100.0,
@@ -218,16 +218,14 @@ fn nearest_target_picks_the_nearest_agent_of_the_group() {
         "went for the prey 8 units north, not the one 20 west: {p}"
     );
     let mut far = World::builder()
-        .group(GroupParams::default())
-        .group(GroupParams::dynamic(SteeringProfile::single(
-            Behaviour::Seek {
-                target: Target::Nearest {
-                    group: 0,
-                    within: 5.0,
-                },
-                threshold: 0.0,
+        .group(Profile::default())
+        .group(Profile::dynamic(SteeringProfile::single(Behaviour::Seek {
+            target: Target::Nearest {
+                group: 0,
+                within: 5.0,
             },
-        )))
+            threshold: 0.0,
+        })))
         .agent(AgentInit::at(Vec2::new(50.0, 0.0), 0))
         .agent(AgentInit::at(Vec2::ZERO, 1))
         .build()

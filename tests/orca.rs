@@ -144,7 +144,7 @@ fn everyone_crosses_the_blocks_and_no_centre_is_ever_inside_one() {
 }
 
 /// A kinematic ORCA group of radius 1 seeking each agent's own target.
-fn orca_group(contact: bool) -> GroupParams {
+fn orca_group(contact: bool) -> Profile {
     let orca = Orca {
         pref_speed: Some(1.0),
         contact,
@@ -465,9 +465,9 @@ fn crossing_streams_pass_through_each_other() {
 }
 
 /// An ORCA group with contact on: radius 1, maximum speed 1, arriving at the agents' own targets.
-fn contact_group(model: MovementModel, max_neighbours: u32) -> GroupParams {
+fn contact_group(model: MovementModel, max_neighbours: u32) -> Profile {
     let g = orca_group(true);
-    GroupParams {
+    Profile {
         model,
         max_speed: 1.0,
         max_acceleration: 8.0,
@@ -495,7 +495,7 @@ fn closest_of_all(w: &World) -> f32 {
 }
 
 /// A world of `inits` in one group, each agent's target `targets[k]`.
-fn contact_world(g: GroupParams, inits: Vec<AgentInit>, targets: &[Vec2]) -> World {
+fn contact_world(g: Profile, inits: Vec<AgentInit>, targets: &[Vec2]) -> World {
     let mut w = World::builder().group(g).agents(inits).build().unwrap();
     for (k, &t) in targets.iter().enumerate() {
         w.set_target(AgentId(k as u32), t).unwrap();

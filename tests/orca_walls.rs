@@ -136,7 +136,7 @@ fn crosses(p: Vec2, q: Vec2, a: Vec2, b: Vec2) -> bool {
         || (d4 == 0.0 && on(p, q, b))
 }
 
-fn group() -> GroupParams {
+fn group() -> Profile {
     let orca = Orca {
         pref_speed: Some(1.5),
         neighbour_dist: 5.0,

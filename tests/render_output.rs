@@ -377,7 +377,7 @@ fn pictures_of_several_groups_carry_a_legend() {
         let mut b = World::builder().bounds(Bounds::bounded(100.0, 100.0).unwrap());
         for g in 0..groups {
             b = b
-                .group(GroupParams::kinematic(SteeringProfile::default()))
+                .group(Profile::kinematic(SteeringProfile::default()))
                 .agent(AgentInit::at(Vec2::new(80.0, 20.0 + 10.0 * g as f32), g));
         }
         b.build().unwrap()

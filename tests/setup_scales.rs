@@ -37,7 +37,7 @@ count = 10
 fn world_add_circles_refuses_a_circle_over_an_agent_and_changes_nothing() {
     let mut world = World::builder()
         .bounds(Bounds::bounded(100.0, 100.0).unwrap())
-        .group(GroupParams::default())
+        .group(Profile::default())
         .agent(AgentInit::at(Vec2::new(50.0, 50.0), 0))
         .build()
         .unwrap();
@@ -65,8 +65,8 @@ fn squad(n: usize) -> (World, Vec<AgentId>) {
     let side = (n as f32).sqrt().ceil() as usize;
     let world = World::builder()
         .bounds(Bounds::bounded(4000.0, 4000.0).unwrap())
-        .group(GroupParams::default())
-        .group(GroupParams::dynamic(keep))
+        .group(Profile::default())
+        .group(Profile::dynamic(keep))
         .agent(AgentInit::at(Vec2::new(2000.0, 2000.0), 0))
         .agents((0..n).map(|k| {
             let (x, y) = ((k % side) as f32, (k / side) as f32);

@@ -4,17 +4,17 @@ use throng::prelude::*;
 
 const DT: f32 = 1.0 / 30.0;
 
-fn group(model: MovementModel, steering: SteeringProfile) -> GroupParams {
-    GroupParams {
+fn group(model: MovementModel, steering: SteeringProfile) -> Profile {
+    Profile {
         model,
         max_speed: 5.0,
         max_acceleration: 10.0,
         steering,
-        ..GroupParams::default()
+        ..Profile::default()
     }
 }
 
-fn open_world(groups: Vec<GroupParams>, agents: Vec<AgentInit>) -> World {
+fn open_world(groups: Vec<Profile>, agents: Vec<AgentInit>) -> World {
     let mut b = World::builder().seed(11);
     for g in groups {
         b = b.group(g);
@@ -148,7 +148,7 @@ fn steps_to_catch(chase: Behaviour) -> usize {
             threshold: 0.0,
         }),
     );
-    let runner = GroupParams {
+    let runner = Profile {
         max_speed: 3.0,
         ..runner
     };
@@ -232,7 +232,7 @@ fn evade_keeps_the_distance_growing_against_an_equal_pursuer() {
 #[test]
 fn wander_holds_max_speed_and_turns() {
     // Kinematic: the random-binomial form of the notes (orientation integrates the rotation).
-    let kin = GroupParams {
+    let kin = Profile {
         orientation: OrientationMode::Integrate,
         max_rotation: 2.0,
         ..group(
@@ -294,7 +294,7 @@ fn wander_holds_max_speed_and_turns() {
 
 #[test]
 fn face_turns_towards_the_target() {
-    let face = GroupParams {
+    let face = Profile {
         orientation: OrientationMode::Integrate,
         ..group(
             MovementModel::Dynamic,
@@ -347,13 +347,13 @@ fn assert_plan_equals_the_general_loop(
                     MovementModel::Kinematic => kinematic_orientation,
                     MovementModel::Dynamic => OrientationMode::FaceVelocity,
                 };
-                let g = GroupParams {
+                let g = Profile {
                     model,
                     orientation,
                     max_speed: 6.0,
                     max_acceleration: 9.0,
                     mass: 1.5,
-                    ..GroupParams::dynamic(profile)
+                    ..Profile::dynamic(profile)
                 };
                 // A looping path for behaviours that follow one: 30 points on an ellipse,
                 // enough segments for the projection's grid of candidates.
@@ -545,11 +545,11 @@ fn lane_plans_of_interleaved_groups_equal_the_general_loop_bit_for_bit() {
                         };
                         profile = profile.with(look, 1.0);
                     }
-                    let params = GroupParams {
+                    let params = Profile {
                         model,
                         max_speed: 6.0,
                         max_acceleration: 9.0,
-                        ..GroupParams::dynamic(profile)
+                        ..Profile::dynamic(profile)
                     };
                     w.add_group(params).unwrap();
                 }
@@ -601,11 +601,11 @@ fn lane_plans_with_requests_that_overflow_equal_the_general_loop() {
         if general {
             profile = profile.with(Behaviour::look_where_you_are_going(), 1.0);
         }
-        let g = GroupParams {
+        let g = Profile {
             max_speed: 6.0,
             max_acceleration: 9.0,
             mass: 1e-20,
-            ..GroupParams::dynamic(profile)
+            ..Profile::dynamic(profile)
         };
         let mut b = World::builder().seed(4).group(g);
         for k in 0..40 {

@@ -103,7 +103,7 @@ fn threads_and_backends_give_the_same_bits() {
 #[test]
 fn the_model_is_kinematic_and_its_numbers_are_checked() {
     let vicsek = |radius, noise| SteeringProfile::single(Behaviour::Vicsek { radius, noise });
-    let dynamic = GroupParams::dynamic(vicsek(1.0, 0.5));
+    let dynamic = Profile::dynamic(vicsek(1.0, 0.5));
     assert!(matches!(
         World::builder().group(dynamic).build(),
         Err(Error::Invalid { .. })
@@ -115,7 +115,7 @@ fn the_model_is_kinematic_and_its_numbers_are_checked() {
         (1.0, 7.0),
         (f32::NAN, 0.1),
     ] {
-        let g = GroupParams::kinematic(vicsek(r, eta));
+        let g = Profile::kinematic(vicsek(r, eta));
         assert!(World::builder().group(g).build().is_err(), "{r} {eta}");
     }
 }

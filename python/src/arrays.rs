@@ -252,6 +252,17 @@ pub(crate) fn broadcast<T: Copy>(name: &str, values: Vec<T>, m: usize) -> PyResu
     }
 }
 
+/// An optional per-agent column: absent, or one number (given to every agent) or `m` numbers,
+/// as float32.
+pub(crate) fn optional_floats(
+    name: &str,
+    v: Option<&Bound<'_, PyAny>>,
+    m: usize,
+) -> PyResult<Option<Vec<f32>>> {
+    v.map(|v| broadcast(name, read_floats(name, v)?, m))
+        .transpose()
+}
+
 /// Numbers: a 1-D array-like or one number, as float32.
 pub(crate) fn read_floats(name: &str, obj: &Bound<'_, PyAny>) -> PyResult<Vec<f32>> {
     read_1d(name, obj, "float32")

@@ -2,7 +2,7 @@
 
 use pyo3::prelude::*;
 use pyo3::types::PyDict;
-use throng::measure::{AreaReport, LineReport, Measurements};
+use throng::measure::Measurements;
 use throng::timing::Timings;
 use throng::{Error, IndexKind};
 
@@ -104,27 +104,6 @@ pub(crate) fn bench<'py>(
     let measurements = dict
         .get_item("measurements")?
         .expect("the report has measurements");
-    restore_nones(&measurements)?;
+    convert::restore_nones(&measurements)?;
     Ok(dict.clone().into_any())
-}
-
-/// Puts back the `None`s of a measurement report converted through TOML (which has no null):
-/// every optional key of its lines and areas.
-pub(crate) fn restore_nones(measurements: &Bound<'_, PyAny>) -> PyResult<()> {
-    let py = measurements.py();
-    for (list, keys) in [
-        ("lines", &LineReport::OPTIONAL_KEYS[..]),
-        ("areas", &AreaReport::OPTIONAL_KEYS[..]),
-    ] {
-        for entry in measurements.get_item(list)?.try_iter()? {
-            let entry = entry?;
-            let entry = entry.cast::<PyDict>()?;
-            for &key in keys {
-                if !entry.contains(key)? {
-                    entry.set_item(key, py.None())?;
-                }
-            }
-        }
-    }
-    Ok(())
 }

@@ -165,3 +165,24 @@ pub(crate) fn vec2(name: &str, obj: &Bound<'_, PyAny>) -> PyResult<Vec2> {
         )),
     }
 }
+
+/// Puts back the `None`s of a measurement report converted through TOML (which has no null):
+/// every optional key of its lines and areas.
+pub(crate) fn restore_nones(measurements: &Bound<'_, PyAny>) -> PyResult<()> {
+    let py = measurements.py();
+    for (list, keys) in [
+        ("lines", &throng::measure::LineReport::OPTIONAL_KEYS[..]),
+        ("areas", &throng::measure::AreaReport::OPTIONAL_KEYS[..]),
+    ] {
+        for entry in measurements.get_item(list)?.try_iter()? {
+            let entry = entry?;
+            let entry = entry.cast::<PyDict>()?;
+            for &key in keys {
+                if !entry.contains(key)? {
+                    entry.set_item(key, py.None())?;
+                }
+            }
+        }
+    }
+    Ok(())
+}

@@ -16,8 +16,7 @@ use glam::Vec2;
 use rayon::prelude::*;
 
 use super::distance::MAX_CELL_COST;
-use super::occupancy::OccupancyGrid;
-use super::set::cell_of;
+use super::occupancy::{OccupancyGrid, cell_of};
 
 /// Frames between reroutes of a new quickest-path field.
 pub const DEFAULT_REROUTE_EVERY: u64 = 50;

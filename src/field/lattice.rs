@@ -11,7 +11,7 @@
 
 use glam::Vec2;
 
-use super::occupancy::OccupancyGrid;
+use super::occupancy::{OccupancyGrid, cell_coords};
 
 /// Which cells count as a cell's neighbours.
 #[derive(
@@ -163,22 +163,6 @@ impl Lattice {
     pub fn cell_center(&self, x: u32, y: u32) -> Vec2 {
         self.origin + (Vec2::new(x as f32, y as f32) + 0.5) * self.cell_size
     }
-}
-
-/// The cell of continuous cell coordinates `u` in a `width x height` grid: cell `(x, y)` spans
-/// `[x, x + 1)`, except that the far edges (`u.x == width`, `u.y == height`) belong to the last
-/// column and row, so that an agent clamped onto a walled world's far edge stays on the grid.
-/// `None` outside the grid or for a non-finite `u`.
-#[inline]
-pub(crate) fn cell_coords(u: Vec2, width: usize, height: usize) -> Option<(usize, usize)> {
-    if !(u.x >= 0.0 && u.y >= 0.0 && u.x <= width as f32 && u.y <= height as f32) {
-        return None;
-    }
-    // Truncation is the floor for non-negative values; the far edge maps to the last cell.
-    Some((
-        (u.x as usize).min(width - 1),
-        (u.y as usize).min(height - 1),
-    ))
 }
 
 /// A padded map of the grid: `wall` for walls and the border, `free` for free cells. Rows are

@@ -42,6 +42,5 @@ pub use occupancy::{Cell, MapFile, OccupancyGrid, random_free_cells};
 pub use potential::PotentialField;
 pub use walker::{GridWalkers, WalkPolicy, WalkStats};
 
-pub(crate) use set::{
-    FieldSet, FollowChannel, WalkerGroup, WorldField, cell_of, in_wall, wall_bits,
-};
+pub(crate) use occupancy::cell_of;
+pub(crate) use set::{FieldSet, FollowChannel, WalkerGroup, WorldField, in_wall, wall_bits};

@@ -273,7 +273,7 @@ impl OccupancyGrid {
     /// finite. Cell edges belong to the cell above and to the right.
     #[must_use]
     pub fn world_to_cell(&self, p: Vec2) -> Option<(u32, u32)> {
-        super::lattice::Lattice::of(self).world_to_cell(p)
+        cell_of(self, p).map(|(x, y)| (x as u32, y as u32))
     }
 
     /// The grid with every free cell whose centre lies within `clearance` (world units) of a
@@ -716,6 +716,29 @@ pub fn random_free_cells(grid: &OccupancyGrid, n: usize, seed: u64) -> Result<Ve
     }
     let w = grid.width;
     Ok(free[..n].iter().map(|&i| (i % w, i / w)).collect())
+}
+
+/// The cell of continuous cell coordinates `u` in a `width x height` grid: cell `(x, y)` spans
+/// `[x, x + 1)`, except that the far edges (`u.x == width`, `u.y == height`) belong to the last
+/// column and row, so that an agent clamped onto a walled world's far edge stays on the grid.
+/// `None` outside the grid or for a non-finite `u`.
+#[inline]
+pub(crate) fn cell_coords(u: Vec2, width: usize, height: usize) -> Option<(usize, usize)> {
+    if !(u.x >= 0.0 && u.y >= 0.0 && u.x <= width as f32 && u.y <= height as f32) {
+        return None;
+    }
+    // Truncation is the floor for non-negative values; the far edge maps to the last cell.
+    Some((
+        (u.x as usize).min(width - 1),
+        (u.y as usize).min(height - 1),
+    ))
+}
+
+/// The cell of world point `p` on `grid` as `(column, row)`, as [`cell_coords`] places it.
+#[inline]
+pub(crate) fn cell_of(grid: &OccupancyGrid, p: Vec2) -> Option<(usize, usize)> {
+    let u = (p - grid.origin()) / grid.cell_size();
+    cell_coords(u, grid.width() as usize, grid.height() as usize)
 }
 
 #[cfg(test)]

@@ -32,6 +32,7 @@ use rayon::prelude::*;
 
 use super::channels::ChannelSet;
 use super::congestion::Congestion;
+use super::occupancy::cell_of;
 use crate::agents::{AgentId, Agents};
 use crate::bounds::Bounds;
 use crate::error::{Error, Result};
@@ -162,12 +163,6 @@ pub(crate) fn in_wall(grid: &OccupancyGrid, p: Vec2) -> bool {
     cell_of(grid, p).is_some_and(|(x, y)| !grid.cells()[y * grid.width() as usize + x].is_free())
 }
 
-#[inline]
-pub(crate) fn cell_of(grid: &OccupancyGrid, p: Vec2) -> Option<(usize, usize)> {
-    let u = (p - grid.origin()) / grid.cell_size();
-    super::lattice::cell_coords(u, grid.width() as usize, grid.height() as usize)
-}
-
 /// A grid's walls as the per-agent wall check reads them, with the cell lookup of
 /// [`cell_of`] made cheap: when the cell size is a power of two, multiplying by its reciprocal
 /// is exact, so it gives the same cells as the division.
@@ -272,7 +267,7 @@ impl<'a> Walls<'a> {
             Some(inv) => d * inv,
             None => d / self.cell_size,
         };
-        super::lattice::cell_coords(u, self.width, self.height).map(|(x, y)| y * self.width + x)
+        super::occupancy::cell_coords(u, self.width, self.height).map(|(x, y)| y * self.width + x)
     }
 
     #[inline]

@@ -448,9 +448,9 @@ fn integrate_chunk(
     // Whether some rotation written is other than +0.
     let mut turning = false;
     // A short first block up to the first cache line of the positions, so that the whole blocks
-    // after it load and store whole lines (`crate::lines`).
-    const _: () = assert!(LANES == crate::lines::LINE);
-    let lead = crate::lines::lead(s.pos_x);
+    // after it load and store whole lines (`crate::cache_lines`).
+    const _: () = assert!(LANES == crate::cache_lines::F32_PER_LINE);
+    let lead = crate::cache_lines::lead(s.pos_x);
     let mut i = 0;
     while i < n {
         let lanes = if i == 0 && lead > 0 {

@@ -269,7 +269,7 @@ mod tests {
         std::fs::create_dir_all(&dir).unwrap();
         let path = dir.join("walk.txt");
         let world = World::builder()
-            .group(crate::GroupParams::default())
+            .group(crate::Profile::default())
             .agents([crate::AgentInit::at(glam::Vec2::new(1.5, 2.0), 0)])
             .build()
             .unwrap();

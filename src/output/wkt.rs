@@ -192,7 +192,7 @@ mod tests {
     #[test]
     fn a_walkable_area_is_given_as_read_with_its_own_bounds() {
         let mut w = World::builder()
-            .group(crate::GroupParams::default())
+            .group(crate::Profile::default())
             .agents([AgentInit::at(Vec2::new(2.0, 2.0), 0)])
             .build()
             .unwrap();
@@ -209,7 +209,7 @@ mod tests {
     #[test]
     fn an_open_world_is_its_content_grown_by_a_margin() {
         let w = World::builder()
-            .group(crate::GroupParams::default())
+            .group(crate::Profile::default())
             .agents([Vec2::new(-5.0, 2.0), Vec2::new(15.0, 4.0)].map(|p| AgentInit::at(p, 0)))
             .build()
             .unwrap();

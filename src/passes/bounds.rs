@@ -56,9 +56,9 @@ pub(crate) fn bound_piece(
     }
 }
 
-/// [`wrap_all`] in two pieces, split at the first cache line (`crate::lines`).
+/// [`wrap_all`] in two pieces, split at the first cache line (`crate::cache_lines`).
 fn wrap_lined(v: &mut [f32], side: f32) {
-    let (head, rest) = v.split_at_mut(crate::lines::lead(v));
+    let (head, rest) = v.split_at_mut(crate::cache_lines::lead(v));
     wrap_all(head, side);
     wrap_all(rest, side);
 }

@@ -53,7 +53,7 @@
 use glam::Vec2;
 use serde::{Deserialize, Serialize};
 
-use super::lanes::tanh_poly;
+use super::approx::tanh_poly;
 use super::{away, check_cutoff, exp_capped};
 use crate::error::{Result, in_range, non_negative, positive};
 

@@ -27,6 +27,7 @@
 //! deterministic direction from the two ids) and overlap; pair terms between equal agents are
 //! equal and opposite when the anisotropy is off.
 
+mod approx;
 pub mod cfsm;
 pub(crate) mod lanes;
 pub mod social_force;

@@ -253,12 +253,12 @@ impl FieldSpec {
     }
 
     /// Checks, before any agent is spawned, that the walker groups fit on the free cells (one
-    /// walker per cell).
+    /// walker per cell); `counts` holds each group's agent count.
     pub(crate) fn check_walkers(
         &self,
         world: &World,
         field: usize,
-        groups: &[super::GroupSpec],
+        counts: &[usize],
     ) -> Result<()> {
         let Some(f) = world.field(field) else {
             return Ok(());
@@ -267,8 +267,7 @@ impl FieldSpec {
         let walkers = self
             .walkers
             .iter()
-            .filter_map(|w| groups.get(w.group))
-            .map(super::GroupSpec::count_of)
+            .filter_map(|w| counts.get(w.group).copied())
             .fold(0usize, usize::saturating_add);
         if walkers > free {
             return Err(Error::Invalid {

@@ -23,7 +23,6 @@ use glam::Vec2;
 use serde::{Deserialize, Serialize};
 
 use super::fields::FieldSpec;
-use super::spec::{Scenario, Spawn};
 use crate::error::{Error, Result, in_range, positive};
 use crate::obstacles::Wall;
 use crate::world::Exit;
@@ -101,12 +100,17 @@ fn four() -> f32 {
 }
 
 /// What a layout adds to a scenario.
-struct Expansion {
-    walls: Vec<Wall>,
-    exits: Vec<Exit>,
-    spawn: (Vec2, Vec2),
-    field: Option<FieldSpec>,
-    line: Option<crate::measure::MeasurementLine>,
+pub(crate) struct Expansion {
+    /// The walls, around the area and along the corridors.
+    pub walls: Vec<Wall>,
+    /// The exits.
+    pub exits: Vec<Exit>,
+    /// The spawn area's lower and upper corners.
+    pub spawn: (Vec2, Vec2),
+    /// The navigation field, when the layout brings one.
+    pub field: Option<FieldSpec>,
+    /// The measurement line, when the layout brings one.
+    pub line: Option<crate::measure::MeasurementLine>,
 }
 
 impl Layout {
@@ -176,7 +180,8 @@ impl Layout {
         (agents as f32 / (density * width)).max(min) + 2.0 * margin
     }
 
-    fn expand(&self, agents: usize) -> Result<Expansion> {
+    /// What this layout adds to a scenario of `agents` agents (its size may grow with them).
+    pub(crate) fn expand(&self, agents: usize) -> Result<Expansion> {
         let wall = |a: Vec2, b: Vec2| Wall { a, b };
         Ok(match *self {
             Layout::Corridor {
@@ -286,57 +291,6 @@ fn bottleneck_field(w: f32, h: f32, y0: f32, y1: f32, end: f32) -> FieldSpec {
         text.push('\n');
     }
     FieldSpec::inline(text, CELL)
-}
-
-impl Scenario {
-    /// This scenario with its `[layout]` written out as walls, exits, a field and spawn
-    /// rectangles (itself when it has none).
-    ///
-    /// # Errors
-    /// As [`Layout::validate`]; [`Error::Invalid`] when the scenario has a layout with a field
-    /// and a `[field]` of its own, or a group spawns in the layout without one.
-    pub fn expanded(&self) -> Result<Scenario> {
-        let Some(layout) = self.layout else {
-            if self.groups.iter().any(|g| g.spawn == Spawn::Layout) {
-                return Err(Error::Invalid {
-                    name: "spawn".into(),
-                    reason: "`kind = \"layout\"` needs a [layout] table".into(),
-                });
-            }
-            return Ok(self.clone());
-        };
-        layout.validate()?;
-        let e = layout.expand(self.agent_count())?;
-        let mut s = self.clone();
-        s.layout = None;
-        s.obstacles.walls.extend(e.walls);
-        s.exits.extend(e.exits);
-        if let Some(f) = e.field {
-            if s.field.is_some() {
-                return Err(Error::Invalid {
-                    name: "layout".into(),
-                    reason: "a bottleneck layout brings its own field; remove [field]".into(),
-                });
-            }
-            s.field = Some(f);
-        }
-        if let Some(line) = e.line
-            && s.measurements.lines.iter().all(|l| l.name != line.name)
-        {
-            s.measurements.lines.push(line);
-        }
-        let m = Vec2::splat(WALL_DISTANCE);
-        for g in &mut s.groups {
-            if g.spawn == Spawn::Layout {
-                g.spawn = Spawn::Spread {
-                    min: e.spawn.0 + m,
-                    max: e.spawn.1 - m,
-                    distance: SPAWN_DISTANCE,
-                };
-            }
-        }
-        Ok(s)
-    }
 }
 
 #[cfg(test)]

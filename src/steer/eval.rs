@@ -91,9 +91,9 @@ pub(crate) fn evaluate(v: &SteerView, me: &Me, b: &Behaviour, d: &mut Draws) -> 
             target,
             time_to_target,
         } => match_velocity(v, me, target, time_to_target),
-        Behaviour::Separation { .. } => flock_term(me, super::plan::SEP),
-        Behaviour::Alignment { .. } => flock_term(me, super::plan::ALI),
-        Behaviour::Cohesion { .. } => flock_term(me, super::plan::COH),
+        Behaviour::Separation { .. } => flock_term(me, super::spec::SEP),
+        Behaviour::Alignment { .. } => flock_term(me, super::spec::ALI),
+        Behaviour::Cohesion { .. } => flock_term(me, super::spec::COH),
         Behaviour::Repulsion { .. } => Steering::linear(me.sums.repulsion),
         Behaviour::AvoidObstacles { box_length } => avoid_obstacles(v, me, box_length),
         Behaviour::AvoidWalls { feeler_length } => avoid_walls(v, me, feeler_length),
@@ -332,7 +332,7 @@ pub(crate) fn flock_force(
     max_speed: f32,
     kinematic: bool,
 ) -> Vec2 {
-    use super::plan::{ALI, SEP};
+    use super::spec::{ALI, SEP};
     match (slot, kinematic) {
         (SEP, true) => steering::desired(sums.separation, max_speed),
         (SEP, false) => steering::separation(sums, velocity, max_speed),

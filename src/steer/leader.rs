@@ -19,9 +19,11 @@
 
 use std::f32::consts::TAU;
 
-use super::cells::{CellOut, OutChunks};
+use super::agent::steer_agent_with;
+use super::cells::CellOut;
+use super::lanes::{put, take};
 use super::neighbours::LANES;
-use super::pass::{put, steer_agent_with, take};
+use super::out::OutChunks;
 use super::plan::PlanKind;
 use super::view::SteerView;
 use crate::bounds::{Bounds, wrap_delta};

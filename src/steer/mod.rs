@@ -14,7 +14,11 @@
 //! - [`adapter`]: the model adapter (force and desired velocity, clamps, the overflow guard);
 //! - [`neighbours`]: the fused neighbour traversal (scalar reference and per-agent grid kernel);
 //! - [`cells`]: flocking evaluated in cell batches by a SIMD kernel;
-//! - [`pass`]: the steering pass that runs each agent by its plan into SoA outputs;
+//! - [`pass`]: the steering pass that runs each agent by its plan into the SoA outputs of
+//!   [`out`];
+//! - [`agent`]: one agent's steering by its plan, the per-agent path the batched ones agree
+//!   with;
+//! - [`lanes`]: a lone seek, arrive or wander a block of lanes at a time;
 //! - `leader`: leader following in lanes, the leader resolved once per run;
 //! - [`pack`]: left-packing the candidates within a radius, eight lanes at a time;
 //! - [`ped`]: the pedestrian models, which replace the requests of pedestrian groups by the
@@ -26,18 +30,23 @@
 //! the result does not depend on the thread count; plans are current whenever a step runs.
 
 pub(crate) mod adapter;
+pub(crate) mod agent;
 pub(crate) mod cells;
 pub(crate) mod eval;
+pub(crate) mod lanes;
 mod leader;
 pub(crate) mod neighbours;
 pub(crate) mod orca;
+pub(crate) mod out;
 pub(crate) mod pack;
 pub(crate) mod pass;
 pub(crate) mod ped;
 pub(crate) mod plan;
+pub(crate) mod spec;
 pub(crate) mod view;
 
 pub(crate) use neighbours::SortedCopies;
-pub(crate) use pass::{PassScratch, STEER_CHUNK, SteerOut};
+pub(crate) use out::{STEER_CHUNK, SteerOut};
+pub(crate) use pass::PassScratch;
 pub(crate) use plan::{Plan, References};
 pub(crate) use view::{NearestIndex, SteerView, prepare_nearest};

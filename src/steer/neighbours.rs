@@ -15,7 +15,7 @@
 use glam::Vec2;
 use rayon::prelude::*;
 
-use super::plan::{ALI, COH, NeighbourSpec, SEP};
+use super::spec::{ALI, COH, FlatSpec, NeighbourSpec, SEP};
 use crate::agents::{AgentOrder, Agents};
 use crate::bounds::Bounds;
 use crate::simd::{apply, float_kernel};
@@ -293,7 +293,8 @@ pub(crate) fn unit_heading(agents: &Agents, j: usize) -> Vec2 {
         .unwrap_or_else(|| Vec2::from_angle(agents.orientation[j]))
 }
 
-/// Everything the lane kernel needs about the query, flattened to plain numbers.
+/// Everything the lane kernel needs about the query: the agent's own numbers, the spec's
+/// [`FlatSpec`] and the torus.
 #[derive(Clone, Copy, Debug)]
 struct KernelQuery {
     x: f32,
@@ -342,17 +343,18 @@ pub(crate) fn sums_grid(
         }
         _ => (f32::INFINITY, f32::INFINITY, 0.0, 0.0),
     };
+    let flat: FlatSpec = spec.flat(one_group);
     let q = KernelQuery {
         x: me.position.x,
         y: me.position.y,
         hx: me.heading.x,
         hy: me.heading.y,
         g: me.group as f32,
-        q_sq: spec.query_r * spec.query_r,
-        r_sq: [0, 1, 2].map(|b| if spec.on[b] { spec.r_sq[b] } else { -1.0 }),
-        cos: spec.cos,
-        full: spec.cos.map(|c| c <= -1.0),
-        any_group: spec.same.map(|s| !s || one_group),
+        q_sq: flat.q_sq,
+        r_sq: flat.r_sq,
+        cos: flat.cos,
+        full: flat.cos.map(|c| c <= -1.0),
+        any_group: flat.any_group,
         half_w,
         half_h,
         w,

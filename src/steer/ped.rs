@@ -24,8 +24,8 @@ use std::ops::Range;
 use glam::Vec2;
 use rayon::prelude::*;
 
+use super::out::{STEER_CHUNK, SteerOut};
 use super::pack::{Packed, pack_block};
-use super::pass::{STEER_CHUNK, SteerOut};
 use super::view::SteerView;
 use crate::agents::Agents;
 use crate::ped::cfsm::{BLOCKED_SPACING, SIDESTEP_WALL_MARGIN};

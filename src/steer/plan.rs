@@ -12,54 +12,14 @@
 //! references, so the per-agent code may index fields, paths and groups without checks failing.
 
 use super::adapter::Adapter;
+use super::spec::{ALI, COH, NeighbourSpec, SEP};
 use crate::error::{Error, Result};
 use crate::field::FollowChannel;
 use crate::profile::Profile;
 use crate::steering::{Behaviour, Combine, Target};
 
-/// Behaviour slots of the fused neighbour pass: separation, alignment, cohesion.
-pub(crate) const SEP: usize = 0;
-pub(crate) const ALI: usize = 1;
-pub(crate) const COH: usize = 2;
-
 /// Longest flocking-only profile served by [`PlanKind::Flock`].
 pub(crate) const FLOCK_MAX: usize = 4;
-
-/// What one group asks of the fused neighbour traversal.
-#[derive(Clone, Copy, Debug, Default, PartialEq)]
-pub(crate) struct NeighbourSpec {
-    /// Whether the group needs neighbours at all.
-    pub active: bool,
-    /// The largest radius of the group's neighbour behaviours.
-    pub query_r: f32,
-    /// Which of separation, alignment, cohesion the group uses.
-    pub on: [bool; 3],
-    /// Squared radii.
-    pub r_sq: [f32; 3],
-    /// View cosines (-1: all round).
-    pub cos: [f32; 3],
-    /// Own group only.
-    pub same: [bool; 3],
-    /// Repulsion `(strength, exponent, radius^2)`.
-    pub repel: Option<(f32, f32, f32)>,
-    /// The Vicsek neighbourhood, squared radius (every group, the agent itself included).
-    pub vicsek_r_sq: Option<f32>,
-    /// Neighbour cap.
-    pub cap: Option<u32>,
-}
-
-impl NeighbourSpec {
-    /// Whether the cell batch can gather this group's sums (no repulsion, no cap).
-    pub(crate) fn batch_ok(&self) -> bool {
-        self.repel.is_none() && self.cap.is_none()
-    }
-
-    /// Whether the SIMD grid kernels can serve this group (they do not do repulsion, Vicsek
-    /// sums or caps).
-    pub(crate) fn kernel_ok(&self) -> bool {
-        self.repel.is_none() && self.cap.is_none() && self.vicsek_r_sq.is_none()
-    }
-}
 
 /// How the steering pass evaluates the agents of one group.
 #[derive(Clone, Copy, Debug, PartialEq)]

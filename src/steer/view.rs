@@ -236,12 +236,7 @@ impl SteerView<'_> {
                 .with_borrow_mut(|buf| neighbours::sums_scalar(self.index, i, &me, spec, a, buf)),
         };
         #[cfg(feature = "oracle")]
-        crate::oracle::record_sums(crate::oracle::Summed::of(
-            "summed",
-            (a.ids[i].0, me.position),
-            spec,
-            sums,
-        ));
+        crate::oracle::record_sums(spec.summed("summed", (a.ids[i].0, me.position), sums));
         sums
     }
 }

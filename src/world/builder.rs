@@ -1,7 +1,7 @@
 //! [`WorldBuilder`]: an empty world's bounds, seed, neighbour index and first groups, checked
 //! when the world is built.
 
-use super::GroupParams;
+use super::Profile;
 use super::state::World;
 use crate::agents::{AgentId, AgentInit};
 use crate::bounds::Bounds;
@@ -26,7 +26,7 @@ pub const DEFAULT_SEED: u64 = 1;
 /// let mut world = World::builder()
 ///     .bounds(Bounds::bounded(100.0, 100.0)?)
 ///     .seed(7)
-///     .group(GroupParams::dynamic(seek))
+///     .group(Profile::dynamic(seek))
 ///     .agent(AgentInit::at(Vec2::new(10.0, 10.0), 0))
 ///     .build()?;
 /// let stats = world.step(0.05)?;
@@ -38,7 +38,7 @@ pub const DEFAULT_SEED: u64 = 1;
 pub struct WorldBuilder {
     bounds: Bounds,
     seed: u64,
-    groups: Vec<GroupParams>,
+    groups: Vec<Profile>,
     agents: Vec<AgentInit>,
     paths: Vec<crate::group::Path>,
     targets: Vec<TargetPoint>,
@@ -92,14 +92,14 @@ impl WorldBuilder {
 
     /// Adds a group (its index is the number of groups added before it).
     #[must_use]
-    pub fn group(mut self, params: GroupParams) -> Self {
+    pub fn group(mut self, params: Profile) -> Self {
         self.groups.push(params);
         self
     }
 
     /// Adds groups (indices in order, after the groups added before).
     #[must_use]
-    pub fn groups(mut self, groups: impl IntoIterator<Item = GroupParams>) -> Self {
+    pub fn groups(mut self, groups: impl IntoIterator<Item = Profile>) -> Self {
         self.groups.extend(groups);
         self
     }
@@ -146,7 +146,7 @@ impl WorldBuilder {
     /// # fn main() -> throng::Result<()> {
     /// let (builder, player) = World::builder().target_slot(TargetPoint::at(Vec2::new(5.0, 5.0)));
     /// let chase = SteeringProfile::single(Behaviour::pursue(Target::Slot(player)));
-    /// let mut world = builder.group(GroupParams::dynamic(chase)).build()?;
+    /// let mut world = builder.group(Profile::dynamic(chase)).build()?;
     /// world.set_target_point(player, Vec2::new(9.0, 1.0))?;
     /// # Ok(())
     /// # }
@@ -265,5 +265,13 @@ impl WorldBuilder {
             world.add_formation(anchor, params, &members)?;
         }
         Ok(world)
+    }
+}
+
+impl World {
+    /// A builder for a world.
+    #[must_use]
+    pub fn builder() -> WorldBuilder {
+        WorldBuilder::new()
     }
 }

@@ -68,7 +68,7 @@ impl World {
     /// let follow = SteeringProfile::single(Behaviour::FollowField { field: 0, channel: 0 });
     /// let mut world = World::builder()
     ///     .bounds(Bounds::bounded(6.0, 3.0)?)
-    ///     .group(GroupParams { max_speed: 3.0, ..GroupParams::kinematic(follow) })
+    ///     .group(Profile { max_speed: 3.0, ..Profile::kinematic(follow) })
     ///     .agent(AgentInit::at(Vec2::new(0.5, 0.5), 0))
     ///     .build()?;
     /// world.add_field(channels)?;

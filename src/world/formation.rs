@@ -3,7 +3,7 @@
 
 use glam::Vec2;
 
-use super::GroupParams;
+use super::Profile;
 use super::state::World;
 use crate::agents::AgentId;
 use crate::error::{Error, Result};
@@ -52,8 +52,8 @@ impl World {
     /// # fn main() -> throng::Result<()> {
     /// let keep = SteeringProfile::single(Behaviour::KeepFormation { params: SlotParams::default() });
     /// let mut world = World::builder()
-    ///     .group(GroupParams::default())
-    ///     .group(GroupParams::dynamic(keep))
+    ///     .group(Profile::default())
+    ///     .group(Profile::dynamic(keep))
     ///     .agent(AgentInit::at(Vec2::ZERO, 0))
     ///     .agents((1..4).map(|k| AgentInit::at(Vec2::new(-5.0, k as f32), 1)))
     ///     .build()?;
@@ -232,7 +232,7 @@ impl World {
 
     /// Checks a group profile's references into the world: its paths exist and its jumps are
     /// possible at the group's maximum speed.
-    pub(crate) fn check_group_refs(&self, g: &GroupParams) -> Result<()> {
+    pub(crate) fn check_group_refs(&self, g: &Profile) -> Result<()> {
         for w in &g.steering.behaviours {
             if let Some(Target::Slot(slot)) = w.behaviour.target()
                 && self.target_slot(slot).is_none()

@@ -22,6 +22,8 @@ mod exits;
 pub(crate) mod fields;
 mod formation;
 mod journeys;
+mod leave;
+mod scratch;
 mod state;
 mod stats;
 mod step;
@@ -34,6 +36,7 @@ pub use builder::{DEFAULT_SEED, WorldBuilder};
 pub use exits::{Departure, Exit};
 
 /// The former name of [`Profile`]: a group's movement model, limits and behaviours.
+#[deprecated(since = "0.1.0", note = "renamed to `Profile`")]
 pub type GroupParams = Profile;
 pub(crate) use state::check_max_speed;
 pub use state::{AgentState, World};

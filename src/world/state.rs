@@ -6,8 +6,8 @@
 
 use glam::Vec2;
 
-use super::GroupParams;
-use super::step::Scratch;
+use super::Profile;
+use super::scratch::Scratch;
 use crate::agents::{AgentId, AgentInit, Agents};
 use crate::bounds::Bounds;
 use crate::error::{Error, Result, finite, finite_vec, non_negative, positive};
@@ -53,7 +53,7 @@ pub struct AgentState {
 #[derive(Debug)]
 pub struct World {
     pub(crate) agents: Agents,
-    pub(crate) groups: Vec<GroupParams>,
+    pub(crate) groups: Vec<Profile>,
     pub(crate) bounds: Bounds,
     pub(crate) seed: u64,
     pub(crate) frame: u64,
@@ -90,13 +90,7 @@ pub struct World {
 }
 
 impl World {
-    /// A builder for a world.
-    #[must_use]
-    pub fn builder() -> super::WorldBuilder {
-        super::WorldBuilder::new()
-    }
-
-    pub(crate) fn from_parts(groups: Vec<GroupParams>, bounds: Bounds, seed: u64) -> Self {
+    pub(crate) fn from_parts(groups: Vec<Profile>, bounds: Bounds, seed: u64) -> Self {
         World {
             agents: Agents::new(),
             groups,
@@ -153,7 +147,7 @@ impl World {
     /// let mut world = World::builder()
     ///     .bounds(Bounds::bounded(100.0, 100.0)?)
     ///     .circle(Circle::new(Vec2::splat(50.0), 10.0))
-    ///     .group(GroupParams::dynamic(SteeringProfile::default()))
+    ///     .group(Profile::dynamic(SteeringProfile::default()))
     ///     .build()?;
     /// let start = world.spawner(3, 0.5).disc(200, Vec2::splat(50.0), 30.0)?;
     /// for a in agents(&start, 0, 0.0, 3) {
@@ -301,7 +295,7 @@ impl World {
 
     /// The groups' profiles.
     #[must_use]
-    pub fn groups(&self) -> &[GroupParams] {
+    pub fn groups(&self) -> &[Profile] {
         &self.groups
     }
 
@@ -417,7 +411,7 @@ impl World {
     ///
     /// # Errors
     /// The variant naming the first bad parameter of `params`.
-    pub fn add_group(&mut self, params: GroupParams) -> Result<usize> {
+    pub fn add_group(&mut self, params: Profile) -> Result<usize> {
         params.validate()?;
         self.check_group_refs(&params)?;
         self.groups.push(params);
@@ -432,7 +426,7 @@ impl World {
     /// [`Error::UnknownGroup`], or the variant naming the first bad parameter of `params`;
     /// [`Error::UnknownField`] (and the like) for a field, channel, group, path or target slot
     /// that `params` names and the world does not have.
-    pub fn set_group_params(&mut self, group: usize, params: GroupParams) -> Result<()> {
+    pub fn set_group_params(&mut self, group: usize, params: Profile) -> Result<()> {
         self.check_group(group)?;
         params.validate()?;
         self.check_group_refs(&params)?;

@@ -13,47 +13,11 @@ use super::stats::{PhaseTimes, StepStats};
 use crate::bounds::Bounds;
 use crate::error::{Error, MAX_DT, Result};
 use crate::group;
-use crate::movement::{self, IntegrationParams, MotionState, SteeringBuffers};
+use crate::movement::{self, MotionState, SteeringBuffers};
 use crate::passes;
 use crate::spatial::{NeighbourIndex, SpatialIndex};
-use crate::steer::{
-    self, NearestIndex, PassScratch, Plan, References, SortedCopies, SteerOut, SteerView,
-};
+use crate::steer::{self, Plan, References, SteerView};
 use crate::steering::Steering;
-
-/// Per-frame buffers, reused across steps (never serialised).
-#[derive(Debug, Default)]
-pub(crate) struct Scratch {
-    out: SteerOut,
-    pass: PassScratch,
-    params: Vec<IntegrationParams>,
-    sorted: SortedCopies,
-    /// Per group: an index over that group's agents, when some behaviour looks for its nearest.
-    nearest: Vec<Option<NearestIndex>>,
-    /// The agents' order the neighbour index was last built for.
-    index_order: crate::agents::AgentOrder,
-    /// Per group: the largest `nearest` search radius that targets it.
-    within: Vec<f32>,
-    /// The frame-start positions (kept when obstacles or fields check moves).
-    prev_x: Vec<f32>,
-    prev_y: Vec<f32>,
-    /// The reordering permutation.
-    perm: Vec<u32>,
-    /// Per group, the squared arrival radius (-1 for none).
-    arrival_sq: Vec<f32>,
-    /// The hashed grid that orders ORCA agents in memory when nothing else builds the world's
-    /// grid.
-    order_grid: crate::spatial::HashGrid,
-    /// The walls as ORCA edge chains, built for `orca_walls_of` walls.
-    orca_walls: crate::orca::WallChains,
-    orca_walls_of: usize,
-    /// The ORCA pass's state (its neighbour grid, the near-contact flags).
-    orca: steer::orca::OrcaScratch,
-    /// Contact resolution: its buffers, which agents move, and per group whether its agents do.
-    contact: crate::orca::contact::ContactScratch,
-    moves: Vec<bool>,
-    contact_of: Vec<bool>,
-}
 
 /// How a step runs: on the rayon pool, or on the calling thread alone.
 #[derive(Clone, Copy, Debug, PartialEq, Eq)]

@@ -19,7 +19,7 @@ impl World {
     /// let mut world = World::builder().bounds(Bounds::bounded(100.0, 100.0)?).build()?;
     /// let player = world.add_target(Vec2::new(50.0, 50.0))?;
     /// let seek = SteeringProfile::single(Behaviour::seek(Target::Slot(player)));
-    /// let crowd = world.add_group(GroupParams::dynamic(seek))?;
+    /// let crowd = world.add_group(Profile::dynamic(seek))?;
     /// world.add_agent(AgentInit::at(Vec2::new(10.0, 10.0), crowd))?;
     /// for frame in 0..100 {
     ///     let t = frame as f32 * 0.05;

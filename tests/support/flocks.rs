@@ -10,16 +10,16 @@ pub fn flocking_group(
     same_group: bool,
     view_cos: f32,
     r: f32,
-) -> GroupParams {
+) -> Profile {
     let hood = |radius: f32| Neighbourhood {
         radius,
         view_cos,
         same_group,
     };
-    GroupParams {
+    Profile {
         max_speed: 3.0,
         max_acceleration: 6.0,
-        ..GroupParams::dynamic(
+        ..Profile::dynamic(
             steering
                 .with(
                     Behaviour::Separation {

@@ -10,7 +10,7 @@ pub fn arriving_orca_group(
     max_speed: f32,
     orca: Orca,
     arrival_radius: f32,
-) -> GroupParams {
+) -> Profile {
     let arrive = Behaviour::Arrive {
         target: Target::Own,
         params: ArriveParams {
@@ -19,12 +19,12 @@ pub fn arriving_orca_group(
             time_to_target: 1.0,
         },
     };
-    GroupParams {
+    Profile {
         model: MovementModel::Kinematic,
         max_speed,
         radius,
         orca: Some(orca),
         arrival_radius: Some(arrival_radius),
-        ..GroupParams::kinematic(SteeringProfile::single(arrive))
+        ..Profile::kinematic(SteeringProfile::single(arrive))
     }
 }

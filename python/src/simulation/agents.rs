@@ -73,13 +73,8 @@ impl PySimulation {
                 }
             };
             let stage = stage.map(stage_id).transpose()?;
-            let floats =
-                |name: &str, v: Option<&Bound<'py, PyAny>>| -> PyResult<Option<Vec<f32>>> {
-                    v.map(|v| arrays::broadcast(name, arrays::read_floats(name, v)?, m))
-                        .transpose()
-                };
-            let speeds = floats("desired_speed", desired_speed)?;
-            let radii = floats("radius", radius)?;
+            let speeds = arrays::optional_floats("desired_speed", desired_speed, m)?;
+            let radii = arrays::optional_floats("radius", radius, m)?;
             let group = if external {
                 self.external_group()?
             } else {

@@ -111,14 +111,9 @@ impl PyWorld {
                     format!("expected {m} rows, got {}", vel.len()),
                 ));
             }
-            let floats =
-                |name: &str, v: Option<&Bound<'py, PyAny>>| -> PyResult<Option<Vec<f32>>> {
-                    v.map(|v| arrays::broadcast(name, arrays::read_floats(name, v)?, m))
-                        .transpose()
-                };
-            let orient = floats("orientations", orientations)?;
-            let speeds = floats("max_speed", max_speed)?;
-            let radii = floats("radius", radius)?;
+            let orient = arrays::optional_floats("orientations", orientations, m)?;
+            let speeds = arrays::optional_floats("max_speed", max_speed, m)?;
+            let radii = arrays::optional_floats("radius", radius, m)?;
             let groups = match group {
                 Some(g) => arrays::broadcast("group", arrays::read_ints("group", g)?, m)?,
                 None => vec![0; m],

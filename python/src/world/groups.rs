@@ -5,7 +5,7 @@
 //! and checked as the world checks any profile, so unknown keys and bad values raise.
 
 use pyo3::prelude::*;
-use throng::{Error, GroupParams};
+use throng::{Error, Profile};
 
 use super::PyWorld;
 use crate::convert;
@@ -30,7 +30,7 @@ impl PyWorld {
     /// speed or radius take the new ones.
     fn set_group_params(&mut self, group: usize, params: &Bound<'_, PyAny>) -> PyResult<()> {
         guarded(|| {
-            let p: GroupParams = convert::deserialize_from_py("params", params)?;
+            let p: Profile = convert::deserialize_from_py("params", params)?;
             self.world.set_group_params(group, p).or_raise()
         })
     }
@@ -38,7 +38,7 @@ impl PyWorld {
     /// Adds a group with the profile `params` (as for `set_group_params`); returns its index.
     fn add_group(&mut self, params: &Bound<'_, PyAny>) -> PyResult<usize> {
         guarded(|| {
-            let p: GroupParams = convert::deserialize_from_py("params", params)?;
+            let p: Profile = convert::deserialize_from_py("params", params)?;
             self.world.add_group(p).or_raise()
         })
     }

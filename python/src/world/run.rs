@@ -153,7 +153,7 @@ impl PyWorld {
     /// through an exit or an exit stage. Every step observes them, as `throng run` does.
     fn measurements<'py>(&self, py: Python<'py>) -> PyResult<Bound<'py, PyAny>> {
         let report = crate::convert::serialize_to_py(py, &self.measure.report(), false)?;
-        crate::bench::restore_nones(&report)?;
+        crate::convert::restore_nones(&report)?;
         Ok(report)
     }
 

@@ -10,8 +10,8 @@
 use crate::error::Result;
 use crate::world::World;
 
-use super::Scenario;
 use super::validate::at_path;
+use super::{GroupSpec, Scenario};
 
 impl Scenario {
     /// Builds the world: groups, then agents spawned group by group from the seed. The memory
@@ -82,7 +82,8 @@ impl Scenario {
             None => None,
         };
         if let (Some(f), Some(id)) = (&self.field, field) {
-            f.check_walkers(&world, id, &self.groups)?;
+            let counts: Vec<usize> = self.groups.iter().map(GroupSpec::count_of).collect();
+            f.check_walkers(&world, id, &counts)?;
         }
         world.try_reserve_agents(self.agent_count())?;
         self.spawn_agents(&mut world, bounds)?;

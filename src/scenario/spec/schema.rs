@@ -12,7 +12,7 @@ use crate::scenario::fields::FieldSpec;
 use crate::scenario::layout::Layout;
 use crate::scenario::{FormationSpec, GeometrySpec, GravitySpec, ObstacleSpec};
 use crate::spatial::IndexKind;
-use crate::world::GroupParams;
+use crate::world::Profile;
 
 /// A whole simulation, as read from a TOML file.
 #[derive(Clone, Debug, PartialEq, Serialize, Deserialize)]
@@ -295,7 +295,7 @@ pub struct GroupSpec {
     pub stage: Option<String>,
     /// The profile.
     #[serde(flatten)]
-    pub params: GroupParams,
+    pub params: Profile,
 }
 
 fn default_count() -> usize {
@@ -357,7 +357,7 @@ impl<'de> Deserialize<'de> for GroupSpec {
             merge(&mut base, table);
             table = base;
         }
-        let params = GroupParams::deserialize(toml::Value::Table(table))
+        let params = Profile::deserialize(toml::Value::Table(table))
             .map_err(|e| D::Error::custom(e.message()))?;
         Ok(GroupSpec {
             count: p.count,

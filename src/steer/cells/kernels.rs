@@ -16,7 +16,7 @@ use super::KLANES;
 use super::gather::CellBuf;
 use super::runs::{Reduced, Runs};
 use crate::simd::{apply, float_kernel};
-use crate::steer::plan::{ALI, COH, NeighbourSpec, SEP};
+use crate::steer::spec::{ALI, COH, FlatSpec, NeighbourSpec, SEP};
 
 #[cfg(target_arch = "x86_64")]
 mod avx512;
@@ -79,7 +79,8 @@ impl Slots<'_> {
     }
 }
 
-/// The lane kernel's view of the query: plain numbers.
+/// The cell kernels' view of the query: the agent's own numbers, the spec's [`FlatSpec`] with
+/// the view cones as squared cosines and shapes, and the kernel body that serves them.
 #[derive(Clone, Copy, Debug)]
 pub(super) struct Query {
     x: f32,
@@ -131,7 +132,13 @@ impl Query {
 
     /// The query template of a neighbour spec (the agent's own numbers are filled in later).
     pub(super) fn of(spec: &NeighbourSpec, one_group: bool) -> Query {
-        let cone = spec.cos.map(|c| {
+        let FlatSpec {
+            q_sq,
+            r_sq,
+            cos,
+            any_group,
+        } = spec.flat(one_group);
+        let cone = cos.map(|c| {
             if c <= -1.0 {
                 0
             } else if c < 0.0 {
@@ -140,9 +147,7 @@ impl Query {
                 2
             }
         });
-        let r_sq = [0, 1, 2].map(|b| if spec.on[b] { spec.r_sq[b] } else { -1.0 });
-        let c2 = spec.cos.map(|c| c * c);
-        let any_group = spec.same.map(|s| !s || one_group);
+        let c2 = cos.map(|c| c * c);
         let groups = !any_group.iter().all(|&a| a);
         // The common shape (a flock): separation all round, alignment and cohesion sharing one
         // neighbourhood. Everything else takes the general body.
@@ -151,7 +156,6 @@ impl Query {
             && cone[ALI] == cone[COH]
             && c2[ALI] == c2[COH]
             && any_group[ALI] == any_group[COH];
-        let q_sq = spec.query_r * spec.query_r;
         let mode = if spec.vicsek_r_sq.is_some() {
             VICSEK
         } else if shared {

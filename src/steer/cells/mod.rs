@@ -36,6 +36,7 @@ use std::sync::atomic::{AtomicU32, AtomicU64, Ordering};
 use rayon::prelude::*;
 
 use super::neighbours::SortedCopies;
+use super::out::OutChunks;
 use super::plan::PlanKind;
 use super::view::SteerView;
 use crate::simd::{apply, float_kernel};
@@ -79,15 +80,6 @@ pub(crate) struct CellOut {
     /// numbers, exact in any order).
     found: Option<f64>,
 }
-
-/// One task's chunks of the pass outputs: linear x and y, angular, wander angle, neighbours.
-pub(crate) type OutChunks<'c> = (
-    &'c mut [f32],
-    &'c mut [f32],
-    &'c mut [f32],
-    &'c mut [f32],
-    &'c mut [f32],
-);
 
 thread_local! {
     static BUF: RefCell<(CellBuf, Runs, TaskHeadings)> =
@@ -176,12 +168,8 @@ impl CellOut {
         #[cfg(feature = "oracle")]
         {
             let a = view.agents;
-            crate::oracle::record_sums(crate::oracle::Summed::of(
-                "summed",
-                (a.ids[i].0, a.position(i)),
-                &view.plans[a.group[i] as usize].spec,
-                *sums,
-            ));
+            let spec = &view.plans[a.group[i] as usize].spec;
+            crate::oracle::record_sums(spec.summed("summed", (a.ids[i].0, a.position(i)), *sums));
         }
         sums
     }

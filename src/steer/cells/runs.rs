@@ -9,7 +9,7 @@
 use glam::Vec2;
 
 use super::CELL_CHUNK;
-use crate::steer::plan::{ALI, COH};
+use crate::steer::spec::{ALI, COH};
 use crate::steering::NeighbourSums;
 
 /// One agent's kernel sums, reduced: separation x and y, alignment x and y, alignment's count,
@@ -34,23 +34,23 @@ pub(super) fn flock_sums(r: &Reduced) -> NeighbourSums {
 }
 
 /// One column of [`Runs`]: a task's agents at most, so that an index checked once against
-/// [`CELL_CHUNK`] needs no further bounds checks, on whole cache lines (`crate::lines`: the
+/// [`CELL_CHUNK`] needs no further bounds checks, on whole cache lines (`crate::cache_lines`: the
 /// flocking terms read and write the columns in 64-byte vectors).
-pub(super) type Column = Box<Lines>;
+pub(super) type Column = Box<AlignedColumn>;
 
 /// [`CELL_CHUNK`] values starting on a cache line.
 #[derive(Debug)]
 #[repr(C, align(64))]
-pub(super) struct Lines([f32; CELL_CHUNK]);
+pub(super) struct AlignedColumn([f32; CELL_CHUNK]);
 
-impl std::ops::Deref for Lines {
+impl std::ops::Deref for AlignedColumn {
     type Target = [f32; CELL_CHUNK];
     fn deref(&self) -> &[f32; CELL_CHUNK] {
         &self.0
     }
 }
 
-impl std::ops::DerefMut for Lines {
+impl std::ops::DerefMut for AlignedColumn {
     fn deref_mut(&mut self) -> &mut [f32; CELL_CHUNK] {
         &mut self.0
     }
@@ -58,7 +58,7 @@ impl std::ops::DerefMut for Lines {
 
 /// A zeroed [`Column`] (8 KiB on the heap).
 fn column() -> Column {
-    Box::new(Lines([0.0; CELL_CHUNK]))
+    Box::new(AlignedColumn([0.0; CELL_CHUNK]))
 }
 
 /// The sums and state of a task's agents, in columns indexed from the task's first grid
@@ -185,7 +185,7 @@ pub(super) mod tests {
 
     use super::*;
     use crate::steer::neighbours::{LANES, without_self};
-    use crate::steer::plan::{NeighbourSpec, SEP};
+    use crate::steer::spec::{NeighbourSpec, SEP};
 
     /// The bits of every sum.
     pub(in crate::steer::cells) fn bits(s: &NeighbourSums) -> [u32; 9] {

@@ -16,7 +16,8 @@ use super::terms::{evaluate_run, vicsek_run};
 use crate::simd::{apply, float_kernel};
 use crate::spatial::GridIndex;
 use crate::steer::neighbours::{SortedCopies, unit_headings_at, without_self};
-use crate::steer::plan::{NeighbourSpec, PlanKind};
+use crate::steer::plan::PlanKind;
+use crate::steer::spec::NeighbourSpec;
 use crate::steer::view::SteerView;
 use crate::steering::NeighbourSums;
 
@@ -381,7 +382,7 @@ fn record(
             ),
             _ => ("flocking", runs.sums_at(j)),
         };
-        crate::oracle::record_sums(crate::oracle::Summed::of(model, agent, &plan.spec, sums));
+        crate::oracle::record_sums(plan.spec.summed(model, agent, sums));
     }
 }
 

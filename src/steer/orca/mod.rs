@@ -31,7 +31,7 @@ use std::cell::RefCell;
 use glam::Vec2;
 use rayon::prelude::*;
 
-use super::pass::SteerOut;
+use super::out::SteerOut;
 use super::view::SteerView;
 use crate::agents::AgentId;
 use crate::orca::lines::LANES;

@@ -22,7 +22,7 @@
 use std::arch::x86_64::*;
 
 use super::{Agent, AgentCols, CellBuf, KLANES, Query, Reduced, Runs, Slots, VICSEK};
-use crate::steer::plan::{ALI, SEP};
+use crate::steer::spec::{ALI, SEP};
 
 /// The sums of the leading pairs of `agents` (all of them but an odd last one) into `runs` at
 /// `slots`, when the query has the flock's shape; returns how many agents it served (0 for

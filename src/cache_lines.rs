@@ -8,13 +8,13 @@
 //! element or reduces in an order-free way (a maximum, an "or"), so the split changes no result.
 
 /// `f32` values per cache line.
-pub(crate) const LINE: usize = 16;
+pub(crate) const F32_PER_LINE: usize = 16;
 
 /// How many values of `v` come before its first cache line (0 when it starts on one).
 #[inline]
 pub(crate) fn lead(v: &[f32]) -> usize {
     let at = v.as_ptr() as usize / size_of::<f32>();
-    ((LINE - at % LINE) % LINE).min(v.len())
+    ((F32_PER_LINE - at % F32_PER_LINE) % F32_PER_LINE).min(v.len())
 }
 
 #[cfg(test)]
@@ -28,7 +28,10 @@ mod tests {
             for len in [0, 1, 5, 15, 16, 17, 60] {
                 let s = &v[start..start + len];
                 let k = lead(s);
-                assert!(k < LINE && k <= len, "start {start}, len {len}: {k}");
+                assert!(
+                    k < F32_PER_LINE && k <= len,
+                    "start {start}, len {len}: {k}"
+                );
                 if k < len {
                     assert_eq!(s[k..].as_ptr() as usize % 64, 0, "start {start}, len {len}");
                 }
