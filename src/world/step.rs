@@ -8,6 +8,7 @@
 
 use std::time::Instant;
 
+use super::GroupParams;
 use super::state::World;
 use super::stats::{PhaseTimes, StepStats};
 use crate::bounds::Bounds;
@@ -102,11 +103,10 @@ impl World {
     }
 
     /// Compiles the groups' plans when a profile or something profiles refer to changed.
-    pub(crate) fn ensure_plans(&mut self) -> Result<()> {
-        if !self.plans_stale {
-            return Ok(());
-        }
-        let refs = References {
+    /// What a group's plan may name: the world's fields and their channels, paths, target slots
+    /// and `groups` groups.
+    fn references(&self, groups: usize) -> References {
+        References {
             channels: self
                 .fields
                 .fields
@@ -114,9 +114,30 @@ impl World {
                 .map(|f| f.channels.len())
                 .collect(),
             paths: self.group_movement.paths.len(),
-            groups: self.groups.len(),
+            groups,
             targets: self.targets.len(),
-        };
+        }
+    }
+
+    /// Checks `params` as the profile of a group added to the world as it is now: its values,
+    /// and that every field, channel, group, path and target slot it names exists. A world
+    /// being built adds its groups before its fields, so [`World::add_group`] leaves the names
+    /// to the first step; call this first to refuse them at once.
+    ///
+    /// # Errors
+    /// As [`World::set_group_params`].
+    pub fn check_group_params(&self, params: &GroupParams) -> Result<()> {
+        params.validate()?;
+        self.check_group_refs(params)?;
+        let group = self.groups.len();
+        Plan::compile(params, group, &self.references(group + 1)).map(|_| ())
+    }
+
+    pub(crate) fn ensure_plans(&mut self) -> Result<()> {
+        if !self.plans_stale {
+            return Ok(());
+        }
+        let refs = self.references(self.groups.len());
         let plans = self
             .groups
             .iter()
