@@ -48,6 +48,9 @@ pub const MAX_DERIVED_SIDE: f32 = 1e6;
 /// Bytes of state per agent assumed by the memory estimate (agent buffers, the neighbour
 /// index, cell-ordered copies and steering outputs; 160 bytes measured for a flock).
 pub const BYTES_PER_AGENT: u64 = 200;
+/// Bytes per group assumed by the memory estimate and by a tiling's check before it lays its
+/// copies (the group's table, its copy while tiling and the world's group with its plans).
+pub const BYTES_PER_GROUP: u64 = 2048;
 /// Bytes of a field cell and of each of its goal channels assumed by the memory estimate.
 pub const BYTES_PER_CELL: u64 = 16;
 /// Bytes per cell and channel (potential, step counts and flow).

@@ -507,7 +507,7 @@ mod tests {
         let ms = t.step_ms();
         assert_eq!((ms.min, ms.max, ms.median, ms.mean), (1.0, 4.0, 2.5, 2.5));
         assert_eq!((ms.p95, ms.p99), (4.0, 4.0));
-        assert_eq!(t.phase_medians(), [0.0, 2.5, 0.0, 0.0, 0.0, 0.0]);
+        assert_eq!(t.phase_medians(), [0.0, 2.5, 0.0, 0.0, 0.0, 0.0, 0.0]);
         let r = t.report("s", 10, 2, "grid", 4);
         assert_eq!(r.agent_steps_per_sec, 40.0 / 0.010);
         assert_eq!(r.mean_neighbours, 2.0);

@@ -264,6 +264,27 @@ fn set_group_params_refuses_a_field_or_group_the_world_does_not_have() {
     assert_eq!(w.frame(), 1);
 }
 
+/// A group added to a built world is checked as `set_group_params` checks one: a profile
+/// naming a field the world does not have is refused before the group is added.
+#[test]
+fn check_group_params_refuses_a_field_the_world_does_not_have() {
+    let w = world();
+    let p = Profile::dynamic(SteeringProfile::single(Behaviour::FollowField {
+        field: 3,
+        channel: 0,
+    }));
+    let err = w.check_group_params(&p).unwrap_err();
+    assert!(matches!(err, Error::UnknownField { .. }), "{err}");
+    let seek_own_group = Profile::dynamic(SteeringProfile::single(Behaviour::Seek {
+        target: Target::Nearest {
+            group: w.groups().len(),
+            within: 1.0,
+        },
+        threshold: 0.0,
+    }));
+    w.check_group_params(&seek_own_group).unwrap();
+}
+
 #[test]
 fn references_to_missing_fields_and_groups_are_rejected_at_the_step() {
     let follow = SteeringProfile::single(Behaviour::FollowField {

@@ -50,6 +50,41 @@ count = 1
     assert!(e.contains("random_circles.count"), "{e}");
 }
 
+/// Scaling by tiles draws every copy's random obstacles and points: the ceilings hold for all
+/// the copies together, and are checked before any copy is drawn.
+#[test]
+fn tiled_copies_are_held_to_the_ceilings_before_they_are_drawn() {
+    let t = Instant::now();
+    let e = Scenario::load(&data("tiles_random_circles_past_the_ceiling.toml"))
+        .and_then(|s| s.with_agents(100))
+        .unwrap_err()
+        .to_string();
+    assert!(t.elapsed() < Duration::from_secs(1), "{:?}", t.elapsed());
+    assert!(
+        e.contains("obstacles.random_circles.count") && e.contains("100 copies"),
+        "{e}"
+    );
+    let tiles = |extra: &str| {
+        format!(
+            "[world]\nkind = \"bounded\"\nsize = [100, 100]\nscale = \"tiles\"\n[[groups]]\ncount = 1\n{extra}"
+        )
+    };
+    let gravity = tiles(
+        "[gravity]\nrandom = { count = 1000, strength = 1, radius = 5, min = [0, 0], max = [100, 100] }\n",
+    );
+    let e = Scenario::from_toml(&gravity, "g.toml")
+        .and_then(|s| s.with_agents(1000))
+        .unwrap_err()
+        .to_string();
+    assert!(e.contains("gravity points"), "{e}");
+    // Within the ceiling the copies are drawn as before.
+    let s = Scenario::load(&data("tiles_random_circles_past_the_ceiling.toml")).unwrap();
+    let mut s = s;
+    s.obstacles.random_circles.as_mut().unwrap().count = 1000;
+    let tiled = s.with_agents(100).unwrap();
+    assert_eq!(tiled.obstacles.circles.len(), 100_000);
+}
+
 #[test]
 fn endless_and_oversized_files_are_refused_with_bounded_reads() {
     let t = Instant::now();
@@ -280,6 +315,16 @@ fn silent_nonsense_is_an_error_naming_the_key() {
         ("exit_min_beyond_max.toml", "exits[1]", ""),
         ("target_slot_beyond_max_speed.toml", "targets[1]", ""),
         ("walkable_bow_tie.toml", "crosses itself", "collinear"),
+        (
+            "spawn_rect_without_group_path.toml",
+            "groups[1]: invalid spawn.rect",
+            "",
+        ),
+        (
+            "target_slot_without_group_path.toml",
+            "groups[1]: no target slot 3",
+            "",
+        ),
     ] {
         let e = refused(&data(file));
         assert!(e.contains(wanted), "{file}: {e}");

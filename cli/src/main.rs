@@ -670,7 +670,7 @@ fn run_steps(
     outputs.frame(world)?;
     outputs.picture(world)?;
     if let Some(m) = &mut measure {
-        m.frame(world)?;
+        m.frame(world, None)?;
     }
     let mut written = world.frame();
     let ckpt_every = checkpoint.map_or(0, |c| c.run.checkpoint_every);
@@ -678,11 +678,11 @@ fn run_steps(
     let wall = Instant::now();
     let mut emptied = None;
     for _ in 0..steps {
-        let stats = pool.install(|| world.step(d.dt))?;
-        timings.push_world(&stats, world);
+        let mut stats = pool.install(|| world.step(d.dt))?;
         if let Some(m) = &mut measure {
-            m.frame(world)?;
+            m.frame(world, Some(&mut stats))?;
         }
+        timings.push_world(&stats, world);
         outputs.picture(world)?;
         if stats.frame % d.every == 0 {
             if !d.quiet {
@@ -762,9 +762,9 @@ fn bench(s: Scenario, c: &CommonArgs, warmup: u64) -> Result<()> {
     })?;
     let mut timings = Timings::default();
     for _ in 0..steps {
-        let stats = pool.install(|| world.step(s.dt))?;
+        let mut stats = pool.install(|| world.step(s.dt))?;
+        measure.observe_step(&world, &mut stats);
         timings.push_world(&stats, &world);
-        measure.observe(&world);
     }
     let index = world.index_kind().to_string();
     let report = timings

@@ -673,17 +673,7 @@ fn bench_json_reports_measurements_and_the_evacuation_time() {
 /// any allocation can abort the process; `--max-memory` is named when it is the bound.
 #[test]
 fn an_address_space_limit_is_a_one_line_error_naming_it() {
-    let bin = env!("CARGO_BIN_EXE_throng");
-    let o = Command::new("sh")
-        .arg("-c")
-        .arg(format!(
-            "ulimit -v 1000000 && exec '{bin}' demo flock --agents 10000000 --steps 1"
-        ))
-        .output()
-        .unwrap();
-    let err = stderr(&o);
-    assert_eq!(o.status.code(), Some(1), "{err}");
-    assert_eq!(err.trim_end().lines().count(), 1, "{err}");
+    let err = one_line_failure_within_1_gb("demo flock --agents 10000000 --steps 1");
     assert!(
         err.contains("ulimit -v") && err.contains("not enough memory"),
         "{err}"
@@ -733,4 +723,77 @@ fn the_concourse_walks_its_journey_to_empty() {
         out.contains("evacuation: the last agent left at") && out.contains("200 left, none inside"),
         "{out}"
     );
+}
+
+/// The step's reported time includes measuring it: four areas of 1,024 vertices over 2,000
+/// agents cost about ten times the step itself, and were in no phase.
+#[test]
+fn measurement_time_counts_in_the_step_and_its_phase() {
+    let file = concat!(
+        env!("CARGO_MANIFEST_DIR"),
+        "/../tests/data/measurement_areas_of_1024_vertices.toml"
+    );
+    let o = throng(&["run", file, "--steps", "50", "--quiet"]);
+    assert!(o.status.success(), "{}", stderr(&o));
+    let out = stdout(&o);
+    let summary = out.lines().next().expect("a summary line");
+    let number_after = |key: &str| -> f64 {
+        let rest = &summary[summary.find(key).expect(key) + key.len()..];
+        rest.split_whitespace().next().unwrap().parse().unwrap()
+    };
+    let wall_s = number_after("steps in ");
+    let mean_ms = number_after("ms/step mean ");
+    assert!(
+        mean_ms * 50.0 / 1e3 >= 0.5 * wall_s,
+        "50 steps of {mean_ms} ms reported in a run of {wall_s} s: {summary}"
+    );
+    let o = throng(&["run", file, "--steps", "2", "--every", "1"]);
+    let line = stdout(&o)
+        .lines()
+        .find(|l| l.starts_with("frame"))
+        .expect("a frame line")
+        .to_string();
+    let measure: f64 = line
+        .split("measure")
+        .nth(1)
+        .and_then(|r| r.split_whitespace().next())
+        .and_then(|v| v.trim_end_matches(']').parse().ok())
+        .unwrap_or_else(|| panic!("no measure phase in {line}"));
+    assert!(measure > 0.0, "{line}");
+    let o = throng(&["bench", file, "--steps", "5", "--json"]);
+    let v: serde_json::Value = serde_json::from_str(stdout(&o).trim()).expect("one JSON object");
+    let phase = v["phases_ms"]["measure"]
+        .as_f64()
+        .expect("phases_ms.measure");
+    assert!(
+        phase > 0.0 && v["ms_per_step"]["median"].as_f64().unwrap() >= phase,
+        "{v}"
+    );
+}
+
+/// Laying the copies of `scale = "tiles"` is held to the process's memory too: a hundred
+/// million one-agent copies under `ulimit -v` are a one-line error, not an abort.
+#[test]
+fn tiling_past_the_address_space_limit_is_a_one_line_error() {
+    let file = concat!(
+        env!("CARGO_MANIFEST_DIR"),
+        "/../tests/data/tiles_of_one_agent.toml"
+    );
+    let err = one_line_failure_within_1_gb(&format!("run '{file}' --agents 100000000 --steps 1"));
+    assert!(err.contains("tiles"), "{err}");
+}
+
+/// Runs `throng ARGS` under `ulimit -v 1000000`, asserts exit 1 with one line on stderr and
+/// returns that line.
+fn one_line_failure_within_1_gb(args: &str) -> String {
+    let bin = env!("CARGO_BIN_EXE_throng");
+    let o = Command::new("sh")
+        .arg("-c")
+        .arg(format!("ulimit -v 1000000 && exec '{bin}' {args}"))
+        .output()
+        .unwrap();
+    let err = stderr(&o);
+    assert_eq!(o.status.code(), Some(1), "{err}");
+    assert_eq!(err.trim_end().lines().count(), 1, "{err}");
+    err
 }

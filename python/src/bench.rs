@@ -75,9 +75,9 @@ pub(crate) fn bench<'py>(
                 }
                 let mut timings = Timings::default();
                 for _ in 0..steps {
-                    let stats = world.step(dt)?;
+                    let mut stats = world.step(dt)?;
+                    measure.observe_step(&world, &mut stats);
                     timings.push_world(&stats, &world);
-                    measure.observe(&world);
                 }
                 Ok(timings)
             })

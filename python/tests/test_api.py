@@ -33,7 +33,7 @@ def test_step_returns_the_frame_line_keys():
     stats = w.step(n=3)
     assert list(stats) == [
         "frame", "step", "index", "steer", "integrate", "bounds", "fields", "formations",
-        "agents", "mean_neighbours",
+        "measure", "agents", "mean_neighbours",
     ]
     assert stats["frame"] == 3 and stats["agents"] == 300 and stats["step"] > 0
     assert w.frame == 3 and w.time == pytest.approx(3 * w.dt)

@@ -93,7 +93,7 @@ def test_bench_returns_the_cli_bench_json_keys_and_values(throng_bin):
     for k in ("scenario", "agents", "threads", "index", "steps", "mean_neighbours"):
         assert ours[k] == theirs[k], k
     assert set(ours["phases_ms"]) == {
-        "index", "steer", "integrate", "bounds", "fields", "formations",
+        "index", "steer", "integrate", "bounds", "fields", "formations", "measure",
     }
     assert 0.0 <= ours["polarisation"] <= 1.0
     ms = ours["ms_per_step"]

@@ -110,6 +110,15 @@ def test_set_group_params_refuses_a_field_the_world_does_not_have():
     assert w.frame == 1
 
 
+def test_add_group_refuses_a_field_the_world_does_not_have():
+    w = World.from_scenario("flock", agents=10)
+    follow = {"steering": {"behaviours": [{"kind": "follow_field", "field": 3}]}}
+    with pytest.raises(ThrongError, match="field 3"):
+        w.add_group(follow)
+    w.step()
+    assert w.frame == 1
+
+
 def test_add_agents_beyond_the_agent_ceiling_is_refused_before_it_copies():
     # A broadcast view of 10^8 + 1 rows takes no memory; copying it would take 800 MB.
     rows = np.broadcast_to(np.zeros(2, np.float32), (100_000_001, 2))

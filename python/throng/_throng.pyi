@@ -43,6 +43,7 @@ class StepStats(TypedDict):
     bounds: float
     fields: float
     formations: float
+    measure: float
     agents: int
     mean_neighbours: float
 

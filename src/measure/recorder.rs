@@ -8,6 +8,8 @@
 //! towards the new one (at most one crossing per line and move). The frame's crossings are
 //! sorted by time, then id, then line, before any sum sees them.
 
+use std::time::Instant;
+
 use glam::{DVec2, Vec2};
 use serde::Serialize;
 
@@ -15,7 +17,7 @@ use super::MeasurementSpec;
 use crate::agents::AgentId;
 use crate::bounds::Bounds;
 use crate::error::Result;
-use crate::world::World;
+use crate::world::{StepStats, World};
 
 /// One crossing of a line by an agent.
 #[derive(Clone, Copy, Debug, PartialEq)]
@@ -260,6 +262,17 @@ impl Measurements {
     #[must_use]
     pub fn spec(&self) -> &MeasurementSpec {
         &self.spec
+    }
+
+    /// Observes the world's current frame after the step that `stats` reports, and counts the
+    /// time it took in that step's [`measure`](crate::world::PhaseTimes::measure) phase and
+    /// total, so that a step's reported time includes what measuring it cost.
+    pub fn observe_step(&mut self, world: &World, stats: &mut StepStats) {
+        let start = Instant::now();
+        self.observe(world);
+        let took = start.elapsed();
+        stats.phases.measure += took;
+        stats.total += took;
     }
 
     /// Observes the world's current frame: call it once before the first step and after every

@@ -18,7 +18,7 @@ use super::fields::{FieldSpec, GoalSpec, MapSource, WalkerSpec};
 use super::group::Members;
 use super::spec::{Scenario, Spawn, WorldScale};
 use crate::agents::AgentId;
-use crate::error::{Error, Result};
+use crate::error::{Error, Result, try_reserve};
 use crate::field::OccupancyGrid;
 use crate::gravity::Motion;
 use crate::group::PathId;
@@ -87,6 +87,7 @@ impl Scenario {
                 reason: "a scenario with a `[geometry]` cannot scale by tiles".into(),
             });
         }
+        self.check_tiled(copies)?;
         let cols = (copies as f64).sqrt().ceil() as usize;
         let rows = copies.div_ceil(cols);
         let mut out = plain.clone();
@@ -98,6 +99,37 @@ impl Scenario {
         out.obstacles = Default::default();
         out.gravity = Default::default();
         out.exits.clear();
+        // Sized by the agent count: an error, not an abort, when the process cannot hold the
+        // copies (checked against its bound where known, and reserved fallibly).
+        if let Some(ceiling) = crate::limits::memory_ceiling() {
+            crate::limits::check_memory_under(
+                "world.scale = \"tiles\"",
+                (copies as u64).saturating_mul(plain.copy_bytes()),
+                ceiling,
+            )?;
+        }
+        let reserve = |n: usize| n.saturating_mul(copies);
+        let what = "world.scale = \"tiles\"";
+        try_reserve(&mut out.groups, reserve(plain.groups.len()), what)?;
+        try_reserve(&mut out.paths, reserve(plain.paths.len()), what)?;
+        try_reserve(&mut out.targets, reserve(plain.targets.len()), what)?;
+        try_reserve(&mut out.formations, reserve(plain.formations.len()), what)?;
+        try_reserve(&mut out.exits, reserve(plain.exits.len()), what)?;
+        let o = &plain.obstacles;
+        let random_circles = o.random_circles.as_ref().map_or(0, |r| r.count);
+        try_reserve(
+            &mut out.obstacles.circles,
+            reserve(o.circles.len() + random_circles),
+            what,
+        )?;
+        try_reserve(&mut out.obstacles.walls, reserve(o.walls.len()), what)?;
+        try_reserve(&mut out.obstacles.polygons, reserve(o.polygons.len()), what)?;
+        let random_points = plain.gravity.random.as_ref().map_or(0, |r| r.count);
+        try_reserve(
+            &mut out.gravity.points,
+            reserve(plain.gravity.points.len() + random_points),
+            what,
+        )?;
         if let Some(f) = &self.field {
             out.field = Some(tiled_field(
                 f,
@@ -201,6 +233,81 @@ impl Scenario {
     }
 }
 
+impl Scenario {
+    /// The bytes one copy adds while tiling: its groups (at
+    /// [`BYTES_PER_GROUP`](crate::limits::BYTES_PER_GROUP)), obstacles, gravity points, exits,
+    /// paths and formations as listed (random ones drawn).
+    fn copy_bytes(&self) -> u64 {
+        use std::mem::size_of;
+        let o = &self.obstacles;
+        let circles = o.circles.len() + o.random_circles.as_ref().map_or(0, |r| r.count);
+        let polygon_points: usize = o.polygons.iter().map(|p| p.points.len()).sum();
+        let points =
+            self.gravity.points.len() + self.gravity.random.as_ref().map_or(0, |r| r.count);
+        let path_points: usize = self.paths.iter().map(|p| p.points().len()).sum();
+        [
+            self.groups.len() * crate::limits::BYTES_PER_GROUP as usize,
+            circles * size_of::<crate::obstacles::Circle>(),
+            o.walls.len() * size_of::<crate::obstacles::Wall>(),
+            o.polygons.len() * size_of::<super::obstacles::PolygonSpec>()
+                + polygon_points * size_of::<Vec2>(),
+            points * size_of::<crate::gravity::GravityPoint>(),
+            self.exits.len() * size_of::<crate::world::Exit>(),
+            self.paths.len() * size_of::<crate::group::Path>() + path_points * size_of::<Vec2>(),
+            self.formations.len() * size_of::<super::group::FormationSpec>(),
+            self.targets.len() * size_of::<crate::targets::TargetPoint>(),
+        ]
+        .into_iter()
+        .fold(0u64, |sum, b| sum.saturating_add(b as u64))
+    }
+
+    /// Refuses `copies` copies whose random obstacles, gravity points or random goals together
+    /// pass their ceilings, before any copy is drawn: a ceiling applies to what is built.
+    fn check_tiled(&self, copies: usize) -> Result<()> {
+        use crate::limits::{MAX_GRAVITY_POINTS, MAX_RANDOM_CIRCLES, MAX_RANDOM_GOALS};
+        let check = |name: &str, per_copy: usize, max: usize| -> Result<()> {
+            let all = per_copy.saturating_mul(copies);
+            if all <= max {
+                return Ok(());
+            }
+            Err(Error::Invalid {
+                name: name.into(),
+                reason: format!(
+                    "{per_copy} in each of the {copies} copies that `scale = \"tiles\"` lays for \
+                     this agent count makes {all}, more than the ceiling of {max} (lower the \
+                     count or the number of agents)"
+                ),
+            })
+        };
+        let random_circles = self
+            .obstacles
+            .random_circles
+            .as_ref()
+            .map_or(0, |r| r.count);
+        check(
+            "obstacles.random_circles.count",
+            random_circles,
+            MAX_RANDOM_CIRCLES,
+        )?;
+        let points =
+            self.gravity.points.len() + self.gravity.random.as_ref().map_or(0, |r| r.count);
+        check(
+            "gravity points (points and random.count)",
+            points,
+            MAX_GRAVITY_POINTS,
+        )?;
+        if let Some(f) = &self.field {
+            check("field.shuffle_goals", f.shuffle_goals, MAX_RANDOM_GOALS)?;
+            for g in &f.channels {
+                if let GoalSpec::Random(n) = g {
+                    check("field.channels.random", *n, MAX_RANDOM_GOALS)?;
+                }
+            }
+        }
+        Ok(())
+    }
+}
+
 /// `field` repeated for `copies` copies of a tile of `size` on `cols x rows` tiles (see the module
 /// docs), for a scenario of `groups` groups per copy.
 fn tiled_field(
@@ -231,6 +338,14 @@ fn tiled_field(
             "a tiled `[field]`'s map must cover the tile exactly: {w} x {h} cells of {} cover \
              [{}, {}], the tile is [{}, {}]",
             field.cell_size, covered.x, covered.y, size.x, size.y
+        )));
+    }
+    let cells = (cols * w) as u64 * (rows * h) as u64;
+    if cells > crate::limits::MAX_CELLS {
+        return Err(refuse(format!(
+            "{copies} copies of the {w} x {h} map make a grid of {cells} cells, more than the \
+             ceiling of {} (lower the number of agents or the map's size)",
+            crate::limits::MAX_CELLS
         )));
     }
     let mut cell = vec![b'.'; w * h];

@@ -22,14 +22,18 @@ pub struct PhaseTimes {
     pub fields: Duration,
     /// Formation slot assignment (the Hungarian method, when membership changed).
     pub formations: Duration,
+    /// The scenario's measurement lines and areas observed after the step: added by
+    /// [`Measurements::observe_step`](crate::measure::Measurements::observe_step), 0 where
+    /// nothing is measured.
+    pub measure: Duration,
 }
 
 impl PhaseTimes {
     /// Number of phases.
-    pub const COUNT: usize = 6;
+    pub const COUNT: usize = 7;
 
-    /// Phase names, as used in frame timings and `bench --json`: the four of the pipeline, then
-    /// the subsystems' hooks.
+    /// Phase names, as used in frame timings and `bench --json`: the four of the pipeline, the
+    /// subsystems' hooks, then the measurements.
     pub const NAMES: [&'static str; Self::COUNT] = [
         "index",
         "steer",
@@ -37,6 +41,7 @@ impl PhaseTimes {
         "bounds",
         "fields",
         "formations",
+        "measure",
     ];
 
     /// Each phase in milliseconds, in the order of [`PhaseTimes::NAMES`].
@@ -49,6 +54,7 @@ impl PhaseTimes {
             self.bounds,
             self.fields,
             self.formations,
+            self.measure,
         ]
         .map(|d| d.as_secs_f64() * 1e3)
     }
@@ -61,7 +67,8 @@ pub struct StepStats {
     pub frame: u64,
     /// Agents stepped.
     pub agents: usize,
-    /// Time of the whole step.
+    /// Time of the whole step, measurements included (the sum of the phases and the pipeline's
+    /// own bookkeeping).
     pub total: Duration,
     /// Time of each phase.
     pub phases: PhaseTimes,

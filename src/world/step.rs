@@ -15,6 +15,7 @@ use crate::error::{Error, MAX_DT, Result};
 use crate::group;
 use crate::movement::{self, MotionState, SteeringBuffers};
 use crate::passes;
+use crate::profile::Profile;
 use crate::spatial::{NeighbourIndex, SpatialIndex};
 use crate::steer::{self, Plan, References, SteerView};
 use crate::steering::Steering;
@@ -66,11 +67,10 @@ impl World {
     }
 
     /// Compiles the groups' plans when a profile or something profiles refer to changed.
-    pub(crate) fn ensure_plans(&mut self) -> Result<()> {
-        if !self.plans_stale {
-            return Ok(());
-        }
-        let refs = References {
+    /// What a group's plan may name: the world's fields and their channels, paths, target slots
+    /// and `groups` groups.
+    fn references(&self, groups: usize) -> References {
+        References {
             channels: self
                 .fields
                 .fields
@@ -78,9 +78,30 @@ impl World {
                 .map(|f| f.channels.len())
                 .collect(),
             paths: self.group_movement.paths.len(),
-            groups: self.groups.len(),
+            groups,
             targets: self.targets.len(),
-        };
+        }
+    }
+
+    /// Checks `params` as the profile of a group added to the world as it is now: its values,
+    /// and that every field, channel, group, path and target slot it names exists. A world
+    /// being built adds its groups before its fields, so [`World::add_group`] leaves the names
+    /// to the first step; call this first to refuse them at once.
+    ///
+    /// # Errors
+    /// As [`World::set_group_params`].
+    pub fn check_group_params(&self, params: &Profile) -> Result<()> {
+        params.validate()?;
+        self.check_group_refs(params)?;
+        let group = self.groups.len();
+        Plan::compile(params, group, &self.references(group + 1)).map(|_| ())
+    }
+
+    pub(crate) fn ensure_plans(&mut self) -> Result<()> {
+        if !self.plans_stale {
+            return Ok(());
+        }
+        let refs = self.references(self.groups.len());
         let plans = self
             .groups
             .iter()

@@ -11,7 +11,7 @@ use std::io::{BufWriter, Write};
 use std::path::Path;
 
 use throng::output::AtomicOutput;
-use throng::{Error, Result, World};
+use throng::{Error, Result, StepStats, World};
 
 pub use throng::output::{Format, Sampling, Trajectories};
 
@@ -306,9 +306,13 @@ impl MeasureOutput {
         Ok(MeasureOutput { recorder, csv })
     }
 
-    /// Observes the world's current frame and writes its row.
-    pub fn frame(&mut self, world: &World) -> Result<()> {
-        self.recorder.observe(world);
+    /// Observes the world's current frame and writes its row; the observation's time counts in
+    /// the `stats` of the step that made the frame, when given.
+    pub fn frame(&mut self, world: &World, stats: Option<&mut StepStats>) -> Result<()> {
+        match stats {
+            Some(stats) => self.recorder.observe_step(world, stats),
+            None => self.recorder.observe(world),
+        }
         let Some((w, file)) = &mut self.csv else {
             return Ok(());
         };

@@ -52,7 +52,8 @@ pub struct FrameInfo {
     pub world_version: u32,
     /// Mean time of the steps since the last frame, milliseconds.
     pub step_ms: f64,
-    /// Mean time of each phase over those steps, in `PhaseTimes::NAMES` order.
+    /// Mean time of each phase over those steps, in `PhaseTimes::NAMES` order (the six of the
+    /// step; a served world measures nothing).
     pub phases_ms: [f64; 6],
     /// Agent-steps per second of wall time over the last second.
     pub agent_steps_per_sec: f64,

@@ -403,7 +403,8 @@ impl Sim {
         if done > 0 {
             let k = done as f64;
             self.info.step_ms = total / k;
-            self.info.phases_ms = phases.map(|p| p / k);
+            // The frame carries the pipeline's and the hooks' phases; nothing is measured here.
+            self.info.phases_ms = std::array::from_fn(|i| phases[i] / k);
             self.info.agent_steps_per_sec = if total > 0.0 {
                 self.world.len() as f64 * k * 1e3 / total
             } else {

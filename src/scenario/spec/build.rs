@@ -74,8 +74,10 @@ impl Scenario {
             world.add_exit(e.clone())?;
         }
         self.add_journeys(&mut world)?;
-        for g in &self.groups {
-            world.add_group(g.params.clone())?;
+        for (i, g) in self.groups.iter().enumerate() {
+            world
+                .add_group(g.params.clone())
+                .map_err(|e| at_path(format!("groups[{i}]"), e))?;
         }
         let field = match &self.field {
             Some(f) => Some(f.add_to(&mut world, self.seed)?),

@@ -8,14 +8,18 @@ use super::{Scenario, StageSpec};
 
 impl Scenario {
     /// An estimate of the memory the built world will need, bytes: agents at
-    /// [`BYTES_PER_AGENT`](crate::limits::BYTES_PER_AGENT), field cells and their channels,
-    /// the stages' routing raster (with a walkable area: a cell of
-    /// 0.2 m and a channel per stage with a place), obstacles, gravity points, exit vertices and
-    /// the slots of queues and waiting sets, plus [`BASE_BYTES`](crate::limits::BASE_BYTES).
+    /// [`BYTES_PER_AGENT`](crate::limits::BYTES_PER_AGENT), groups at
+    /// [`BYTES_PER_GROUP`](crate::limits::BYTES_PER_GROUP), field cells and their channels,
+    /// the stages' routing raster (with a walkable area: a cell of 0.2 m and a channel per stage
+    /// with a place), obstacles, gravity points, exit vertices and the slots of queues and
+    /// waiting sets, plus [`BASE_BYTES`](crate::limits::BASE_BYTES).
     #[must_use]
     pub fn memory_estimate(&self) -> u64 {
-        use crate::limits::{BASE_BYTES, BYTES_PER_AGENT, BYTES_PER_CELL, BYTES_PER_CHANNEL_CELL};
+        use crate::limits::{
+            BASE_BYTES, BYTES_PER_AGENT, BYTES_PER_CELL, BYTES_PER_CHANNEL_CELL, BYTES_PER_GROUP,
+        };
         let agents = (self.agent_count() as u64).saturating_mul(BYTES_PER_AGENT);
+        let groups = (self.groups.len() as u64).saturating_mul(BYTES_PER_GROUP);
         let field = self.field.as_ref().map_or(0, |f| {
             let per_cell = BYTES_PER_CELL + f.channels.len() as u64 * BYTES_PER_CHANNEL_CELL;
             f.cell_estimate(self.geometry.as_ref().map(|g| &g.walkable))
@@ -49,6 +53,7 @@ impl Scenario {
             + self.stage_points()) as u64;
         BASE_BYTES
             .saturating_add(agents)
+            .saturating_add(groups)
             .saturating_add(field)
             .saturating_add(self.route_bytes())
             .saturating_add(obstacles.saturating_mul(64))

@@ -73,7 +73,7 @@ impl Scenario {
         for (i, g) in self.groups.iter().enumerate() {
             in_group(i, g.params.validate())?;
             in_group(i, non_negative("initial_speed", g.initial_speed))?;
-            self.check_spawn(&g.spawn)?;
+            in_group(i, self.check_spawn(&g.spawn))?;
             if let Spawn::Spread { min, max, distance } = &g.spawn {
                 // An impossible request fails here, before any agent is placed.
                 in_group(
