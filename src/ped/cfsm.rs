@@ -41,6 +41,12 @@
 //! push from behind that breaks other standstills (docs/VALIDATION.md, "The narrow door",
 //! measures both), which is why it is not the default.
 //!
+//! Reference speed (not in the paper, off by default): with [`Cfsm::reference_speed`] `v_r > 0`
+//! a pedestrian with the desired speed `v0` takes the time gaps times `v_r / v0`, so that `v /
+//! v0` is the same function of the spacing for every pedestrian, as Weidmann's fundamental
+//! diagram has `v / v0` one function of the density; pedestrians then keep a distance rather
+//! than a time.
+//!
 //! Sidestepping (not in the paper, off by default): a pedestrian blocked at contact ahead turns its direction by
 //! 45, then 90 degrees to either side and takes the first turn with room ahead, so that an arch
 //! of pedestrians at a narrow door, each in the way of another, breaks up as real ones do. It
@@ -48,7 +54,7 @@
 //! collisions stands.
 //!
 //! Invariants: the direction is a unit vector or zero; the speed lies in `[0, v0]`; the time gap
-//! lies in `[pressed_time_gap, time_gap]`.
+//! lies in `[pressed_time_gap, time_gap]` (times `reference_speed / v0` when that is on).
 
 use glam::Vec2;
 use serde::{Deserialize, Serialize};
@@ -108,6 +114,13 @@ pub struct Cfsm {
     /// `lambda + (1 - lambda) (1 + cos phi) / 2` (the social force model's anisotropy).
     /// Default: 1, the paper's and JuPedSim's isotropic repulsion (the weight is then exactly 1).
     pub anisotropy: f32,
+    /// The desired speed, m/s, at which the time gaps are [`Cfsm::time_gap`] and
+    /// [`Cfsm::pressed_time_gap`] (>= 0; 0 for every pedestrian's time gaps as given). A
+    /// pedestrian with the desired speed `v0` takes them times `reference_speed / v0`, so
+    /// that its speed relative to its desired speed is one function of the spacing for all:
+    /// pedestrians keep a distance rather than a time (Weidmann's `v / v0` as one function
+    /// of the density). Default: 0 (as JuPedSim).
+    pub reference_speed: f32,
 }
 
 /// The spacing, m, at or below which a pedestrian counts as blocked ([`Cfsm::sidestep`]).
@@ -164,6 +177,7 @@ impl Default for Cfsm {
             speed_function: SpeedFunction::Smooth,
             sidestep: false,
             anisotropy: 1.0,
+            reference_speed: 0.0,
         }
     }
 }
@@ -221,6 +235,14 @@ impl Cfsm {
             0.0,
             1.0,
             "[0, 1]",
+        )?;
+        non_negative("pedestrian.cfsm.reference_speed", self.reference_speed)?;
+        in_range(
+            "pedestrian.cfsm.reference_speed",
+            self.reference_speed,
+            0.0,
+            1e3,
+            "[0, 1e3]",
         )?;
         check_cutoff("pedestrian.cfsm.cutoff", self.cutoff)
     }
@@ -329,6 +351,11 @@ impl Cfsm {
 
     #[inline]
     fn speed_with_gap(&self, s: f32, v0: f32, time_gap: f32) -> f32 {
+        let time_gap = if self.reference_speed > 0.0 && v0 > 0.0 {
+            time_gap * (self.reference_speed / v0)
+        } else {
+            time_gap
+        };
         match self.speed_function {
             SpeedFunction::Linear => (s / time_gap).clamp(0.0, v0),
             SpeedFunction::Smooth if v0 > 0.0 => v0 * tanh_poly(s.max(0.0) / (v0 * time_gap)),
@@ -390,6 +417,7 @@ mod tests {
     fn jupedsim() -> Cfsm {
         Cfsm {
             anisotropy: 1.0,
+            reference_speed: 0.0,
             time_gap: 1.0,
             pressed_time_gap: 1.0,
             spacing: Spacing::Centre,
@@ -417,6 +445,43 @@ mod tests {
         assert!(m.speed(100.0, 1.34) <= 1.34 && m.speed(100.0, 1.34) > 1.339);
         assert_eq!(m.speed(-0.1, 1.34), 0.0);
         assert_eq!(m.speed(1.0, 0.0), 0.0);
+    }
+
+    #[test]
+    fn a_reference_speed_makes_the_speed_relative_to_v0_one_function_of_the_spacing() {
+        for speed_function in [SpeedFunction::Linear, SpeedFunction::Smooth] {
+            let m = Cfsm {
+                reference_speed: 1.34,
+                speed_function,
+                ..Cfsm::default()
+            };
+            let plain = Cfsm {
+                reference_speed: 0.0,
+                ..m
+            };
+            for s in [0.0f32, 0.05, 0.2, 0.5, 1.0, 3.0] {
+                // At the reference speed, the time gaps as given.
+                assert_eq!(m.speed_under(s, 1.34, 0.3), plain.speed_under(s, 1.34, 0.3));
+                // Elsewhere, v / v0 is the same function of the spacing.
+                for v0 in [0.6f32, 1.11, 2.0] {
+                    let relative = m.speed_under(s, v0, 0.3) / v0;
+                    let at_reference = m.speed_under(s, 1.34, 0.3) / 1.34;
+                    assert!((relative - at_reference).abs() < 1e-6, "{s} {v0}");
+                    assert!((0.0..=v0).contains(&m.speed_under(s, v0, 0.3)));
+                }
+            }
+            assert_eq!(m.speed(1.0, 0.0), 0.0);
+        }
+        let bad = Cfsm {
+            reference_speed: -1.0,
+            ..Cfsm::default()
+        };
+        assert!(
+            bad.validate()
+                .unwrap_err()
+                .to_string()
+                .contains("reference_speed")
+        );
     }
 
     #[test]

@@ -281,7 +281,7 @@ fn diagrams(runs: &mut Runs, name: &str, x: &str, binned: &Binned, reference: &[
 pub(super) fn exp_unidirectional(opt: &Options, runs: &mut Runs) -> Result<Vec<Check>> {
     let densities: &[f64] = match opt.size {
         Size::Full => &[0.3, 0.6, 1.0, 1.5, 2.0, 2.5, 3.0, 3.5, 4.0],
-        Size::Quick => &[0.6, 1.5, 2.5, 3.5],
+        Size::Quick => &[0.3, 1.0, 1.5, 2.5, 3.5, 4.0],
     };
     let mut binned = Binned::new(0.5);
     for &rho in densities {
@@ -403,7 +403,7 @@ pub(super) fn rimea_16(opt: &Options, runs: &mut Runs) -> Result<Vec<Check>> {
 pub(super) fn exp_bidirectional(opt: &Options, runs: &mut Runs) -> Result<Vec<Check>> {
     let densities: &[f64] = match opt.size {
         Size::Full => &[0.5, 1.0, 1.5, 2.0, 2.5, 3.0],
-        Size::Quick => &[1.0, 2.0],
+        Size::Quick => &[0.5, 1.0, 2.0, 3.0],
     };
     let mut binned = Binned::new(0.5);
     for &rho in densities {
@@ -440,7 +440,7 @@ pub(super) fn exp_bidirectional(opt: &Options, runs: &mut Runs) -> Result<Vec<Ch
 pub(super) fn exp_t_junction(opt: &Options, runs: &mut Runs) -> Result<Vec<Check>> {
     let densities: &[f64] = match opt.size {
         Size::Full => &[1.0, 2.0, 3.0],
-        Size::Quick => &[2.0],
+        Size::Quick => &[1.0, 3.0],
     };
     let (mut arms, mut front) = (Binned::new(0.5), Binned::new(0.5));
     for &rho in densities {
