@@ -60,7 +60,7 @@ fn exit_at(w: &mut World, min: Vec2, max: Vec2) -> StageId {
 
 #[test]
 fn a_queue_releases_exactly_the_popped_count() {
-    for model in [Model::Cfsm, Model::SocialForce] {
+    for model in Model::ALL {
         let mut w = world(HALL, model);
         let slots: Vec<Vec2> = (0..10)
             .map(|k| Vec2::new(20.0 - k as f32 * 0.6, 10.0))
