@@ -8,6 +8,9 @@ use throng::prelude::*;
 use throng::profile::Profile;
 use throng::scenario::{Scenario, builtin};
 
+#[path = "support/bits.rs"]
+mod bits;
+
 /// A pedestrian group walking to `target` (kinematic, radius 0.2 m).
 fn walkers(model: Model, speed: DesiredSpeed, target: Vec2) -> Profile {
     let mut p = Profile::kinematic(SteeringProfile::single(Behaviour::Seek {
@@ -161,15 +164,7 @@ fn same_bits_on_one_two_and_four_threads() {
                 w.step(s.dt).unwrap();
             }
         });
-        let a = w.agents();
-        let mut v: Vec<_> = (0..a.len())
-            .map(|i| {
-                let (p, q) = (a.position(i), a.velocity(i));
-                (a.id(i).0, [p.x, p.y, q.x, q.y].map(f32::to_bits))
-            })
-            .collect();
-        v.sort_unstable();
-        v
+        bits::by_id(&w)
     };
     for model in Model::ALL {
         let mut s = builtin("corridor").unwrap().with_agents(3000).unwrap();
