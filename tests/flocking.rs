@@ -3,6 +3,9 @@
 
 use throng::prelude::*;
 
+#[path = "support/bits.rs"]
+mod bits;
+
 #[path = "support/flocks.rs"]
 mod flocks;
 use flocks::two_flocks;
@@ -146,26 +149,7 @@ fn separation_spreads_a_dense_start() {
     assert!(median > 0.9 * radius, "median nearest distance {median}");
 }
 
-fn snapshot(w: &World) -> Vec<(AgentId, [u32; 4])> {
-    let a = w.agents();
-    let mut v: Vec<_> = (0..a.len())
-        .map(|i| {
-            (
-                a.id(i),
-                [
-                    a.pos_x()[i].to_bits(),
-                    a.pos_y()[i].to_bits(),
-                    a.vel_x()[i].to_bits(),
-                    a.vel_y()[i].to_bits(),
-                ],
-            )
-        })
-        .collect();
-    v.sort_by_key(|(id, _)| *id);
-    v
-}
-
-fn run_threads(threads: usize, kind: IndexKind) -> Vec<(AgentId, [u32; 4])> {
+fn run_threads(threads: usize, kind: IndexKind) -> Vec<(u32, [u32; 4])> {
     let pool = rayon::ThreadPoolBuilder::new()
         .num_threads(threads)
         .build()
@@ -181,7 +165,7 @@ fn run_threads(threads: usize, kind: IndexKind) -> Vec<(AgentId, [u32; 4])> {
         for _ in 0..30 {
             w.step(DT).unwrap();
         }
-        snapshot(&w)
+        bits::by_id(&w)
     })
 }
 
@@ -217,7 +201,7 @@ fn the_groups_max_speed_and_the_agents_own_steer_alike() {
         for _ in 0..20 {
             w.step(DT).unwrap();
         }
-        snapshot(&w)
+        bits::by_id(&w)
     };
     assert_eq!(run(false), run(true));
 }
@@ -331,7 +315,7 @@ fn the_flocking_plan_equals_the_general_loop() {
         }
         let ran = if extra { "general" } else { "flock" };
         assert_eq!(w.last_plans(), [ran], "the plan that ran");
-        snapshot(&w)
+        bits::by_id(&w)
     };
     assert_eq!(make(false), make(true));
 }

@@ -145,7 +145,7 @@ fn validation_with(model: Model) -> Vec<(String, Scenario)> {
     for (_, s) in &mut files {
         for g in &mut s.groups {
             if let Some(p) = &mut g.params.pedestrian {
-                p.model = model;
+                p.set_model(model);
             }
         }
     }
@@ -155,7 +155,7 @@ fn validation_with(model: Model) -> Vec<(String, Scenario)> {
 #[test]
 fn one_step_of_every_validation_scene_is_the_same_in_any_layout() {
     let mut failures = Vec::new();
-    for model in [Model::Cfsm, Model::SocialForce] {
+    for model in Model::ALL {
         for (name, s) in validation_with(model) {
             failures.extend(one_step_in_any_layout(
                 &format!("{name} {model:?}"),
@@ -281,7 +281,7 @@ fn the_social_force_bottleneck_flows_alike_in_every_layout() {
 #[ignore = "long: full-size scenes over long windows"]
 fn one_step_of_every_full_size_scene_is_the_same_in_any_layout() {
     let mut failures = Vec::new();
-    for model in [Model::Cfsm, Model::SocialForce] {
+    for model in Model::ALL {
         for (name, s) in validation_with(model) {
             let name = format!("{name} {model:?}");
             failures.extend(one_step_in_any_layout(&name, &s, 2000, 97));
@@ -351,7 +351,7 @@ fn relabelled(w: &World) -> (World, HashMap<u32, u32>) {
 #[test]
 fn relabelled_agents_take_the_same_step() {
     let mut failures = Vec::new();
-    for model in [Model::Cfsm, Model::SocialForce] {
+    for model in Model::ALL {
         for (name, s) in validation_with(model) {
             if s.groups.iter().any(|g| {
                 g.params
@@ -646,7 +646,7 @@ const LONG: f32 = 1e-2;
 /// out printed.
 fn moved_validation_scenes(steps: u64, tolerance: f32) -> Vec<String> {
     let mut failures = Vec::new();
-    for model in [Model::Cfsm, Model::SocialForce] {
+    for model in Model::ALL {
         let scenes: Vec<_> = validation_with(model)
             .into_iter()
             .map(|(name, s)| (format!("{name} {model:?}"), s))

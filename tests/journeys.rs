@@ -7,6 +7,9 @@ use throng::ped::Model;
 use throng::prelude::*;
 use throng::profile::Profile;
 
+#[path = "support/bits.rs"]
+mod bits;
+
 const DT: f32 = 0.01;
 
 /// A world on `wkt` with one pedestrian group of `model`.
@@ -60,7 +63,7 @@ fn exit_at(w: &mut World, min: Vec2, max: Vec2) -> StageId {
 
 #[test]
 fn a_queue_releases_exactly_the_popped_count() {
-    for model in [Model::Cfsm, Model::SocialForce] {
+    for model in Model::ALL {
         let mut w = world(HALL, model);
         let slots: Vec<Vec2> = (0..10)
             .map(|k| Vec2::new(20.0 - k as f32 * 0.6, 10.0))
@@ -233,19 +236,6 @@ fn routes_go_round_a_hole_of_the_walkable_area() {
     );
 }
 
-/// Every agent's state by id, as bits.
-fn state(w: &World) -> Vec<(u32, [u32; 4])> {
-    let a = w.agents();
-    let mut v: Vec<_> = (0..a.len())
-        .map(|i| {
-            let (p, q) = (a.position(i), a.velocity(i));
-            (a.id(i).0, [p.x, p.y, q.x, q.y].map(f32::to_bits))
-        })
-        .collect();
-    v.sort_unstable();
-    v
-}
-
 /// A journey scene with every kind of stage and transition.
 fn mixed(reorder_every: u32) -> World {
     let mut w = world(PILLAR, Model::Cfsm);
@@ -336,7 +326,7 @@ fn journeys_do_not_depend_on_the_agent_order() {
             kept.step(DT).unwrap();
             sorted.step(DT).unwrap();
             assert_eq!(decisions(&kept), decisions(&sorted), "frame {k}");
-            let d = worst(&state(&kept), &state(&sorted));
+            let d = worst(&bits::by_id(&kept), &bits::by_id(&sorted));
             assert!(d <= 1e-4, "frame {k}: layouts differ by {d} m");
         }
         w.step(DT).unwrap();
@@ -406,7 +396,7 @@ fn simultaneous_completions_are_decided_in_id_order_whatever_the_layout() {
 fn journeys_give_the_same_bits_on_one_two_and_four_threads_and_after_a_checkpoint() {
     let mut base = mixed(4);
     run_mixed(&mut base);
-    let want = state(&base);
+    let want = bits::by_id(&base);
     for threads in [1, 2, 4] {
         let pool = rayon::ThreadPoolBuilder::new()
             .num_threads(threads)
@@ -414,7 +404,7 @@ fn journeys_give_the_same_bits_on_one_two_and_four_threads_and_after_a_checkpoin
             .unwrap();
         let mut w = mixed(4);
         pool.install(|| run_mixed(&mut w));
-        assert_eq!(state(&w), want, "{threads} threads");
+        assert_eq!(bits::by_id(&w), want, "{threads} threads");
     }
     // Saved halfway through (with agents seated and released), resumed: the same bits.
     let mut w = mixed(4);
@@ -439,7 +429,7 @@ fn journeys_give_the_same_bits_on_one_two_and_four_threads_and_after_a_checkpoin
         w.step(DT).unwrap();
     }
     let r = resumed.unwrap();
-    assert_eq!(state(&r), want);
+    assert_eq!(bits::by_id(&r), want);
     assert_eq!(decisions(&r), decisions(&w));
     assert_eq!(r.stage_counts(), w.stage_counts());
 }

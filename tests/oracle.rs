@@ -37,12 +37,12 @@ const TIE: f32 = 1e-5;
 /// agents.
 fn scenes() -> Vec<(String, Scenario)> {
     let mut out = Vec::new();
-    for model in [Model::Cfsm, Model::SocialForce] {
+    for model in Model::ALL {
         for name in throng::validate::scenario_names() {
             let mut s = throng::validate::scenario(name).unwrap();
             for g in &mut s.groups {
                 if let Some(p) = &mut g.params.pedestrian {
-                    p.model = model;
+                    p.set_model(model);
                 }
             }
             out.push((format!("{name} {model:?}"), s));

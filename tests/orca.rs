@@ -11,6 +11,9 @@ use throng::spatial::{GridIndex, Neighbour, NeighbourIndex};
 #[path = "support/orca.rs"]
 mod support;
 
+#[path = "support/bits.rs"]
+mod bits;
+
 /// The smallest `distance / (ri + rj)` over all pairs of agents (pairs farther than 4 radii
 /// apart are not looked at; 1e9 when none is that close).
 fn closest_pair(world: &World) -> f32 {
@@ -196,19 +199,6 @@ fn two_agents_swap_ends_of_a_corridor_without_touching_its_walls() {
     assert!(closest >= 0.99, "closest {closest}");
 }
 
-/// Positions and velocities, bit for bit, by id.
-fn state(w: &World) -> Vec<(u32, [u32; 4])> {
-    let a = w.agents();
-    let mut v: Vec<_> = (0..w.len())
-        .map(|i| {
-            let (p, q) = (a.position(i), a.velocity(i));
-            (a.id(i).0, [p.x, p.y, q.x, q.y].map(f32::to_bits))
-        })
-        .collect();
-    v.sort_unstable();
-    v
-}
-
 /// The state after `steps` steps of scenario `s` on a pool of `threads` workers.
 fn run_on(s: &Scenario, threads: usize, steps: usize) -> Vec<(u32, [u32; 4])> {
     let pool = rayon::ThreadPoolBuilder::new()
@@ -221,7 +211,7 @@ fn run_on(s: &Scenario, threads: usize, steps: usize) -> Vec<(u32, [u32; 4])> {
             w.step(s.dt).unwrap();
         }
     });
-    state(&w)
+    bits::by_id(&w)
 }
 
 #[test]
@@ -244,7 +234,11 @@ fn orca_scenarios_are_bit_identical_on_1_2_and_4_threads() {
         for _ in 0..steps {
             w.step_sequential(s.dt).unwrap();
         }
-        assert_eq!(state(&w), runs[0], "{name}: the sequential step differs");
+        assert_eq!(
+            bits::by_id(&w),
+            runs[0],
+            "{name}: the sequential step differs"
+        );
     }
 }
 
@@ -589,9 +583,9 @@ fn hashed_grids_find_what_the_torus_grids_find_far_from_the_seams() {
             a.step(open.dt).unwrap();
             b.step(torus.dt).unwrap();
             if step % 100 == 99 {
-                assert_eq!(state(&a), state(&b), "step {step}{reorder}");
+                assert_eq!(bits::by_id(&a), bits::by_id(&b), "step {step}{reorder}");
             }
         }
-        assert_eq!(state(&a), state(&b));
+        assert_eq!(bits::by_id(&a), bits::by_id(&b));
     }
 }

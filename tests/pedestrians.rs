@@ -3,12 +3,13 @@
 //! room empties, thread-count independence, checkpoints, and finite results at overlap.
 
 use throng::obstacles::Wall;
-use throng::ped::{DesiredSpeed, Model, Pedestrian};
+use throng::ped::{DesiredSpeed, Model, ModelParams, Pedestrian};
 use throng::prelude::*;
 use throng::profile::Profile;
 use throng::scenario::{Scenario, builtin};
 
-const MODELS: [Model; 2] = [Model::SocialForce, Model::Cfsm];
+#[path = "support/bits.rs"]
+mod bits;
 
 /// A pedestrian group walking to `target` (kinematic, radius 0.2 m).
 fn walkers(model: Model, speed: DesiredSpeed, target: Vec2) -> Profile {
@@ -30,7 +31,7 @@ fn walkers(model: Model, speed: DesiredSpeed, target: Vec2) -> Profile {
 /// 26 to 34 s; here it must also keep its desired speed within 1% once it has started.
 #[test]
 fn a_lone_pedestrian_keeps_its_desired_speed_along_a_corridor() {
-    for model in MODELS {
+    for model in Model::ALL {
         let mut w = World::builder()
             .group(walkers(
                 model,
@@ -76,10 +77,10 @@ fn inside_bottleneck(p: Vec2, width: f32) -> bool {
 
 #[test]
 fn nobody_leaves_the_bottleneck_through_a_wall_and_the_room_empties() {
-    for model in MODELS {
+    for model in Model::ALL {
         let mut s = builtin("bottleneck").unwrap();
         for g in &mut s.groups {
-            g.params.pedestrian.as_mut().unwrap().model = model;
+            g.params.pedestrian.as_mut().unwrap().set_model(model);
         }
         let mut w = s.build().unwrap();
         assert_eq!(w.len(), 200);
@@ -116,7 +117,9 @@ fn nobody_leaves_the_bottleneck_through_a_wall_and_the_room_empties() {
 fn bottleneck_exit_time(pressure: bool, k: usize) -> f32 {
     let mut s = builtin("bottleneck").unwrap();
     for g in &mut s.groups {
-        let cf = &mut g.params.pedestrian.as_mut().unwrap().cfsm;
+        let ModelParams::Cfsm(cf) = &mut g.params.pedestrian.as_mut().unwrap().params else {
+            panic!("the bottleneck walks by the speed model");
+        };
         if !pressure {
             cf.pressed_time_gap = cf.time_gap;
         }
@@ -161,20 +164,12 @@ fn same_bits_on_one_two_and_four_threads() {
                 w.step(s.dt).unwrap();
             }
         });
-        let a = w.agents();
-        let mut v: Vec<_> = (0..a.len())
-            .map(|i| {
-                let (p, q) = (a.position(i), a.velocity(i));
-                (a.id(i).0, [p.x, p.y, q.x, q.y].map(f32::to_bits))
-            })
-            .collect();
-        v.sort_unstable();
-        v
+        bits::by_id(&w)
     };
-    for model in MODELS {
+    for model in Model::ALL {
         let mut s = builtin("corridor").unwrap().with_agents(3000).unwrap();
         for g in &mut s.groups {
-            g.params.pedestrian.as_mut().unwrap().model = model;
+            g.params.pedestrian.as_mut().unwrap().set_model(model);
         }
         let one = run(&s, 1);
         assert_eq!(one, run(&s, 2), "{model:?}");
@@ -184,7 +179,7 @@ fn same_bits_on_one_two_and_four_threads() {
 
 #[test]
 fn coincident_and_overlapping_agents_stay_finite_and_separate() {
-    for model in MODELS {
+    for model in Model::ALL {
         let mut b = World::builder().group(walkers(
             model,
             DesiredSpeed::default(),

@@ -328,7 +328,7 @@ fn with_overrides(mut s: Scenario, c: &WorldArgs) -> Result<Scenario> {
         let mut any = false;
         for g in &mut s.groups {
             if let Some(p) = &mut g.params.pedestrian {
-                p.model = model;
+                p.set_model(model);
                 any = true;
             }
         }

@@ -240,10 +240,136 @@ impl Premovement {
 /// The longest pre-movement time a scenario may ask for, s.
 pub const MAX_PREMOVEMENT: f32 = 1e6;
 
+/// A pedestrian model with its parameters: each model holds its own parameter type, and the
+/// choice of model holds only the chosen model's.
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub enum ModelParams {
+    /// The social force model and its parameters.
+    SocialForce(SocialForce),
+    /// The collision-free speed model and its parameters.
+    Cfsm(Cfsm),
+}
+
+impl Default for ModelParams {
+    fn default() -> Self {
+        ModelParams::new(Model::default())
+    }
+}
+
+impl ModelParams {
+    /// `model` with its default parameters.
+    #[must_use]
+    pub fn new(model: Model) -> Self {
+        match model {
+            Model::SocialForce => ModelParams::SocialForce(SocialForce::default()),
+            Model::Cfsm => ModelParams::Cfsm(Cfsm::default()),
+        }
+    }
+
+    /// Which model these are the parameters of.
+    #[must_use]
+    pub fn model(&self) -> Model {
+        match self {
+            ModelParams::SocialForce(_) => Model::SocialForce,
+            ModelParams::Cfsm(_) => Model::Cfsm,
+        }
+    }
+
+    /// Agents and walls farther than this from an agent's centre exert no force on it, m.
+    #[must_use]
+    pub fn cutoff(&self) -> f32 {
+        match self {
+            ModelParams::SocialForce(p) => p.cutoff,
+            ModelParams::Cfsm(p) => p.cutoff,
+        }
+    }
+
+    /// Checks the model's parameters.
+    ///
+    /// # Errors
+    /// The variant naming the first bad key (`pedestrian.social_force.tau`, ...).
+    pub fn validate(&self) -> Result<()> {
+        match self {
+            ModelParams::SocialForce(p) => p.validate(),
+            ModelParams::Cfsm(p) => p.validate(),
+        }
+    }
+}
+
 /// A group's pedestrian model and its parameters.
+///
+/// In a scenario file it is the `pedestrian` table ([`PedestrianTable`]): `model` names the
+/// model and the table named after the model (`cfsm`, `social_force`) holds its parameters.
+#[derive(Clone, Copy, Debug, Default, PartialEq, Serialize, Deserialize)]
+#[serde(from = "PedestrianTable", into = "PedestrianTable")]
+pub struct Pedestrian {
+    /// The model and its parameters. Default: cfsm with its defaults.
+    pub params: ModelParams,
+    /// The agents' desired speeds. Default: Weidmann's distribution.
+    pub desired_speed: DesiredSpeed,
+    /// Pre-movement times. Default: none (everyone walks from the start).
+    pub premovement: Option<Premovement>,
+}
+
+impl Pedestrian {
+    /// The default parameters of `model`.
+    #[must_use]
+    pub fn new(model: Model) -> Self {
+        Pedestrian {
+            params: ModelParams::new(model),
+            ..Pedestrian::default()
+        }
+    }
+
+    /// The group's model.
+    #[must_use]
+    pub fn model(&self) -> Model {
+        self.params.model()
+    }
+
+    /// Moves the group by `model`: with its default parameters unless it is the group's model
+    /// already, whose parameters stay.
+    pub fn set_model(&mut self, model: Model) {
+        if self.model() != model {
+            self.params = ModelParams::new(model);
+        }
+    }
+
+    /// Agents and walls farther than this from an agent's centre exert no force on it, m.
+    #[must_use]
+    pub fn cutoff(&self) -> f32 {
+        self.params.cutoff()
+    }
+
+    /// Checks every parameter.
+    ///
+    /// # Errors
+    /// The variant naming the first bad key (`pedestrian.social_force.tau`, ...).
+    pub fn validate(&self) -> Result<()> {
+        self.desired_speed.validate()?;
+        if let Some(p) = &self.premovement {
+            p.validate()?;
+        }
+        self.params.validate()
+    }
+
+    /// Whether agent `id` of a world of `seed` still waits at world time `time` (see
+    /// [`Premovement`]).
+    #[inline]
+    #[must_use]
+    pub fn waits(&self, seed: u64, id: u32, time: f64) -> bool {
+        self.premovement
+            .is_some_and(|p| time < f64::from(p.draw(seed, id)))
+    }
+}
+
+/// The `pedestrian` table of a scenario file, the form a [`Pedestrian`] is read from and
+/// written as: the model's name and a table of parameters per model. Written out, the tables
+/// of the models the group does not use hold their defaults; read, only the group's model's
+/// table is kept (the scenario loader refuses another model's table in a file).
 #[derive(Clone, Copy, Debug, Default, PartialEq, Serialize, Deserialize)]
 #[serde(default, deny_unknown_fields)]
-pub struct Pedestrian {
+pub struct PedestrianTable {
     /// `"social_force"` or `"cfsm"`. Default: cfsm.
     pub model: Model,
     /// The agents' desired speeds. Default: Weidmann's distribution.
@@ -257,26 +383,8 @@ pub struct Pedestrian {
     pub premovement: Option<Premovement>,
 }
 
-impl Pedestrian {
-    /// The default parameters of `model`.
-    #[must_use]
-    pub fn new(model: Model) -> Self {
-        Pedestrian {
-            model,
-            ..Pedestrian::default()
-        }
-    }
-
-    /// Agents and walls farther than this from an agent's centre exert no force on it, m.
-    #[must_use]
-    pub fn cutoff(&self) -> f32 {
-        match self.model {
-            Model::SocialForce => self.social_force.cutoff,
-            Model::Cfsm => self.cfsm.cutoff,
-        }
-    }
-
-    /// Checks every parameter (those of both models).
+impl PedestrianTable {
+    /// Checks every parameter, those of every model's table.
     ///
     /// # Errors
     /// The variant naming the first bad key (`pedestrian.social_force.tau`, ...).
@@ -288,14 +396,34 @@ impl Pedestrian {
         self.social_force.validate()?;
         self.cfsm.validate()
     }
+}
 
-    /// Whether agent `id` of a world of `seed` still waits at world time `time` (see
-    /// [`Premovement`]).
-    #[inline]
-    #[must_use]
-    pub fn waits(&self, seed: u64, id: u32, time: f64) -> bool {
-        self.premovement
-            .is_some_and(|p| time < f64::from(p.draw(seed, id)))
+impl From<PedestrianTable> for Pedestrian {
+    fn from(t: PedestrianTable) -> Self {
+        Pedestrian {
+            params: match t.model {
+                Model::SocialForce => ModelParams::SocialForce(t.social_force),
+                Model::Cfsm => ModelParams::Cfsm(t.cfsm),
+            },
+            desired_speed: t.desired_speed,
+            premovement: t.premovement,
+        }
+    }
+}
+
+impl From<Pedestrian> for PedestrianTable {
+    fn from(p: Pedestrian) -> Self {
+        let mut t = PedestrianTable {
+            model: p.model(),
+            desired_speed: p.desired_speed,
+            premovement: p.premovement,
+            ..PedestrianTable::default()
+        };
+        match p.params {
+            ModelParams::SocialForce(m) => t.social_force = m,
+            ModelParams::Cfsm(m) => t.cfsm = m,
+        }
+        t
     }
 }
 
@@ -395,6 +523,49 @@ mod tests {
             assert!(e.contains("desired_speed"), "{e}");
         }
         assert!(Pedestrian::default().validate().is_ok());
+    }
+
+    #[test]
+    fn the_table_form_holds_every_models_table_and_reading_keeps_the_groups_own() {
+        let keys = |p: Pedestrian| match toml::Value::try_from(p).unwrap() {
+            toml::Value::Table(t) => t.keys().cloned().collect::<Vec<_>>(),
+            other => panic!("{other:?}"),
+        };
+        for m in Model::ALL {
+            let mut p = Pedestrian::new(m);
+            assert_eq!(p.model(), m);
+            assert_eq!(keys(p), ["cfsm", "desired_speed", "model", "social_force"]);
+            let back: Pedestrian = toml::Value::try_from(p).unwrap().try_into().unwrap();
+            assert_eq!(back, p);
+            // Switching to the same model keeps its parameters; to another gives its defaults.
+            p.params = match p.params {
+                ModelParams::SocialForce(mut sf) => {
+                    sf.tau = 0.4;
+                    ModelParams::SocialForce(sf)
+                }
+                ModelParams::Cfsm(mut cf) => {
+                    cf.time_gap = 0.8;
+                    ModelParams::Cfsm(cf)
+                }
+            };
+            let tuned = p;
+            p.set_model(m);
+            assert_eq!(p, tuned);
+            for other in Model::ALL.into_iter().filter(|&o| o != m) {
+                let mut q = tuned;
+                q.set_model(other);
+                assert_eq!(q, Pedestrian::new(other));
+            }
+        }
+        // Read, only the table of the group's model is kept.
+        let t: Pedestrian = toml::from_str(
+            "model = \"cfsm\"\nsocial_force = { tau = 0.4 }\ncfsm = { time_gap = 0.8 }",
+        )
+        .unwrap();
+        let ModelParams::Cfsm(cf) = t.params else {
+            panic!("{t:?}")
+        };
+        assert_eq!(cf.time_gap, 0.8);
     }
 
     #[test]

@@ -15,7 +15,7 @@
 use glam::Vec2;
 use rayon::prelude::*;
 
-use super::spec::{ALI, COH, FlatSpec, NeighbourSpec, SEP};
+use super::spec::{ALI, COH, FlatSpec, NeighbourSpec, QueryAgent, SEP};
 use crate::agents::{AgentOrder, Agents};
 use crate::bounds::Bounds;
 use crate::simd::{apply, float_kernel};
@@ -297,16 +297,12 @@ pub(crate) fn unit_heading(agents: &Agents, j: usize) -> Vec2 {
 /// [`FlatSpec`] and the torus.
 #[derive(Clone, Copy, Debug)]
 struct KernelQuery {
-    x: f32,
-    y: f32,
-    hx: f32,
-    hy: f32,
-    g: f32,
-    q_sq: f32,
-    r_sq: [f32; 3],
-    cos: [f32; 3],
+    /// The querying agent.
+    me: QueryAgent,
+    /// The spec's radii, cosines and groups.
+    flat: FlatSpec,
+    /// Per slot: all round (no view cone).
     full: [bool; 3],
-    any_group: [bool; 3],
     /// Half the torus side per axis (infinite when the world does not wrap) and the side.
     half_w: f32,
     half_h: f32,
@@ -345,16 +341,15 @@ pub(crate) fn sums_grid(
     };
     let flat: FlatSpec = spec.flat(one_group);
     let q = KernelQuery {
-        x: me.position.x,
-        y: me.position.y,
-        hx: me.heading.x,
-        hy: me.heading.y,
-        g: me.group as f32,
-        q_sq: flat.q_sq,
-        r_sq: flat.r_sq,
-        cos: flat.cos,
+        me: QueryAgent {
+            x: me.position.x,
+            y: me.position.y,
+            hx: me.heading.x,
+            hy: me.heading.y,
+            g: me.group as f32,
+        },
+        flat,
         full: flat.cos.map(|c| c <= -1.0),
-        any_group: flat.any_group,
         half_w,
         half_h,
         w,
@@ -363,7 +358,7 @@ pub(crate) fn sums_grid(
     let wrapping = half_w.is_finite();
     let mode = u8::from(q.full.iter().any(|f| !f))
         | (u8::from(wrapping) << 1)
-        | (u8::from(q.any_group.iter().all(|&a| a)) << 2);
+        | (u8::from(q.flat.any_group.iter().all(|&a| a)) << 2);
     let mut runs = [(0u32, 0u32); MAX_RUNS];
     let mut nr = 0;
     let mut total = NeighbourSums::default();
@@ -501,31 +496,31 @@ fn kernel_body<const VIEW: bool, const WRAP: bool, const ALL_GROUPS: bool>(
                 let valid = one_if(lane_id[l] < left);
                 let (dx, dy) = if WRAP {
                     (
-                        wrap(xs[l] - q.x, q.half_w, q.w),
-                        wrap(ys[l] - q.y, q.half_h, q.h),
+                        wrap(xs[l] - q.me.x, q.half_w, q.w),
+                        wrap(ys[l] - q.me.y, q.half_h, q.h),
                     )
                 } else {
-                    (xs[l] - q.x, ys[l] - q.y)
+                    (xs[l] - q.me.x, ys[l] - q.me.y)
                 };
                 let d2 = dx * dx + dy * dy;
                 let same = if ALL_GROUPS {
                     1.0
                 } else {
-                    one_if(gs[l] == q.g)
+                    one_if(gs[l] == q.me.g)
                 };
                 let (dot, dist) = if VIEW {
-                    (q.hx * dx + q.hy * dy, d2.sqrt())
+                    (q.me.hx * dx + q.me.hy * dy, d2.sqrt())
                 } else {
                     (0.0, 0.0)
                 };
                 let sees = |b: usize| {
-                    let group = if q.any_group[b] { 1.0 } else { same };
+                    let group = if q.flat.any_group[b] { 1.0 } else { same };
                     let view = if !VIEW || q.full[b] {
                         1.0
                     } else {
-                        one_if(dot >= q.cos[b] * dist)
+                        one_if(dot >= q.flat.cos[b] * dist)
                     };
-                    valid * one_if(d2 <= q.r_sq[b]) * group * view
+                    valid * one_if(d2 <= q.flat.r_sq[b]) * group * view
                 };
                 let ms = sees(SEP) * one_if(d2 > 0.0);
                 let ma = sees(ALI);
@@ -539,7 +534,7 @@ fn kernel_body<const VIEW: bool, const WRAP: bool, const ALL_GROUPS: bool>(
                 cx[l] += mc * dx;
                 cy[l] += mc * dy;
                 cn[l] += mc;
-                n[l] += valid * one_if(d2 <= q.q_sq);
+                n[l] += valid * one_if(d2 <= q.flat.q_sq);
             }
             left -= LANES as f32;
         }

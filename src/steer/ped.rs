@@ -30,7 +30,7 @@ use super::view::SteerView;
 use crate::agents::Agents;
 use crate::ped::cfsm::{BLOCKED_SPACING, SIDESTEP_WALL_MARGIN};
 use crate::ped::lanes::{LANES, Neighbours, lane_sum};
-use crate::ped::{Cfsm, Model, Pedestrian, SocialForce};
+use crate::ped::{Cfsm, ModelParams, Pedestrian, SocialForce};
 use crate::simd::{apply, float_kernel};
 use crate::spatial::{GridIndex, Neighbour, NeighbourIndex, SORTED_PAD, SpatialIndex};
 use crate::steering::truncate;
@@ -486,9 +486,8 @@ fn agent(
         neighbours: b.js[..count].iter().map(|&j| a.ids[j as usize].0).collect(),
     });
 
-    let chosen_velocity = match ped.model {
-        Model::SocialForce => {
-            let sf = &ped.social_force;
+    let chosen_velocity = match &ped.params {
+        ModelParams::SocialForce(sf) => {
             let touching = fill(a, radii, i, b, (count, n), true);
             let force = social_force_sum(sf, b, count, n, vel, e0, dt, touching);
             let mut walls = Vec2::ZERO;
@@ -501,8 +500,7 @@ fn agent(
             }
             vel + acc * dt
         }
-        Model::Cfsm => {
-            let cf = &ped.cfsm;
+        ModelParams::Cfsm(cf) => {
             fill(a, radii, i, b, (count, n), false);
             let mut dir = e0 + speed_model_sum(cf, b, count, n, e0);
             // The obstacles touching the body or nearly: the sidestep does not turn into them.

@@ -1,7 +1,8 @@
 //! What a group asks of the fused neighbour traversal: the behaviour slots (separation,
 //! alignment, cohesion), the [`NeighbourSpec`] a plan compiles from its profile, and its
 //! flattened form ([`FlatSpec`]) that the per-agent grid kernel and the cell batch's kernels
-//! both read, so that the two flatten a spec in one place; with the `oracle` feature, the
+//! both read, with the querying agent's numbers ([`QueryAgent`]), so that the two queries share
+//! their fields and flatten a spec in one place; with the `oracle` feature, the
 //! record of a spec's sums for the neighbour oracle (so that `oracle` names nothing of `steer`).
 //!
 //! Invariant: slot `b` of every array is behaviour [`SEP`], [`ALI`] or [`COH`].
@@ -45,6 +46,17 @@ impl NeighbourSpec {
     pub(crate) fn kernel_ok(&self) -> bool {
         self.repel.is_none() && self.cap.is_none() && self.vicsek_r_sq.is_none()
     }
+}
+
+/// The querying agent's own numbers as the lane kernels read them: position, unit heading
+/// (zeros where no view cone reads it) and group, as floats.
+#[derive(Clone, Copy, Debug, Default)]
+pub(crate) struct QueryAgent {
+    pub x: f32,
+    pub y: f32,
+    pub hx: f32,
+    pub hy: f32,
+    pub g: f32,
 }
 
 /// A [`NeighbourSpec`] flattened to the plain numbers the lane kernels compare against, for

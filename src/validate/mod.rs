@@ -23,7 +23,7 @@ use serde::Serialize;
 
 use crate::error::{Error, Result};
 use crate::measure::{MeasurementReport, Measurements};
-use crate::ped::{Model, Pedestrian};
+use crate::ped::{Model, Pedestrian, PedestrianTable};
 use crate::scenario::Scenario;
 use crate::world::World;
 
@@ -317,7 +317,7 @@ impl<'a> Run<'a> {
         if let Some(model) = self.options.model {
             for g in &mut s.groups {
                 if let Some(p) = &mut g.params.pedestrian {
-                    p.model = model;
+                    p.set_model(model);
                 }
             }
         }
@@ -389,15 +389,19 @@ impl<'a> Run<'a> {
 
 /// `p` with the dotted `params` set (keys inside the `pedestrian` table), validated.
 ///
+/// The keys are set in the table a scenario file would hold ([`PedestrianTable`]), whose every
+/// model's table is checked, so `social_force.tau=-1` is refused for a cfsm group too; the
+/// group keeps its model, and the parameters of the model it uses.
+///
 /// # Errors
 /// [`Error::Invalid`] naming a key that leads nowhere or a value of the wrong kind; the
-/// parameters' own checks ([`Pedestrian::validate`]).
+/// parameters' own checks ([`PedestrianTable::validate`]).
 pub fn with_params(p: &Pedestrian, params: &[(String, toml::Value)]) -> Result<Pedestrian> {
     let invalid = |key: &str, reason: String| Error::Invalid {
         name: format!("pedestrian.{key}"),
         reason,
     };
-    let mut table = match toml::Value::try_from(p) {
+    let mut table = match toml::Value::try_from(PedestrianTable::from(*p)) {
         Ok(toml::Value::Table(t)) => t,
         Ok(_) | Err(_) => {
             return Err(invalid("", "the parameters do not form a table".into()));
@@ -406,14 +410,15 @@ pub fn with_params(p: &Pedestrian, params: &[(String, toml::Value)]) -> Result<P
     for (key, value) in params {
         crate::scenario::set_path(&mut table, key, value.clone())?;
     }
-    let out: Pedestrian = toml::Value::Table(table)
-        .try_into()
-        .map_err(|e: toml::de::Error| {
-            let keys: Vec<&str> = params.iter().map(|(k, _)| k.as_str()).collect();
-            invalid(&keys.join(", "), e.message().to_string())
-        })?;
+    let out: PedestrianTable =
+        toml::Value::Table(table)
+            .try_into()
+            .map_err(|e: toml::de::Error| {
+                let keys: Vec<&str> = params.iter().map(|(k, _)| k.as_str()).collect();
+                invalid(&keys.join(", "), e.message().to_string())
+            })?;
     out.validate()?;
-    Ok(out)
+    Ok(out.into())
 }
 
 /// Each agent's position by id.

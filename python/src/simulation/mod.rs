@@ -265,8 +265,8 @@ impl PySimulation {
             let mut external = None;
             for (g, p) in world.groups().iter().enumerate() {
                 match p.pedestrian {
-                    Some(ped) if !groups.iter().any(|&(m, _)| m == ped.model) => {
-                        groups.push((ped.model, g));
+                    Some(ped) if !groups.iter().any(|&(m, _)| m == ped.model()) => {
+                        groups.push((ped.model(), g));
                     }
                     None if p.steering.behaviours.is_empty() && external.is_none() => {
                         external = Some(g);

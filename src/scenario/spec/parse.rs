@@ -61,7 +61,7 @@ fn check_model_tables(table: &toml::Table) -> std::result::Result<(), String> {
             .and_then(toml::Value::as_str)
             .and_then(crate::ped::Model::parse)
             .unwrap_or_default();
-        for other in [crate::ped::Model::SocialForce, crate::ped::Model::Cfsm] {
+        for other in crate::ped::Model::ALL {
             if other != model && p.contains_key(other.name()) {
                 return Err(format!(
                     "groups[{i}].pedestrian.{}: the group's pedestrian model is {}, which does not read this table (set `model = \"{}\"` or remove the table)",

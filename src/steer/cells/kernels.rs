@@ -16,20 +16,10 @@ use super::KLANES;
 use super::gather::CellBuf;
 use super::runs::{Reduced, Runs};
 use crate::simd::{apply, float_kernel};
-use crate::steer::spec::{ALI, COH, FlatSpec, NeighbourSpec, SEP};
+use crate::steer::spec::{ALI, COH, FlatSpec, NeighbourSpec, QueryAgent, SEP};
 
 #[cfg(target_arch = "x86_64")]
 mod avx512;
-
-/// One agent's numbers for the lane kernel.
-#[derive(Clone, Copy, Debug, Default)]
-struct Agent {
-    x: f32,
-    y: f32,
-    hx: f32,
-    hy: f32,
-    g: f32,
-}
 
 /// The agents of one kernel call, as columns of one length: a run of the grid's cell-ordered
 /// positions and copies, or a batch's arrays.
@@ -49,11 +39,11 @@ impl AgentCols<'_> {
         self.x.len()
     }
 
-    /// Agent `k`.
+    /// QueryAgent `k`.
     #[inline(always)]
-    fn at(&self, k: usize) -> Agent {
+    fn at(&self, k: usize) -> QueryAgent {
         let (hx, hy) = self.h.map_or((0.0, 0.0), |(hx, hy)| (hx[k], hy[k]));
-        Agent {
+        QueryAgent {
             x: self.x[k],
             y: self.y[k],
             hx,
@@ -83,20 +73,14 @@ impl Slots<'_> {
 /// the view cones as squared cosines and shapes, and the kernel body that serves them.
 #[derive(Clone, Copy, Debug)]
 pub(super) struct Query {
-    x: f32,
-    y: f32,
-    hx: f32,
-    hy: f32,
-    g: f32,
-    q_sq: f32,
-    /// Squared radius per slot (-1 when the slot is off).
-    r_sq: [f32; 3],
+    /// The querying agent (zeros in a template, see [`Query::at`]).
+    me: QueryAgent,
+    /// The spec's radii, cosines and groups.
+    flat: FlatSpec,
     /// Squared view cosine per slot.
     c2: [f32; 3],
     /// Per slot: 0 all round, 1 a cone wider than a half plane (cos < 0), 2 narrower.
     cone: [u8; 3],
-    /// Per slot: any group counts.
-    any_group: [bool; 3],
     /// The Vicsek neighbourhood's squared radius (`VICSEK` mode).
     vicsek_r_sq: f32,
     /// The kernel body that serves this shape.
@@ -109,35 +93,29 @@ pub(super) const VICSEK: u8 = 32;
 impl Query {
     /// The query of agent `a`: this template with the agent's own numbers.
     #[inline(always)]
-    fn at(&self, a: &Agent) -> Query {
-        Query {
-            x: a.x,
-            y: a.y,
-            hx: a.hx,
-            hy: a.hy,
-            g: a.g,
-            ..*self
-        }
+    fn at(&self, a: &QueryAgent) -> Query {
+        Query { me: *a, ..*self }
     }
 
     /// Whether some slot in use has a view cone (the kernel reads the agent's unit heading).
     pub(super) fn needs_headings(&self) -> bool {
-        (0..3).any(|b| self.r_sq[b] >= 0.0 && self.cone[b] != 0)
+        (0..3).any(|b| self.flat.r_sq[b] >= 0.0 && self.cone[b] != 0)
     }
 
     /// Whether some slot counts only the agent's own group (the kernel reads groups).
     pub(super) fn needs_groups(&self) -> bool {
-        !self.any_group.iter().all(|&a| a)
+        !self.flat.any_group.iter().all(|&a| a)
     }
 
     /// The query template of a neighbour spec (the agent's own numbers are filled in later).
     pub(super) fn of(spec: &NeighbourSpec, one_group: bool) -> Query {
+        let flat = spec.flat(one_group);
         let FlatSpec {
             q_sq,
             r_sq,
             cos,
             any_group,
-        } = spec.flat(one_group);
+        } = flat;
         let cone = cos.map(|c| {
             if c <= -1.0 {
                 0
@@ -164,16 +142,10 @@ impl Query {
             8 | u8::from(groups)
         };
         Query {
-            x: 0.0,
-            y: 0.0,
-            hx: 0.0,
-            hy: 0.0,
-            g: 0.0,
-            q_sq,
-            r_sq,
+            me: QueryAgent::default(),
+            flat,
             c2,
             cone,
-            any_group,
             vicsek_r_sq: spec.vicsek_r_sq.unwrap_or(-1.0),
             mode,
         }
@@ -347,15 +319,15 @@ fn shared_over<const CONE: u8, const GROUPS: bool, const Q_AC: bool>(
 ) -> Reduced {
     let z = [0.0_f32; KLANES];
     let (mut sx, mut sy, mut ax, mut ay, mut an, mut cx, mut cy, mut n) = (z, z, z, z, z, z, z, z);
-    let (r_sep, r_ac, c2) = (q.r_sq[SEP], q.r_sq[ALI], q.c2[ALI]);
-    let (sep_any, ac_any) = (q.any_group[SEP], q.any_group[ALI]);
+    let (r_sep, r_ac, c2) = (q.flat.r_sq[SEP], q.flat.r_sq[ALI], q.c2[ALI]);
+    let (sep_any, ac_any) = (q.flat.any_group[SEP], q.flat.any_group[ALI]);
     for (xs, ys, vxs, vys, gs) in buf.blocks_of(motion) {
         for l in 0..KLANES {
-            let dx = xs[l] - q.x;
-            let dy = ys[l] - q.y;
+            let dx = xs[l] - q.me.x;
+            let dy = ys[l] - q.me.y;
             let d2 = dx * dx + dy * dy;
             let (g_sep, g_ac) = if GROUPS {
-                let same = gs[l] == q.g;
+                let same = gs[l] == q.me.g;
                 (sep_any | same, ac_any | same)
             } else {
                 (true, true)
@@ -365,7 +337,7 @@ fn shared_over<const CONE: u8, const GROUPS: bool, const Q_AC: bool>(
             let inv = keep(ms, inv);
             sx[l] -= dx * inv;
             sy[l] -= dy * inv;
-            let dot = q.hx * dx + q.hy * dy;
+            let dot = q.me.hx * dx + q.me.hy * dy;
             let in_r = d2 <= r_ac;
             let view = match CONE {
                 0 => true,
@@ -378,7 +350,7 @@ fn shared_over<const CONE: u8, const GROUPS: bool, const Q_AC: bool>(
             an[l] += keep(ma, 1.0);
             cx[l] += keep(ma, dx);
             cy[l] += keep(ma, dy);
-            n[l] += keep(if Q_AC { in_r } else { d2 <= q.q_sq }, 1.0);
+            n[l] += keep(if Q_AC { in_r } else { d2 <= q.flat.q_sq }, 1.0);
         }
     }
     Acc {
@@ -405,11 +377,14 @@ fn shared_over<const CONE: u8, const GROUPS: bool, const Q_AC: bool>(
 fn vicsek(buf: &CellBuf, q: &Query) -> Reduced {
     let r = q.vicsek_r_sq;
     let flock = Query {
-        r_sq: [-1.0, r, r],
-        q_sq: r,
+        flat: FlatSpec {
+            q_sq: r,
+            r_sq: [-1.0, r, r],
+            cos: [-1.0; 3],
+            any_group: [true; 3],
+        },
         c2: [1.0; 3],
         cone: [0; 3],
-        any_group: [true; 3],
         ..*q
     };
     shared_over::<0, false, true>(buf, &flock, (&buf.hx, &buf.hy))
@@ -423,19 +398,23 @@ fn general<const GROUPS: bool>(buf: &CellBuf, q: &Query) -> Reduced {
         (z, z, z, z, z, z, z, z, z);
     for (xs, ys, vxs, vys, gs) in buf.blocks() {
         for l in 0..KLANES {
-            let dx = xs[l] - q.x;
-            let dy = ys[l] - q.y;
+            let dx = xs[l] - q.me.x;
+            let dy = ys[l] - q.me.y;
             let d2 = dx * dx + dy * dy;
-            let same = if GROUPS { one_if(gs[l] == q.g) } else { 1.0 };
-            let dot = q.hx * dx + q.hy * dy;
+            let same = if GROUPS { one_if(gs[l] == q.me.g) } else { 1.0 };
+            let dot = q.me.hx * dx + q.me.hy * dy;
             let sees = |b: usize| {
-                let group = if !GROUPS || q.any_group[b] { 1.0 } else { same };
+                let group = if !GROUPS || q.flat.any_group[b] {
+                    1.0
+                } else {
+                    same
+                };
                 let view = match q.cone[b] {
                     0 => 1.0,
                     1 => one_if(in_cone::<1>(q.c2[b], dot, d2)),
                     _ => one_if(in_cone::<2>(q.c2[b], dot, d2)),
                 };
-                one_if(d2 <= q.r_sq[b]) * group * view
+                one_if(d2 <= q.flat.r_sq[b]) * group * view
             };
             let ms = sees(SEP) * one_if(d2 > 0.0);
             let ma = sees(ALI);
@@ -449,7 +428,7 @@ fn general<const GROUPS: bool>(buf: &CellBuf, q: &Query) -> Reduced {
             cx[l] += mc * dx;
             cy[l] += mc * dy;
             cn[l] += mc;
-            n[l] += one_if(d2 <= q.q_sq);
+            n[l] += one_if(d2 <= q.flat.q_sq);
         }
     }
     Acc {
@@ -486,10 +465,10 @@ mod tests {
     fn kernel_sums(
         buf: &CellBuf,
         q: &Query,
-        agents: &[Agent],
+        agents: &[QueryAgent],
         (listed, headings): (bool, bool),
     ) -> Vec<Reduced> {
-        let col = |f: fn(&Agent) -> f32| agents.iter().map(f).collect::<Vec<f32>>();
+        let col = |f: fn(&QueryAgent) -> f32| agents.iter().map(f).collect::<Vec<f32>>();
         let (x, y, hx, hy, g) = (
             col(|a| a.x),
             col(|a| a.y),
@@ -532,7 +511,7 @@ mod tests {
 
     /// A gathered buffer of `m` random candidates (some exactly on the agents, some on the radii)
     /// padded as `gather` pads it.
-    fn buffer(rng: &mut ChaCha8Rng, m: usize, agents: &[Agent]) -> CellBuf {
+    fn buffer(rng: &mut ChaCha8Rng, m: usize, agents: &[QueryAgent]) -> CellBuf {
         let padded = m.div_ceil(KLANES) * KLANES;
         let mut b = CellBuf {
             len: padded,
@@ -574,7 +553,7 @@ mod tests {
 
     /// The Vicsek sums as eight lanes of plain scalar additions, each lane's in buffer order,
     /// the lanes then summed as the kernels sum them.
-    fn vicsek_lanes(buf: &CellBuf, a: &Agent, r_sq: f32) -> NeighbourSums {
+    fn vicsek_lanes(buf: &CellBuf, a: &QueryAgent, r_sq: f32) -> NeighbourSums {
         let (mut hx, mut hy, mut n) = ([0.0f32; KLANES], [0.0f32; KLANES], [0.0f32; KLANES]);
         for k in 0..buf.len {
             let (dx, dy) = (buf.x[k] - a.x, buf.y[k] - a.y);
@@ -596,11 +575,11 @@ mod tests {
         let mut rng = ChaCha8Rng::seed_from_u64(3);
         let mut seen = 0;
         for case in 0..300 {
-            let agents: Vec<Agent> = (0..3)
-                .map(|_| Agent {
+            let agents: Vec<QueryAgent> = (0..3)
+                .map(|_| QueryAgent {
                     x: rng.random_range(-2.0..2.0),
                     y: rng.random_range(-2.0..2.0),
-                    ..Agent::default()
+                    ..QueryAgent::default()
                 })
                 .collect();
             let m = rng.random_range(1..60);
@@ -642,25 +621,24 @@ mod tests {
             let cos: f32 = [-1.0, -0.5, 0.3][cone as usize];
             let r_ac = 25.0;
             let query = Query {
-                x: 0.0,
-                y: 0.0,
-                hx: 0.0,
-                hy: 0.0,
-                g: 0.0,
-                q_sq: if q_ac { r_ac } else { 16.0 },
-                r_sq: [4.0, r_ac, r_ac],
+                me: QueryAgent::default(),
+                flat: FlatSpec {
+                    q_sq: if q_ac { r_ac } else { 16.0 },
+                    r_sq: [4.0, r_ac, r_ac],
+                    cos: [-1.0, cos, cos],
+                    any_group: [!groups, !groups, !groups],
+                },
                 c2: [1.0, cos * cos, cos * cos],
                 cone: [0, cone, cone],
-                any_group: [!groups, !groups, !groups],
                 vicsek_r_sq: -1.0,
                 mode: cone | (u8::from(groups) << 2) | (u8::from(q_ac) << 4),
             };
             // Cells of more agents than a batch holds, as the one-group path passes whole cells.
             let n = rng.random_range(1..2 * CELL_BATCH);
-            let mut agents: Vec<Agent> = (0..n)
+            let mut agents: Vec<QueryAgent> = (0..n)
                 .map(|_| {
                     let angle: f32 = rng.random_range(0.0..std::f32::consts::TAU);
-                    Agent {
+                    QueryAgent {
                         x: rng.random_range(-2.0..2.0),
                         y: rng.random_range(-2.0..2.0),
                         hx: angle.cos(),

@@ -21,7 +21,7 @@
 
 use std::arch::x86_64::*;
 
-use super::{Agent, AgentCols, CellBuf, KLANES, Query, Reduced, Runs, Slots, VICSEK};
+use super::{AgentCols, CellBuf, KLANES, Query, QueryAgent, Reduced, Runs, Slots, VICSEK};
 use crate::steer::spec::{ALI, SEP};
 
 /// The sums of the leading pairs of `agents` (all of them but an odd last one) into `runs` at
@@ -38,7 +38,7 @@ pub(super) fn pairs(
     if q.mode & 8 != 0 || q.mode == VICSEK {
         return 0;
     }
-    let pair = |a: &Agent, b: &Agent| {
+    let pair = |a: &QueryAgent, b: &QueryAgent| {
         let (a, b) = (q.at(a), q.at(b));
         match q.mode {
             0 => shared_pair::<0, false, false>(buf, &a, &b),
@@ -157,13 +157,17 @@ fn shared_pair<const CONE: u8, const GROUPS: bool, const Q_AC: bool>(
     let zero = _mm512_setzero_ps();
     let one = _mm512_set1_ps(1.0);
     let tiny = _mm512_set1_ps(f32::MIN_POSITIVE);
-    let r_sep = _mm512_set1_ps(a.r_sq[SEP]);
-    let r_ac = _mm512_set1_ps(a.r_sq[ALI]);
-    let q_sq = _mm512_set1_ps(a.q_sq);
+    let r_sep = _mm512_set1_ps(a.flat.r_sq[SEP]);
+    let r_ac = _mm512_set1_ps(a.flat.r_sq[ALI]);
+    let q_sq = _mm512_set1_ps(a.flat.q_sq);
     let c2 = _mm512_set1_ps(a.c2[ALI]);
-    let (sep_any, ac_any) = (a.any_group[SEP], a.any_group[ALI]);
-    let (qx, qy) = (halves(a.x, b.x), halves(a.y, b.y));
-    let (qhx, qhy, qg) = (halves(a.hx, b.hx), halves(a.hy, b.hy), halves(a.g, b.g));
+    let (sep_any, ac_any) = (a.flat.any_group[SEP], a.flat.any_group[ALI]);
+    let (qx, qy) = (halves(a.me.x, b.me.x), halves(a.me.y, b.me.y));
+    let (qhx, qhy, qg) = (
+        halves(a.me.hx, b.me.hx),
+        halves(a.me.hy, b.me.hy),
+        halves(a.me.g, b.me.g),
+    );
     let (mut sx, mut sy, mut ax, mut ay) = (zero, zero, zero, zero);
     let (mut an, mut cx, mut cy, mut n) = (zero, zero, zero, zero);
     for (xs, ys, vxs, vys, gs) in buf.blocks() {
