@@ -285,6 +285,53 @@ fn check_group_params_refuses_a_field_the_world_does_not_have() {
     w.check_group_params(&seek_own_group).unwrap();
 }
 
+/// `World::add_group` took a profile naming a field the world does not have, and the error only
+/// showed at the first step; now the call is refused, naming the field, and the world steps on.
+#[test]
+fn add_group_refuses_a_field_the_world_does_not_have() {
+    let mut w = world();
+    let groups = w.groups().len();
+    let follow = Profile::dynamic(SteeringProfile::single(Behaviour::FollowField {
+        field: 3,
+        channel: 1,
+    }));
+    let err = w.add_group(follow).unwrap_err();
+    assert!(
+        matches!(
+            err,
+            Error::UnknownField {
+                group: 1,
+                field: 3,
+                channel: 1,
+                fields: 0,
+            }
+        ),
+        "{err}"
+    );
+    assert!(err.to_string().contains("field 3"), "{err}");
+    let choose = Profile::dynamic(SteeringProfile::single(Behaviour::ChooseExit {
+        field: 0,
+        channels: throng::steering::ChannelSet::ALL,
+        switch_gain: 0.25,
+    }));
+    let err = w.add_group(choose).unwrap_err();
+    assert!(matches!(err, Error::UnknownField { field: 0, .. }), "{err}");
+    assert_eq!(w.groups().len(), groups, "nothing was added");
+    w.step(0.1).unwrap();
+
+    // A group may still name a group added after it, as a scenario's groups do.
+    let ahead = Profile::dynamic(SteeringProfile::single(Behaviour::Seek {
+        target: Target::Nearest {
+            group: groups + 1,
+            within: 1.0,
+        },
+        threshold: 0.0,
+    }));
+    w.add_group(ahead).unwrap();
+    w.add_group(Profile::default()).unwrap();
+    w.step(0.1).unwrap();
+}
+
 #[test]
 fn references_to_missing_fields_and_groups_are_rejected_at_the_step() {
     let follow = SteeringProfile::single(Behaviour::FollowField {

@@ -325,6 +325,17 @@ fn silent_nonsense_is_an_error_naming_the_key() {
             "groups[1]: no target slot 3",
             "",
         ),
+        // A walkable area in two parts: a journey across them, agents apart from their journey.
+        (
+            "journey_across_disconnected_area.toml",
+            "journeys[0]: invalid journey 0: stage 1 cannot be reached from stage 0",
+            "",
+        ),
+        (
+            "journey_start_in_other_part.toml",
+            "groups[0].journey: invalid agent #0",
+            "",
+        ),
     ] {
         let e = refused(&data(file));
         assert!(e.contains(wanted), "{file}: {e}");

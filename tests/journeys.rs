@@ -54,6 +54,10 @@ fn run(w: &mut World, seconds: f32) {
 
 const HALL: &str = "POLYGON ((0 0, 30 0, 30 20, 0 20, 0 0))";
 
+fn waypoint_at(w: &mut World, position: Vec2, distance: f32) -> StageId {
+    w.add_stage(Stage::Waypoint { position, distance }).unwrap()
+}
+
 fn exit_at(w: &mut World, min: Vec2, max: Vec2) -> StageId {
     w.add_stage(Stage::Exit {
         area: Walkable::rectangle(min, max).unwrap(),
@@ -496,6 +500,44 @@ fn bad_stages_and_journeys_are_errors_naming_them() {
         .unwrap_err()
         .to_string();
     assert!(e.contains("finite"), "{e}");
+}
+
+/// A walkable area of two parts that do not touch: a journey from one part to the other, or an
+/// agent put on a stage of the other part, could never arrive, and ran without a word.
+#[test]
+fn a_stage_in_a_part_of_the_area_nothing_reaches_is_an_error() {
+    let mut w = world(
+        "MULTIPOLYGON (((0 0, 15 0, 15 20, 0 20, 0 0)), ((25 0, 40 0, 40 20, 25 20, 25 0)))",
+        Model::Cfsm,
+    );
+    let left = waypoint_at(&mut w, Vec2::new(10.0, 10.0), 2.0);
+    let right = exit_at(&mut w, Vec2::new(37.0, 16.0), Vec2::new(40.0, 20.0));
+    let e = w
+        .add_journey(Journey::chain([left, right]))
+        .unwrap_err()
+        .to_string();
+    assert!(
+        e.contains("journey 0") && e.contains("stage 1 cannot be reached from stage 0"),
+        "{e}"
+    );
+    let other = Journey::new([left, right])
+        .with_transition(left, Transition::round_robin([(left, 1), (right, 1)]));
+    assert!(w.add_journey(other).is_err());
+    let out_left = exit_at(&mut w, Vec2::new(0.0, 0.0), Vec2::new(2.0, 2.0));
+    let j = w.add_journey(Journey::chain([left, out_left])).unwrap();
+    let there = w.add_journey(Journey::new([right])).unwrap();
+    let a = w.add_agent(AgentInit::at(Vec2::new(5.0, 5.0), 0)).unwrap();
+    let e = w.set_journey(a, there, None).unwrap_err().to_string();
+    assert!(
+        e.contains(&format!("agent {a}")) && e.contains("cannot reach stage 1"),
+        "{e}"
+    );
+    assert_eq!(w.journey_of(a), None);
+    w.set_journey(a, j, None).unwrap();
+    let b = w.add_agent(AgentInit::at(Vec2::new(30.0, 5.0), 0)).unwrap();
+    w.set_journey(b, there, None).unwrap();
+    run(&mut w, 20.0);
+    assert_eq!(w.len(), 0, "both walked to an exit of their own part");
 }
 
 #[test]

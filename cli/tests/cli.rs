@@ -733,19 +733,27 @@ fn measurement_time_counts_in_the_step_and_its_phase() {
         env!("CARGO_MANIFEST_DIR"),
         "/../tests/data/measurement_areas_of_1024_vertices.toml"
     );
-    let o = throng(&["run", file, "--steps", "50", "--quiet"]);
-    assert!(o.status.success(), "{}", stderr(&o));
-    let out = stdout(&o);
-    let summary = out.lines().next().expect("a summary line");
-    let number_after = |key: &str| -> f64 {
-        let rest = &summary[summary.find(key).expect(key) + key.len()..];
-        rest.split_whitespace().next().unwrap().parse().unwrap()
-    };
-    let wall_s = number_after("steps in ");
-    let mean_ms = number_after("ms/step mean ");
+    // Wall time on a machine running other tests at once can stretch between steps, where no
+    // step counts it: the steps must account for half the run in one of three tries (without
+    // the measure phase they accounted for about a tenth, every time).
+    let mut tries = Vec::new();
+    let counted = (0..3).any(|_| {
+        let o = throng(&["run", file, "--steps", "50", "--quiet"]);
+        assert!(o.status.success(), "{}", stderr(&o));
+        let out = stdout(&o);
+        let summary = out.lines().next().expect("a summary line").to_string();
+        let number_after = |key: &str| -> f64 {
+            let rest = &summary[summary.find(key).expect(key) + key.len()..];
+            rest.split_whitespace().next().unwrap().parse().unwrap()
+        };
+        let wall_s = number_after("steps in ");
+        let mean_ms = number_after("ms/step mean ");
+        tries.push(summary);
+        mean_ms * 50.0 / 1e3 >= 0.5 * wall_s
+    });
     assert!(
-        mean_ms * 50.0 / 1e3 >= 0.5 * wall_s,
-        "50 steps of {mean_ms} ms reported in a run of {wall_s} s: {summary}"
+        counted,
+        "50 steps reported in less than half the run: {tries:#?}"
     );
     let o = throng(&["run", file, "--steps", "2", "--every", "1"]);
     let line = stdout(&o)

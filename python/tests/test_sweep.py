@@ -159,6 +159,9 @@ steering = { behaviours = [{ kind = "wander" }] }
     ([{"scenario": "concourse", "remaining": 1}], "remaining"),
     ([{"scenario": "concourse", "net_between_pillars": 1}], "net_between_pillars"),
     ([{"scenario": "flock", "steps": -1}], "steps"),
+    # A key that is not a name raised AttributeError (int has no startswith).
+    ([{"scenario": "flock", "steps": 1, 3: 4}], r"runs\[0\] key 3"),
+    ([{"scenario": "flock", "steps": 1}, {"scenario": "flock", ("a",): 1}], r"runs\[1\] key \('a',\)"),
 ])
 def test_bad_runs_raise(runs, match):
     with pytest.raises(throng.ThrongError, match=match):
@@ -213,3 +216,8 @@ def test_validate_runs_report_the_case_and_its_errors_per_bin():
 def test_bad_validate_runs_raise(run, match):
     with pytest.raises(throng.ThrongError, match=match):
         throng.run(run)
+
+
+def test_a_run_key_that_is_not_a_name_raises():
+    with pytest.raises(throng.ThrongError, match="run key 7"):
+        throng.run({"validate": "exp-bottleneck-width", 7: 1})

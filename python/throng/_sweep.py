@@ -66,6 +66,15 @@ def _bad_run(where: str, reason: str) -> ThrongError:
     return err
 
 
+def _check_spec(where: str, spec: Any) -> None:
+    """A run is a dict whose keys are names (they become the row's columns)."""
+    if not isinstance(spec, Mapping):
+        raise _bad_run(where, f"expected a dict, got {type(spec).__name__}")
+    for key in spec:
+        if not isinstance(key, str):
+            raise _bad_run(f"{where} key {key!r}", f"expected a name (str), got {type(key).__name__}")
+
+
 def run(spec: Mapping[str, Any], *, timings: bool = False, threads: Optional[int] = None) -> dict:
     """Runs one sweep entry and returns its row (a dict): the entry's keys, then the metrics.
 
@@ -73,8 +82,7 @@ def run(spec: Mapping[str, Any], *, timings: bool = False, threads: Optional[int
     are stepped one step at a time so that ``evacuated_at`` (the simulated time at which every
     agent had arrived or left through an exit, NaN if that never happened) is exact.
     """
-    if not isinstance(spec, Mapping):
-        raise _bad_run("run", f"expected a dict, got {type(spec).__name__}")
+    _check_spec("run", spec)
     if "validate" in spec:
         return _validate_run(spec, timings=timings, threads=threads)
     params = dict(spec)
@@ -244,8 +252,7 @@ def sweep(
 
     runs = list(runs)
     for k, spec in enumerate(runs):
-        if not isinstance(spec, Mapping):
-            raise _bad_run(f"runs[{k}]", f"expected a dict, got {type(spec).__name__}")
+        _check_spec(f"runs[{k}]", spec)
     if client is None:
         rows = [run(spec, timings=timings, threads=threads) for spec in runs]
     else:

@@ -197,7 +197,7 @@ impl WorldState {
             )?;
         }
         for (g, p) in self.groups.into_iter().enumerate() {
-            at(|| format!("groups[{g}]"), w.add_group(p))?;
+            at(|| format!("groups[{g}]"), w.add_group_before_fields(p))?;
         }
         for (k, e) in self.exits.into_iter().enumerate() {
             at(|| format!("exits[{k}]"), w.add_exit(e))?;

@@ -119,6 +119,33 @@ impl Routes {
     pub(crate) fn grid(&self) -> &OccupancyGrid {
         self.channels.grid()
     }
+
+    /// Whether stage `k`'s route leads from point `p` to it. Only a point whose free cell (or
+    /// nearest free neighbour) lies in a part of the area that no free cell connects to the
+    /// stage is refused: a stage without a route, a route not built yet and a point off the
+    /// raster or walled in leave nothing to judge.
+    pub(crate) fn reaches(&self, k: usize, p: Vec2) -> bool {
+        let grid = self.channels.grid();
+        free_cell_at(grid, p).is_none_or(|(x, y)| self.reaches_cell(k, x, y))
+    }
+
+    /// Whether stage `to`'s route leads to it from some goal cell of `from` (a stage without
+    /// goal cells, such as direct steering, leaves nothing to judge).
+    pub(crate) fn stage_reaches(&self, from: &Stage, to: usize) -> bool {
+        let cells = goal_cells(self.channels.grid(), from);
+        cells.is_empty() || cells.iter().any(|&(x, y)| self.reaches_cell(to, x, y))
+    }
+
+    fn reaches_cell(&self, k: usize, x: u32, y: u32) -> bool {
+        let Some(c) = self.channel_of.get(k).copied().flatten() else {
+            return true;
+        };
+        if self.channels.is_dirty(c) {
+            return true;
+        }
+        let centre = self.channels.grid().cell_center(x, y);
+        self.channels.travel_cost(c, centre).is_some()
+    }
 }
 
 /// The goal cells of `stage` on `grid`.

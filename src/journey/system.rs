@@ -226,17 +226,44 @@ impl Journeys {
         }
         let stages: Vec<Stage> = self.stages.iter().map(|s| s.stage.clone()).collect();
         journey.validate(&format!("journey {k}"), &stages)?;
+        if let Some(r) = self.current_routes() {
+            for (from, t) in &journey.transitions {
+                let targets = t.targets();
+                let Some(to) = targets
+                    .iter()
+                    .find(|to| !r.stage_reaches(&stages[from.0 as usize], to.0 as usize))
+                else {
+                    continue;
+                };
+                return Err(Error::Invalid {
+                    name: format!("journey {k}"),
+                    reason: format!(
+                        "stage {} cannot be reached from stage {}: no path of free cells of the \
+                         walkable area (cells of {} m) joins them",
+                        to.0,
+                        from.0,
+                        super::routes::CELL_SIZE
+                    ),
+                });
+            }
+        }
         let counters = vec![0; journey.transitions.len()];
         self.journeys.push(JourneyState { journey, counters });
         Ok(JourneyId(k as u32))
     }
 
-    /// Puts agent `id` (of `issued` ids) on journey `j` at stage `s` (the journey's first when
-    /// `None`).
+    /// The routes, when they are built for the current walkable area.
+    fn current_routes(&self) -> Option<&Routes> {
+        self.routes.as_ref().filter(|_| !self.routes_stale)
+    }
+
+    /// Puts agent `id` (of `issued` ids), standing at `at`, on journey `j` at stage `s` (the
+    /// journey's first when `None`).
     pub(crate) fn assign(
         &mut self,
         id: AgentId,
         issued: usize,
+        at: Vec2,
         j: JourneyId,
         s: Option<StageId>,
     ) -> Result<()> {
@@ -247,6 +274,21 @@ impl Journeys {
             return Err(Error::Invalid {
                 name: format!("journey {}", j.0),
                 reason: format!("stage {} is not one of its stages", s.0),
+            });
+        }
+        if let Some(r) = self.current_routes()
+            && !r.reaches(s.0 as usize, at)
+        {
+            return Err(Error::Invalid {
+                name: format!("agent {id}"),
+                reason: format!(
+                    "at ({}, {}) it cannot reach stage {}: no path of free cells of the \
+                     walkable area (cells of {} m) leads there",
+                    at.x,
+                    at.y,
+                    s.0,
+                    super::routes::CELL_SIZE
+                ),
             });
         }
         if self.agent.len() < issued {

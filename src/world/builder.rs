@@ -222,9 +222,11 @@ impl WorldBuilder {
     ///
     /// # Errors
     /// The variant naming the first bad parameter: bounds, a group's limits or behaviours
-    /// (including a path, target slot or field they name that was not added), an agent
-    /// (unknown group, NaN, outside the world, inside an obstacle or a field's wall: the error
-    /// names the agent), an obstacle, field, gravity point or formation.
+    /// (including a path or target slot they name that was not added), an agent (unknown
+    /// group, NaN, outside the world, inside an obstacle or a field's wall: the error names
+    /// the agent), an obstacle, field, gravity point or formation. A field a group names may
+    /// also be added after the build ([`World::add_field`]); the first step refuses one that
+    /// is still missing, where [`World::add_group`] refuses it at once.
     ///
     /// The world is the same as one built from the groups, paths, target slots and agents alone
     /// with the obstacles, fields, gravity points and formations then added in that order.

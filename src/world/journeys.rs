@@ -39,7 +39,9 @@ impl World {
     ///
     /// # Errors
     /// As [`Journey::validate`]: an unknown stage, a transition that leaves the journey, a
-    /// stage with no transition that does not end it, a cycle with no way out.
+    /// stage with no transition that does not end it, a cycle with no way out; and, where the
+    /// world has a walkable area, [`Error::Invalid`] for a transition to a stage that no path of
+    /// free cells of its routing raster joins to the stage it leaves.
     pub fn add_journey(&mut self, journey: Journey) -> Result<JourneyId> {
         self.journeys.add_journey(journey)
     }
@@ -72,18 +74,21 @@ impl World {
     ///
     /// # Errors
     /// [`Error::UnknownAgent`], [`Error::UnknownJourney`], [`Error::UnknownStage`], or
-    /// [`Error::Invalid`] when the stage is not one of the journey's.
+    /// [`Error::Invalid`] when the stage is not one of the journey's, or when no path of free
+    /// cells of the walkable area's routing raster leads from the agent to the stage (the area
+    /// has parts that do not touch).
     pub fn set_journey(
         &mut self,
         id: AgentId,
         journey: JourneyId,
         stage: Option<StageId>,
     ) -> Result<()> {
-        if !self.agents.contains(id) {
+        let Some(i) = self.agents.index_of(id) else {
             return Err(Error::UnknownAgent { id });
-        }
+        };
         let issued = self.agents.ids_issued();
-        self.journeys.assign(id, issued, journey, stage)
+        let at = self.agents.position(i);
+        self.journeys.assign(id, issued, at, journey, stage)
     }
 
     /// Agent `id`'s journey and current stage (`None` for an agent on none, or not live).

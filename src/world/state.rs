@@ -409,14 +409,36 @@ impl World {
 
     /// Adds a group and returns its index.
     ///
+    /// The fields, channels, paths and target slots that `params` names must exist when the
+    /// group is added (add a field with [`World::add_field`] before the groups that follow it).
+    /// A group it names may be added after it, as a scenario's groups may name each other; the
+    /// first step refuses one that is still missing. [`World::check_group_params`] refuses that
+    /// too, at once.
+    ///
     /// # Errors
-    /// The variant naming the first bad parameter of `params`.
+    /// The variant naming the first bad parameter of `params`; [`Error::UnknownField`] for a
+    /// field or channel the world does not have, [`Error::UnknownPath`] and
+    /// [`Error::UnknownTarget`] for a path or target slot. Nothing is added then.
     pub fn add_group(&mut self, params: Profile) -> Result<usize> {
         params.validate()?;
         self.check_group_refs(&params)?;
+        self.check_group_fields(&params)?;
+        Ok(self.push_group(params))
+    }
+
+    /// Adds a group whose values and paths and target slots are checked, leaving the fields
+    /// it names to the plans' compile: a checkpoint restores its fields after its groups and
+    /// compiles every plan at the end.
+    pub(crate) fn add_group_before_fields(&mut self, params: Profile) -> Result<usize> {
+        params.validate()?;
+        self.check_group_refs(&params)?;
+        Ok(self.push_group(params))
+    }
+
+    fn push_group(&mut self, params: Profile) -> usize {
         self.groups.push(params);
         self.plans_stale = true;
-        Ok(self.groups.len() - 1)
+        self.groups.len() - 1
     }
 
     /// Replaces a group's profile. Agents without their own maximum speed or radius take the new

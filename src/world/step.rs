@@ -35,8 +35,10 @@ impl World {
     ///
     /// # Errors
     /// [`Error::InvalidTimeStep`] when `dt` is not a finite number greater than zero; the
-    /// reference errors of [`World::add_group`] ([`Error::UnknownField`], ...) when a profile
-    /// names something the world still lacks. The world is then unchanged.
+    /// reference errors of [`World::set_group_params`] ([`Error::UnknownGroup`], ...) when a
+    /// profile names something the world still lacks (a group a profile names that was never
+    /// added, a field a builder's group names that was never added). The world is then
+    /// unchanged.
     pub fn step(&mut self, dt: f32) -> Result<StepStats> {
         if !(self.workers_awake && super::awake::AWAKE.contains(&self.agents.len())) {
             return self.step_with(dt, Execution::Parallel);
@@ -84,9 +86,9 @@ impl World {
     }
 
     /// Checks `params` as the profile of a group added to the world as it is now: its values,
-    /// and that every field, channel, group, path and target slot it names exists. A world
-    /// being built adds its groups before its fields, so [`World::add_group`] leaves the names
-    /// to the first step; call this first to refuse them at once.
+    /// and that every field, channel, group, path and target slot it names exists.
+    /// [`World::add_group`] checks the same but lets a profile name a group added after it
+    /// (the first step refuses one still missing); call this first to refuse that at once too.
     ///
     /// # Errors
     /// As [`World::set_group_params`].
@@ -95,6 +97,17 @@ impl World {
         self.check_group_refs(params)?;
         let group = self.groups.len();
         Plan::compile(params, group, &self.references(group + 1)).map(|_| ())
+    }
+
+    /// Checks that every field and channel `params` names exists, as the profile of the next
+    /// group; the groups it names may come later.
+    pub(super) fn check_group_fields(&self, params: &Profile) -> Result<()> {
+        let group = self.groups.len();
+        let refs = References {
+            groups: usize::MAX,
+            ..self.references(group + 1)
+        };
+        Plan::compile(params, group, &refs).map(|_| ())
     }
 
     pub(crate) fn ensure_plans(&mut self) -> Result<()> {

@@ -39,8 +39,8 @@ impl PyWorld {
     fn add_group(&mut self, params: &Bound<'_, PyAny>) -> PyResult<usize> {
         guarded(|| {
             let p: Profile = convert::deserialize_from_py("params", params)?;
-            // The world is built: a field or group the profile names must exist now (a missing
-            // one made every later step fail).
+            // The world is built: a group the profile names must exist now too (the Rust
+            // `add_group` lets one come later, and a missing one made every later step fail).
             self.world.check_group_params(&p).or_raise()?;
             self.world.add_group(p).or_raise()
         })

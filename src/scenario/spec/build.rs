@@ -1,7 +1,7 @@
 //! The build of a [`World`] from a scenario ([`Scenario::build`] and its variants with a
 //! memory bound): validation and the memory check first, then the world's parts in a fixed
-//! order (index, targets, paths, obstacles, walkable area, exits, stages and journeys, groups,
-//! field), the agents (each on its group's journey),
+//! order (index, targets, paths, obstacles, walkable area, exits, stages and journeys, field,
+//! groups), the agents (each on its group's journey),
 //! gravity, formations and the field's last pass.
 //!
 //! Invariant: nothing is built from a scenario that does not validate or whose estimate
@@ -74,15 +74,16 @@ impl Scenario {
             world.add_exit(e.clone())?;
         }
         self.add_journeys(&mut world)?;
+        // The field before the groups: a group that follows it names it when it is added.
+        let field = match &self.field {
+            Some(f) => Some(f.add_to(&mut world, self.seed)?),
+            None => None,
+        };
         for (i, g) in self.groups.iter().enumerate() {
             world
                 .add_group(g.params.clone())
                 .map_err(|e| at_path(format!("groups[{i}]"), e))?;
         }
-        let field = match &self.field {
-            Some(f) => Some(f.add_to(&mut world, self.seed)?),
-            None => None,
-        };
         if let (Some(f), Some(id)) = (&self.field, field) {
             let counts: Vec<usize> = self.groups.iter().map(GroupSpec::count_of).collect();
             f.check_walkers(&world, id, &counts)?;
