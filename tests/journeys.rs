@@ -240,6 +240,26 @@ fn routes_go_round_a_hole_of_the_walkable_area() {
     );
 }
 
+#[test]
+fn an_exit_is_walked_to_at_its_centre_as_in_jupedsim() {
+    // A wide exit area in the hall's upper right, an agent below and left of it: JuPedSim's
+    // agents walk at an exit's centroid, so this one enters the area through its west edge
+    // near (30, 13), not at its nearest corner (30, 10).
+    let mut w = world("POLYGON ((0 0, 40 0, 40 20, 0 20, 0 0))", Model::Cfsm);
+    let out = exit_at(&mut w, Vec2::new(30.0, 10.0), Vec2::new(40.0, 20.0));
+    let j = w.add_journey(Journey::chain([out])).unwrap();
+    let id = w.add_agent(AgentInit::at(Vec2::new(10.0, 5.0), 0)).unwrap();
+    w.set_journey(id, j, None).unwrap();
+    let mut last = Vec2::ZERO;
+    for _ in 0..3000 {
+        let Some(a) = w.agent(id) else { break };
+        last = a.position;
+        w.step(DT).unwrap();
+    }
+    assert!(w.is_empty(), "the agent left");
+    assert!(last.x >= 29.5 && (12.0..14.0).contains(&last.y), "{last}");
+}
+
 /// A journey scene with every kind of stage and transition.
 fn mixed(reorder_every: u32) -> World {
     let mut w = world(PILLAR, Model::Cfsm);

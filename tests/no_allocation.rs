@@ -201,7 +201,7 @@ fn warm_journey_steps_do_not_allocate() {
     let mut w = journey_world();
     pool.install(|| {
         // Past the first pops, seats and departures, whose lists grow to their size once.
-        for k in 0..1200 {
+        for k in 0..1600 {
             if k % 100 == 99 {
                 let _ = w.pop_queue(throng::journey::StageId(0), 1);
             }

@@ -83,6 +83,29 @@ def test_the_same_bits_on_one_and_two_threads():
     assert np.array_equal(a.velocities(), b.velocities())
 
 
+def test_params_set_the_speed_model_as_jupedsim_has_it():
+    def crowd(params):
+        sim = throng.Simulation(HALL, dt=0.01, seed=1, params=params)
+        out = sim.add_exit_stage([(28.0, 8.0), (30.0, 8.0), (30.0, 12.0), (28.0, 12.0)])
+        j = sim.add_journey(throng.Journey([out]))
+        xy = np.array([(1.0 + 0.5 * (k % 10), 5.0 + 0.5 * (k // 10)) for k in range(100)])
+        sim.add_agents(xy, journey=j, desired_speed=1.2)
+        sim.iterate(300)
+        return sim.positions()
+
+    jupedsim = {"cfsm": {"time_gap": 1.0, "pressed_time_gap": 1.0, "spacing": "centre",
+                         "speed_function": "linear"}}
+    assert np.array_equal(crowd(None), crowd({}))
+    # A longer time gap walks the packed crowd more slowly.
+    assert crowd(jupedsim)[:, 0].mean() < crowd(None)[:, 0].mean()
+    with pytest.raises(throng.ThrongError, match="time_gp"):
+        throng.Simulation(HALL, params={"cfsm": {"time_gp": 1.0}})
+    with pytest.raises(throng.ThrongError, match="time_gap"):
+        throng.Simulation(HALL, params={"cfsm": {"time_gap": -1.0}})
+    with pytest.raises(throng.ThrongError, match="params"):
+        throng.Simulation(HALL, params={"model": "cfsm"})
+
+
 def test_the_walkable_area_is_the_geometry_given():
     sim = throng.Simulation(HALL)
     assert sim.walkable_area().startswith("POLYGON")

@@ -13,20 +13,27 @@ progress goes to stderr.
 
 The scene (the same for both, written once with each API)
 --------------------------------------------------------
-* A station concourse 88 m x 60 m (WKT, below) with two holes: a kiosk 4 m x 10 m at
-  x 74..78, y 25..35 right behind the ticket hall, and a column 2 m x 2 m at x 80..82, y 12..14
-  on the way to the south stairs.
-* Stages: a waypoint (the ticket hall) at (68, 30), reached within 6 m; two exit stages at the
-  east wall, north stairs x 86..88, y 44..58 and south stairs x 86..88, y 2..16.
+* An open concourse 215 m x 184 m (WKT, below) with two holes: a kiosk 4 m x 10 m at
+  x 190..194, y 87..97 right behind the hall's point, and a column 2 m x 2 m at x 195..197,
+  y 60..62.
+* Stages: a waypoint (the hall) at (188, 92), reached within 100 m; two exit stages at the east
+  wall, north x 200..215, y 140..184 and south x 200..215, y 0..44 (each 15 m x 44 m).
 * Two journeys, both waypoint first: journey "rr" goes on by a weighted round robin, 1 to the
-  north stairs for every 3 to the south; journey "lt" goes on to the least targeted of the two
+  north exit for every 3 to the south; journey "lt" goes on to the least targeted of the two
   exits (the exit fewest live agents head for at the moment of the choice).
 * Agents: a lattice of 100 x 100 (N = 10,000 by default; otherwise its N nearest the hall,
-  column by column from x = 61.4) in x 2..61.4 (0.6 m apart), y 2.2..57.64 (0.56 m apart), every position moved by up to 0.04 m
-  along each axis (numpy default_rng(seed), uniform); agent k follows "rr" when k is even and
-  "lt" when odd. Radius 0.2 m and desired speed 1.2 m/s for everyone (JuPedSim's
-  CollisionFreeSpeedModelAgentParameters defaults, set explicitly on both sides); the
-  collision-free speed model with each tool's defaults otherwise; dt 0.01 s.
+  column by column from x = 180.2) in x 2..180.2, y 2.9..181.1, 1.8 m apart (0.31 persons/m^2,
+  free walking at the start), every position moved by up to 0.05 m along each axis (numpy
+  default_rng(seed), uniform); agent k follows "rr" when k is even and "lt" when odd. The
+  agents within 100 m of the hall's point choose their exit in the first step, the others when
+  they come within 100 m. Radius 0.2 m and desired speed 1.2 m/s for everyone (JuPedSim's
+  CollisionFreeSpeedModelAgentParameters defaults, set explicitly on both sides); dt 0.01 s.
+* The model: the collision-free speed model with JuPedSim's parameters in both. JuPedSim runs
+  its defaults (time gap 1 s, repulsions 8 / 0.1 m between agents and 5 / 0.02 m from walls);
+  throng gets the same through Simulation(params=THRONG_PARAMS): spacing between centres less
+  the radii, speed min(v0, s / T), T = 1 s, no pressure term (its own defaults differ: time gap
+  0.6 s, spacing to contact, a smooth speed function, the pressure term). JuPedSim's neighbour
+  cut-off is 3 m, throng's 2 m; beyond 2 m the repulsion is below 1e-6 and the speed at v0.
 
 What is measured
 ----------------
@@ -36,16 +43,17 @@ iterations; then `rounds` rounds, in each of which JuPedSim, throng on one threa
 on all threads in turn run `block` iterations, timed by time.perf_counter around
 iterate(block). Agent-steps per second = block * (agents before + agents after) / 2 / seconds.
 Every agent is still inside during the timed rounds at the default sizes (the nearest exit is
-over 24 m from anyone), so all three are timed at the same agent count. Per round: the ratios
-throng / JuPedSim in agent-steps per second.
+about 20 m, 17 s, from the nearest agent), so all three are timed at the same agent count. Per
+round: the ratios throng / JuPedSim in agent-steps per second.
 
 Then all three go on, alternately in blocks of `tail-block` iterations (timed too), until every
 simulation is empty or has simulated `cap` seconds. Exit counts: throng's exit_counts();
 JuPedSim has no counter, so after every block each live agent's stage is noted and an agent
-that is gone is counted at the exit stage it last had (an agent needs more than 10 s from the
-waypoint to an exit, so none completes the waypoint and leaves within one block of 5 s). Reported per
-exit: both counts and the relative difference (throng - JuPedSim) / JuPedSim, and whether the
-two throng runs agree (they must: results do not depend on the thread count).
+that is gone is counted at the exit stage it last had (both exits lie inside the waypoint's
+100 m and over 40 m from where anyone comes within it, so none completes the waypoint and
+leaves within one block of 5 s; "elsewhere" counts any that did). Reported per exit: both
+counts and the relative difference (throng - JuPedSim) / JuPedSim, and whether the two throng
+runs agree (they must: results do not depend on the thread count).
 """
 import argparse
 import json
@@ -56,13 +64,18 @@ import time
 
 import numpy as np
 
-CONCOURSE = ("POLYGON ((0 0, 88 0, 88 60, 0 60, 0 0), "
-             "(74 25, 78 25, 78 35, 74 35, 74 25), "
-             "(80 12, 82 12, 82 14, 80 14, 80 12))")
-HALL, HALL_REACH = (68.0, 30.0), 6.0
-NORTH = "POLYGON ((86 44, 88 44, 88 58, 86 58, 86 44))"
-SOUTH = "POLYGON ((86 2, 88 2, 88 16, 86 16, 86 2))"
+CONCOURSE = ("POLYGON ((0 0, 215 0, 215 184, 0 184, 0 0), "
+             "(190 87, 194 87, 194 97, 190 97, 190 87), "
+             "(195 60, 197 60, 197 62, 195 62, 195 60))")
+HALL, HALL_REACH = (188.0, 92.0), 100.0
+NORTH = "POLYGON ((200 140, 215 140, 215 184, 200 184, 200 140))"
+SOUTH = "POLYGON ((200 0, 215 0, 215 44, 200 44, 200 0))"
 RR_WEIGHTS = (1, 3)  # north, south
+LATTICE = 1.8  # m between neighbours along x and y
+# throng's speed model set to JuPedSim's: spacing between centres less the radii, speed
+# min(v0, s / T) with T = 1 s, no pressure term (throng's defaults are calibrated otherwise).
+THRONG_PARAMS = {"cfsm": {"time_gap": 1.0, "pressed_time_gap": 1.0, "spacing": "centre",
+                          "speed_function": "linear"}}
 V0, RADIUS, DT = 1.2, 0.2, 0.01
 
 
@@ -85,8 +98,8 @@ def positions(n, seed):
         raise SystemExit("the lattice holds 10,000 agents")
     rng = np.random.default_rng(seed)
     i, j = np.meshgrid(np.arange(100), np.arange(100), indexing="ij")
-    xy = np.stack([61.4 - 0.6 * i.ravel(), 2.2 + 0.56 * j.ravel()], axis=1)
-    xy += rng.uniform(-0.04, 0.04, size=xy.shape)
+    xy = np.stack([180.2 - LATTICE * i.ravel(), 2.9 + LATTICE * j.ravel()], axis=1)
+    xy += rng.uniform(-0.05, 0.05, size=xy.shape)
     return [(float(x), float(y)) for x, y in xy[:n]]
 
 
@@ -152,7 +165,7 @@ class Throng:
 
         self.name = "throng_1" if threads == 1 else "throng_all"
         self.sim = throng.Simulation(geometry=CONCOURSE, model="cfsm", dt=DT, seed=seed,
-                                     threads=threads)
+                                     threads=threads, params=THRONG_PARAMS)
         hall = self.sim.add_waypoint_stage(HALL, HALL_REACH)
         north = self.sim.add_exit_stage(NORTH)
         south = self.sim.add_exit_stage(SOUTH)

@@ -3,7 +3,9 @@
 //! [`Routes`] rasterises the walkable area once (cells of [`CELL_SIZE`]) and keeps a goal
 //! channel per stage with a place (every stage but direct steering): a waypoint's goal cells
 //! are the free cells whose centre lies within its distance (and the cell holding the point),
-//! an exit's those whose centre lies inside it, a queue's or waiting set's the free cells
+//! an exit's the one of its cells (those whose centre lies inside it) nearest their mean, so
+//! that agents walk at the exit's centre as JuPedSim's walk at its centroid and spread over
+//! its whole edge on the way, a queue's or waiting set's the free cells
 //! within a metre of a slot. Each channel's flow follows the fast-marching distance field, so it points
 //! straight at the goal or at the next corner round a hole, at any angle.
 //!
@@ -89,6 +91,13 @@ impl Routes {
             .iter()
             .fold(Vec2::ZERO, |s, &(x, y)| s + grid.cell_center(x, y));
         let centre = sum / goals.len() as f32;
+        // An exit is walked to at its centre, as JuPedSim's exit stage has its agents walk to
+        // its centroid: the nearest of its cells drew everyone coming from one side onto the
+        // same corner of a wide exit area, where they jammed.
+        let goals = match stage {
+            Stage::Exit { .. } => vec![nearest_cell(grid, &goals, centre)],
+            _ => goals,
+        };
         let c = self.channels.add_channel(&goals)?;
         self.channel_of.push(Some(c));
         self.centre.push(centre);
@@ -149,6 +158,21 @@ impl Routes {
 }
 
 /// The goal cells of `stage` on `grid`.
+/// Of `cells` (not empty, in `(y, x)` order), the one whose centre lies nearest `p` (the first on
+/// a tie).
+fn nearest_cell(grid: &OccupancyGrid, cells: &[(u32, u32)], p: Vec2) -> (u32, u32) {
+    let mut best = cells[0];
+    let mut best_d = f32::INFINITY;
+    for &(x, y) in cells {
+        let d = grid.cell_center(x, y).distance_squared(p);
+        if d < best_d {
+            best = (x, y);
+            best_d = d;
+        }
+    }
+    best
+}
+
 fn goal_cells(grid: &OccupancyGrid, stage: &Stage) -> Vec<(u32, u32)> {
     let cells = || (0..grid.height()).flat_map(move |y| (0..grid.width()).map(move |x| (x, y)));
     let mut goals: Vec<(u32, u32)> = match stage {

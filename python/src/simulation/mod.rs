@@ -21,11 +21,12 @@ mod stages;
 use pyo3::prelude::*;
 use pyo3::types::{PyDict, PyString};
 use throng::journey::{Stage, StageId};
-use throng::ped::Model;
+use throng::ped::{Model, Pedestrian};
 use throng::profile::Profile;
 use throng::{AgentId, Bounds, Error, Walkable, World};
 
 use crate::arrays::{self, Order};
+use crate::convert;
 use crate::error::{OrRaise, guarded, invalid, raise, raise_in, unsigned};
 use crate::record::Recorders;
 
@@ -98,6 +99,8 @@ pub struct PySimulation {
     world: World,
     dt: f32,
     model: Model,
+    /// The pedestrian parameters every model's group starts from (`params=`).
+    pedestrian: Pedestrian,
     /// The group of each pedestrian model used so far.
     groups: Vec<(Model, usize)>,
     /// The group of agents driven from outside, once one was added.
@@ -113,10 +116,12 @@ impl PySimulation {
         if let Some(&(_, g)) = self.groups.iter().find(|(m, _)| *m == model) {
             return Ok(g);
         }
-        let g = self
-            .world
-            .add_group(Profile::journey_walkers(model))
-            .or_raise()?;
+        let mut profile = Profile::journey_walkers(model);
+        profile.pedestrian = Some(Pedestrian {
+            model,
+            ..self.pedestrian
+        });
+        let g = self.world.add_group(profile).or_raise()?;
         self.groups.push((model, g));
         Ok(g)
     }
@@ -144,18 +149,38 @@ impl PySimulation {
     /// A simulation on `geometry` (WKT text, a shapely polygon, or a sequence of points),
     /// with agents of `model` (`"cfsm"`, the default, or `"social_force"`) unless
     /// `add_agents` says otherwise, stepped by `dt` seconds, random draws from `seed`, on
-    /// `threads` workers (default: all cores).
+    /// `threads` workers (default: all cores). `params` sets the models' parameters: the keys
+    /// of a scenario file's `[pedestrian]` table other than `model` (`{"cfsm": {"time_gap":
+    /// 1.0}}`, `"social_force"`, `"desired_speed"`, `"premovement"`), missing keys at their
+    /// defaults.
     #[new]
-    #[pyo3(signature = (geometry, *, model="cfsm", dt=0.01, seed=1, threads=None))]
+    #[pyo3(signature = (geometry, *, model="cfsm", dt=0.01, seed=1, threads=None, params=None))]
     fn new(
         geometry: &Bound<'_, PyAny>,
         model: &str,
         dt: f32,
         seed: i128,
         threads: Option<i128>,
+        params: Option<&Bound<'_, PyAny>>,
     ) -> PyResult<Self> {
         guarded(|| {
             let m = self::model(model)?;
+            let pedestrian = match params {
+                Some(p) => {
+                    if p.cast::<PyDict>()
+                        .is_ok_and(|d| d.contains("model").unwrap_or(false))
+                    {
+                        return Err(invalid(
+                            "params",
+                            "the model is chosen by model= (and by add_agents' model=)",
+                        ));
+                    }
+                    let ped: Pedestrian = convert::deserialize_from_py("params", p)?;
+                    ped.validate().or_raise()?;
+                    ped
+                }
+                None => Pedestrian::default(),
+            };
             if !(dt.is_finite() && dt > 0.0 && dt <= throng::error::MAX_DT) {
                 return Err(raise(&Error::InvalidTimeStep { dt: f64::from(dt) }));
             }
@@ -170,6 +195,7 @@ impl PySimulation {
                 world,
                 dt,
                 model: m,
+                pedestrian,
                 groups: Vec::new(),
                 external: None,
                 pool: crate::world::pool(threads)?,
@@ -274,10 +300,16 @@ impl PySimulation {
                     _ => {}
                 }
             }
+            let pedestrian = world
+                .groups()
+                .iter()
+                .find_map(|p| p.pedestrian)
+                .unwrap_or_default();
             Ok(PySimulation {
                 world,
                 dt: run.dt,
                 model,
+                pedestrian,
                 groups,
                 external,
                 pool: crate::world::pool(threads)?,
