@@ -88,6 +88,7 @@ pub mod orca;
 pub mod output;
 mod passes;
 pub mod ped;
+mod plans;
 pub mod profile;
 #[cfg(feature = "render")]
 pub mod render;
@@ -96,7 +97,6 @@ pub mod scenario;
 mod simd;
 pub mod spatial;
 pub mod spawn;
-mod steer;
 pub mod steering;
 pub mod targets;
 pub mod timing;

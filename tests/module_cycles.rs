@@ -396,7 +396,7 @@ impl Modules {
 }
 
 /// The dependencies between sibling files of every module (see the crate's doc for the rule),
-/// each node named by its module path (`steer/pass`).
+/// each node named by its module path (`plans/pass`).
 fn sibling_graph(files: &BTreeMap<String, String>) -> BTreeMap<String, BTreeSet<String>> {
     let modules = Modules::new(files);
     let name = |m: &[String]| m.join("/");

@@ -8,7 +8,7 @@ use rayon::prelude::*;
 
 use crate::bounds::Bounds;
 use crate::obstacles::Obstacles;
-use crate::steer::STEER_CHUNK;
+use crate::plans::STEER_CHUNK;
 
 /// Resolves every agent's move from `(px, py)` (the frame-start positions) to its position in
 /// `pos_x`, `pos_y` against `obstacles`, in parallel chunks when `parallel`; on a torus the move

@@ -4,7 +4,7 @@
 //! starts with empty ones and steps to the same bits.
 
 use crate::movement::IntegrationParams;
-use crate::steer::{self, NearestIndex, PassScratch, SortedCopies, SteerOut};
+use crate::plans::{self, NearestIndex, PassScratch, SortedCopies, SteerOut};
 
 /// Per-frame buffers, reused across steps (never serialised).
 #[derive(Debug, Default)]
@@ -33,7 +33,7 @@ pub(crate) struct Scratch {
     pub(super) orca_walls: crate::orca::WallChains,
     pub(super) orca_walls_of: usize,
     /// The ORCA pass's state (its neighbour grid, the near-contact flags).
-    pub(super) orca: steer::orca::OrcaScratch,
+    pub(super) orca: plans::orca::OrcaScratch,
     /// Contact resolution: its buffers, which agents move, and per group whether its agents do.
     pub(super) contact: crate::orca::contact::ContactScratch,
     pub(super) moves: Vec<bool>,

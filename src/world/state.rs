@@ -71,7 +71,7 @@ pub struct World {
     /// Goal fields, walls and grid walkers.
     pub(crate) fields: crate::field::FieldSet,
     /// One compiled plan per group, current unless `plans_stale`.
-    pub(crate) plans: Vec<crate::steer::Plan>,
+    pub(crate) plans: Vec<crate::plans::Plan>,
     /// Set when a group, field or path changed: plans are compiled again before the next step.
     pub(crate) plans_stale: bool,
     /// Per group, the name of the plan the latest step ran ([`World::last_plans`]; not part of

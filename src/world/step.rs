@@ -1,6 +1,6 @@
 //! The step pipeline: the phases of one frame, in order, and nothing else.
 //!
-//! `World::step` only orchestrates. Per-agent steering lives in [`crate::steer`], the integrator
+//! `World::step` only orchestrates. Per-agent steering lives in [`crate::plans`], the integrator
 //! in [`crate::movement`], the other per-agent passes of the step (the world's edges, obstacle
 //! non-penetration, the arrival count, column copies) in [`crate::passes`]; each subsystem
 //! (fields, group movement, obstacles, gravity) owns its per-step state and is called through
@@ -15,9 +15,9 @@ use crate::error::{Error, MAX_DT, Result};
 use crate::group;
 use crate::movement::{self, MotionState, SteeringBuffers};
 use crate::passes;
+use crate::plans::{self, Plan, References, SteerView};
 use crate::profile::Profile;
 use crate::spatial::{NeighbourIndex, SpatialIndex};
-use crate::steer::{self, Plan, References, SteerView};
 use crate::steering::Steering;
 
 /// How a step runs: on the rayon pool, or on the calling thread alone.
@@ -208,7 +208,7 @@ impl World {
             0.0
         } else {
             let found = self.scratch.out.found;
-            found.unwrap_or_else(|| steer::cells::sum_lanes(&self.scratch.out.neighbours))
+            found.unwrap_or_else(|| plans::cells::sum_lanes(&self.scratch.out.neighbours))
                 / n as f64
         };
         let left = self.leave_through_exits();
@@ -232,7 +232,7 @@ impl World {
         let t = Instant::now();
         self.advance_gravity(dt);
         let use_kernel = self.prepare_index();
-        steer::prepare_nearest(
+        plans::prepare_nearest(
             &self.plans,
             &self.agents,
             self.bounds,
@@ -258,7 +258,7 @@ impl World {
 
     /// The steering pass (parallel or sequential): reads frame-t state, writes the outputs
     /// (with `defer`, possibly leaving the linear requests in the cell batch's outputs:
-    /// [`steer::pass::SteerOut::deferred`]).
+    /// [`plans::pass::SteerOut::deferred`]).
     fn steer_phase(&mut self, dt: f32, exec: Execution, use_kernel: bool, defer: bool) {
         let view = SteerView {
             agents: &self.agents,
@@ -278,22 +278,22 @@ impl World {
             fields: &self.fields,
             targets: self.targets.as_slice(),
         };
-        steer::pass::run(
+        plans::pass::run(
             &view,
             &mut self.scratch.out,
             &mut self.scratch.pass,
             (exec == Execution::Parallel, defer),
         );
-        if steer::ped::any(&view) {
-            steer::ped::run(&view, &mut self.scratch.out, exec == Execution::Parallel);
+        if plans::ped::any(&view) {
+            plans::ped::run(&view, &mut self.scratch.out, exec == Execution::Parallel);
         }
-        if steer::orca::any(&view) {
+        if plans::orca::any(&view) {
             let walls = self.obstacles.walls();
             if self.scratch.orca_walls_of != walls.len() {
                 self.scratch.orca_walls = crate::orca::WallChains::new(walls);
                 self.scratch.orca_walls_of = walls.len();
             }
-            steer::orca::run(
+            plans::orca::run(
                 &view,
                 &self.scratch.orca_walls,
                 &mut self.scratch.orca,
@@ -598,18 +598,18 @@ impl World {
     /// previous order, the cells of a row one after another. That keeps ORCA's neighbours close
     /// in memory and lets the agents of a cell share their gathered candidates. The grid is the
     /// step's own, built for this alone on reorder frames; the world's index is left as it is.
-    /// Cells are twice the distance where agents are sparse (`steer::orca::wide_cells`,
+    /// Cells are twice the distance where agents are sparse (`plans::orca::wide_cells`,
     /// decided from this frame's positions alone, so that the order does not depend on earlier
     /// frames), and the ORCA pass uses the same cells until the next reorder.
     fn order_by_orca_grid(&mut self) {
-        let orca_r = steer::orca::reach(&self.plans);
+        let orca_r = plans::orca::reach(&self.plans);
         if orca_r <= 0.0 {
             return;
         }
         let a = &self.agents;
         let grid = &mut self.scratch.order_grid;
         grid.rebuild(&a.pos_x, &a.pos_y, 2.0 * orca_r);
-        let wide = steer::orca::wide_cells(grid.crowding());
+        let wide = plans::orca::wide_cells(grid.crowding());
         if !wide {
             grid.rebuild(&a.pos_x, &a.pos_y, orca_r);
         }

@@ -21,7 +21,7 @@ mod stages;
 use pyo3::prelude::*;
 use pyo3::types::{PyDict, PyString};
 use throng::journey::{Stage, StageId};
-use throng::ped::{Model, Pedestrian};
+use throng::ped::{Model, ModelParams, Pedestrian, PedestrianTable};
 use throng::profile::Profile;
 use throng::{AgentId, Bounds, Error, Walkable, World};
 
@@ -99,8 +99,9 @@ pub struct PySimulation {
     world: World,
     dt: f32,
     model: Model,
-    /// The pedestrian parameters every model's group starts from (`params=`).
-    pedestrian: Pedestrian,
+    /// The pedestrian parameters every model's group starts from (`params=`), every model's
+    /// table.
+    pedestrian: PedestrianTable,
     /// The group of each pedestrian model used so far.
     groups: Vec<(Model, usize)>,
     /// The group of agents driven from outside, once one was added.
@@ -117,10 +118,10 @@ impl PySimulation {
             return Ok(g);
         }
         let mut profile = Profile::journey_walkers(model);
-        profile.pedestrian = Some(Pedestrian {
+        profile.pedestrian = Some(Pedestrian::from(PedestrianTable {
             model,
             ..self.pedestrian
-        });
+        }));
         let g = self.world.add_group(profile).or_raise()?;
         self.groups.push((model, g));
         Ok(g)
@@ -175,11 +176,11 @@ impl PySimulation {
                             "the model is chosen by model= (and by add_agents' model=)",
                         ));
                     }
-                    let ped: Pedestrian = convert::deserialize_from_py("params", p)?;
+                    let ped: PedestrianTable = convert::deserialize_from_py("params", p)?;
                     ped.validate().or_raise()?;
                     ped
                 }
-                None => Pedestrian::default(),
+                None => PedestrianTable::default(),
             };
             if !(dt.is_finite() && dt > 0.0 && dt <= throng::error::MAX_DT) {
                 return Err(raise(&Error::InvalidTimeStep { dt: f64::from(dt) }));
@@ -300,11 +301,24 @@ impl PySimulation {
                     _ => {}
                 }
             }
-            let pedestrian = world
+            // Every model's table from the group of that model; the speeds and pre-movement
+            // times, which all groups share, from the first.
+            let mut pedestrian = PedestrianTable::default();
+            for (k, ped) in world
                 .groups()
                 .iter()
-                .find_map(|p| p.pedestrian)
-                .unwrap_or_default();
+                .filter_map(|p| p.pedestrian)
+                .enumerate()
+            {
+                if k == 0 {
+                    pedestrian.desired_speed = ped.desired_speed;
+                    pedestrian.premovement = ped.premovement;
+                }
+                match ped.params {
+                    ModelParams::Cfsm(c) => pedestrian.cfsm = c,
+                    ModelParams::SocialForce(f) => pedestrian.social_force = f,
+                }
+            }
             Ok(PySimulation {
                 world,
                 dt: run.dt,

@@ -4,12 +4,12 @@
 //!
 //! Invariants: a column holds [`CELL_CHUNK`] values on whole cache lines, so a slot checked once
 //! against it needs no further bounds checks; [`Runs::without_self_run`] gives the bits of
-//! [`without_self`](crate::steer::neighbours::without_self) per agent.
+//! [`without_self`](crate::plans::neighbours::without_self) per agent.
 
 use glam::Vec2;
 
 use super::CELL_CHUNK;
-use crate::steer::spec::{ALI, COH};
+use crate::plans::spec::{ALI, COH};
 use crate::steering::NeighbourSums;
 
 /// One agent's kernel sums, reduced: separation x and y, alignment x and y, alignment's count,
@@ -142,7 +142,7 @@ impl Runs {
         ])
     }
 
-    /// [`without_self`](crate::steer::neighbours::without_self) over the agents at `range`,
+    /// [`without_self`](crate::plans::neighbours::without_self) over the agents at `range`,
     /// whose velocities are `(vx, vy)`: the same subtractions in lanes, so the same bits; the
     /// velocities go to `vel`.
     pub(super) fn without_self_run(
@@ -184,16 +184,16 @@ pub(super) mod tests {
     use rand_chacha::ChaCha8Rng;
 
     use super::*;
-    use crate::steer::neighbours::{LANES, without_self};
-    use crate::steer::spec::{NeighbourSpec, SEP};
+    use crate::plans::neighbours::{LANES, without_self};
+    use crate::plans::spec::{NeighbourSpec, SEP};
 
     /// The bits of every sum.
-    pub(in crate::steer::cells) fn bits(s: &NeighbourSums) -> [u32; 9] {
+    pub(in crate::plans::cells) fn bits(s: &NeighbourSums) -> [u32; 9] {
         reduced_of(s).map(f32::to_bits)
     }
 
     /// The reduced form of `s`, as the kernel writes it.
-    pub(in crate::steer::cells) fn reduced_of(s: &NeighbourSums) -> Reduced {
+    pub(in crate::plans::cells) fn reduced_of(s: &NeighbourSums) -> Reduced {
         [
             s.separation.x,
             s.separation.y,

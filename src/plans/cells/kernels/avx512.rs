@@ -22,7 +22,7 @@
 use std::arch::x86_64::*;
 
 use super::{AgentCols, CellBuf, KLANES, Query, QueryAgent, Reduced, Runs, Slots, VICSEK};
-use crate::steer::spec::{ALI, SEP};
+use crate::plans::spec::{ALI, SEP};
 
 /// The sums of the leading pairs of `agents` (all of them but an odd last one) into `runs` at
 /// `slots`, when the query has the flock's shape; returns how many agents it served (0 for
@@ -225,7 +225,7 @@ mod tests {
     use rand_chacha::ChaCha8Rng;
 
     use super::*;
-    use crate::steer::cells::kernels::tree_sum;
+    use crate::plans::cells::kernels::tree_sum;
 
     /// [`reduce`] of eight accumulators given as 16 lanes each.
     #[target_feature(enable = "avx512f,avx512dq,avx512vl,avx2,fma")]

@@ -13,12 +13,12 @@ use super::gather::{CellBuf, Gather};
 use super::kernels::{AgentCols, Query, Slots, VICSEK, kernel_cell};
 use super::runs::Runs;
 use super::terms::{evaluate_run, vicsek_run};
+use crate::plans::neighbours::{SortedCopies, unit_headings_at, without_self};
+use crate::plans::plan::PlanKind;
+use crate::plans::spec::NeighbourSpec;
+use crate::plans::view::SteerView;
 use crate::simd::{apply, float_kernel};
 use crate::spatial::GridIndex;
-use crate::steer::neighbours::{SortedCopies, unit_headings_at, without_self};
-use crate::steer::plan::PlanKind;
-use crate::steer::spec::NeighbourSpec;
-use crate::steer::view::SteerView;
 use crate::steering::NeighbourSums;
 
 /// A task's unit headings, when the copies hold none (no Vicsek plan) and a view cone needs its

@@ -12,10 +12,10 @@ use glam::Vec2;
 use super::{Buffers, Context, OrcaScratch, Source};
 use crate::agents::AgentId;
 use crate::orca::lines::LANES;
+use crate::plans::pack::{Block, Packed, pack_lanes};
+use crate::plans::plan::Plan;
+use crate::plans::view::SteerView;
 use crate::spatial::{HashGrid, NeighbourIndex, Runs, farthest_move};
-use crate::steer::pack::{Block, Packed, pack_lanes};
-use crate::steer::plan::Plan;
-use crate::steer::view::SteerView;
 
 impl OrcaScratch {
     /// Makes `hash` hold the agents' current positions in cells of `side`, and returns how much

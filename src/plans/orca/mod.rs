@@ -5,7 +5,7 @@
 //! Per agent: the preferred velocity from the pass's output (kinematic: the desired velocity;
 //! dynamic: `velocity + acceleration * dt`), truncated to `pref_speed` and perturbed when the
 //! group asks (every agent's perturbation of a chunk drawn in lanes first, [`perturbations`]);
-//! the candidates from the hashed grid packed eight lanes at a time (`steer::pack`), in a crowd
+//! the candidates from the hashed grid packed eight lanes at a time (`plans::pack`), in a crowd
 //! first within a little more than the previous agent's `max_neighbours`-th distance (exact:
 //! the search widens to `neighbour_dist` when fewer lie that close); the hard
 //! lines of the walls (nearest edge first) and circles within
@@ -53,7 +53,7 @@ pub(crate) use search::{reach, wide_cells};
 struct Buffers {
     found: Vec<Neighbour>,
     /// The offsets and indices of the candidates within reach, packed eight lanes at a time
-    /// (`steer::pack`): only the first `count` entries of a scan are hits, the rest is room.
+    /// (`plans::pack`): only the first `count` entries of a scan are hits, the rest is room.
     rx: Vec<f32>,
     ry: Vec<f32>,
     js: Vec<u32>,

@@ -6,15 +6,15 @@
 //! in the same order, exact square roots and divisions).
 
 use super::runs::{Column, Runs};
+use crate::plans::adapter::Adapter;
+use crate::plans::neighbours::positive_finite;
+use crate::plans::spec::{ALI, SEP};
 use crate::rng::Stream;
 use crate::simd::{apply, float_kernel};
-use crate::steer::adapter::Adapter;
-use crate::steer::neighbours::positive_finite;
-use crate::steer::spec::{ALI, SEP};
 
 /// The flocking terms and the model adapter for the agents at `range` of `r`, one term at a
 /// time over the whole run (long loops of vector instructions): the same operations in the same
-/// order as [`flock_total`](crate::steer::agent::flock_total) and [`Adapter::finish`] per agent
+/// order as [`flock_total`](crate::plans::agent::flock_total) and [`Adapter::finish`] per agent
 /// (exact square roots and divisions), so each agent's result equals the scalar evaluation bit
 /// for bit.
 #[apply(float_kernel!)]

@@ -1,5 +1,7 @@
-//! The steering layer: the one owner of an agent's steering, between the world and the sensing
-//! modules.
+//! The plan layer: the one owner of an agent's steering, between the world and the sensing
+//! modules. Each group's profile is compiled into a [`Plan`] here, and the steering pass runs
+//! every agent by its plan; [`crate::steering`] holds the behaviours themselves, as pure
+//! functions and data, which the plans call.
 //!
 //! The world orchestrates a step; the leaf modules ([`crate::steering`], [`crate::spatial`],
 //! [`crate::field`], [`crate::obstacles`], [`crate::gravity`], [`crate::group`]) hold pure

@@ -9,8 +9,8 @@
 
 use super::KLANES;
 use crate::bounds::Bounds;
+use crate::plans::neighbours::{LANES, SortedCopies};
 use crate::spatial::GridIndex;
-use crate::steer::neighbours::{LANES, SortedCopies};
 
 /// The smallest size of a cell buffer's vectors.
 const MIN_CELL_BUF: usize = 4096;

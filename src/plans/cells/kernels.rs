@@ -15,8 +15,8 @@ use multiversion::target::target_cfg;
 use super::KLANES;
 use super::gather::CellBuf;
 use super::runs::{Reduced, Runs};
+use crate::plans::spec::{ALI, COH, FlatSpec, NeighbourSpec, QueryAgent, SEP};
 use crate::simd::{apply, float_kernel};
-use crate::steer::spec::{ALI, COH, FlatSpec, NeighbourSpec, QueryAgent, SEP};
 
 #[cfg(target_arch = "x86_64")]
 mod avx512;
@@ -456,7 +456,7 @@ mod tests {
     use super::super::runs::flock_sums;
     use super::super::runs::tests::bits;
     use super::*;
-    use crate::steer::cells::task::CELL_BATCH;
+    use crate::plans::cells::task::CELL_BATCH;
     use crate::steering::NeighbourSums;
 
     /// The sums of `agents` through the dispatched kernel, read back from the runs; with

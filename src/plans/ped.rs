@@ -212,7 +212,7 @@ fn gather(
                 let len = run.len();
                 // The grid's positions are padded with a block of zeros, so every block of a
                 // run is read whole, in lanes, its tail masked off, and the lanes within the
-                // cut-off packed without a branch per lane (`steer::pack`).
+                // cut-off packed without a branch per lane (`plans::pack`).
                 let end = run.start + len.div_ceil(LANES) * LANES;
                 let blocks = sx[run.start..end]
                     .chunks_exact(LANES)
