@@ -24,7 +24,7 @@ use glam::Vec2;
 use rayon::prelude::*;
 
 use super::distance::MAX_CELL_COST;
-use super::occupancy::{OccupancyGrid, cell_of};
+use super::occupancy::{OccupancyGrid, cell_coords};
 
 /// Frames between reroutes of a new quickest-path field.
 pub const DEFAULT_REROUTE_EVERY: u64 = 50;
@@ -85,10 +85,10 @@ impl Congestion {
         self.counts.clear();
         self.counts.resize(w * h, 0);
         for p in positions {
-            if cell_of(grid, p).is_none() {
+            let u = (p - grid.origin()) / grid.cell_size();
+            if cell_coords(u, w, h).is_none() {
                 continue;
             }
-            let u = (p - grid.origin()) / grid.cell_size();
             for (y, wy) in bracket(u.y, h) {
                 for (x, wx) in bracket(u.x, w) {
                     self.counts[y * w + x] += wx * wy;

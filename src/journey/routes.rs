@@ -157,7 +157,6 @@ impl Routes {
     }
 }
 
-/// The goal cells of `stage` on `grid`.
 /// Of `cells` (not empty, in `(y, x)` order), the one whose centre lies nearest `p` (the first on
 /// a tie).
 fn nearest_cell(grid: &OccupancyGrid, cells: &[(u32, u32)], p: Vec2) -> (u32, u32) {
@@ -173,6 +172,7 @@ fn nearest_cell(grid: &OccupancyGrid, cells: &[(u32, u32)], p: Vec2) -> (u32, u3
     best
 }
 
+/// The goal cells of `stage` on `grid`.
 fn goal_cells(grid: &OccupancyGrid, stage: &Stage) -> Vec<(u32, u32)> {
     let cells = || (0..grid.height()).flat_map(move |y| (0..grid.width()).map(move |x| (x, y)));
     let mut goals: Vec<(u32, u32)> = match stage {
