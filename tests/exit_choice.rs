@@ -215,10 +215,12 @@ fn allocated_escape_routes_are_kept() {
     allocated_escape_routes(None).unwrap();
 }
 
-/// The same over ten seeds. Fails today: two pedestrians of opposite streams can lock each
-/// other in a door (docs/VALIDATION.md, "Known weakness").
+/// The same over ten seeds. Fails today at seeds 7 and 10: the field's clearance, rounded to
+/// whole 0.25 m cells, leaves the mouth of a door too narrow for two pedestrians of one crowd
+/// pressing in from either side, who then hold each other off (docs/VALIDATION.md, "The
+/// narrow door").
 #[test]
-#[ignore = "the door lock of opposing streams is open (docs/VALIDATION.md)"]
+#[ignore = "the lock at a door in a coarse field is open (docs/VALIDATION.md)"]
 fn allocated_escape_routes_are_kept_for_every_seed() {
     let failed: Vec<String> = (4..14)
         .filter_map(|seed| {

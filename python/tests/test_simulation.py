@@ -106,6 +106,26 @@ def test_params_set_the_speed_model_as_jupedsim_has_it():
         throng.Simulation(HALL, params={"model": "cfsm"})
 
 
+def test_a_saved_simulation_keeps_the_params_of_models_no_group_uses_yet(tmp_path):
+    params = {"cfsm": {"time_gap": 1.0}, "social_force": {"tau": 0.3}}
+
+    def crowd(sim):
+        out = sim.add_exit_stage([(28.0, 8.0), (30.0, 8.0), (30.0, 12.0), (28.0, 12.0)])
+        j = sim.add_journey(throng.Journey([out]))
+        xy = np.array([(1.0 + 0.5 * (k % 10), 5.0 + 0.5 * (k // 10)) for k in range(60)])
+        sim.add_agents(xy[:30], journey=j, desired_speed=1.2)
+        sim.add_agents(xy[30:], journey=j, desired_speed=1.2, model="social_force")
+        sim.iterate(200)
+        return sim.positions()
+
+    # Saved before any agent, so before any group holds the parameters.
+    path = tmp_path / "empty.ckpt"
+    throng.Simulation(HALL, dt=0.01, seed=1, params=params).save(path)
+    resumed = crowd(throng.Simulation.load(path))
+    assert np.array_equal(resumed, crowd(throng.Simulation(HALL, dt=0.01, seed=1, params=params)))
+    assert not np.array_equal(resumed, crowd(throng.Simulation(HALL, dt=0.01, seed=1)))
+
+
 def test_the_walkable_area_is_the_geometry_given():
     sim = throng.Simulation(HALL)
     assert sim.walkable_area().startswith("POLYGON")

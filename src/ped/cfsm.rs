@@ -37,9 +37,9 @@
 //! isotropic repulsion). With isotropic repulsion the crowd behind a pedestrian at a narrow door
 //! steers it forwards as strongly as those in front steer it back, so at a door two bodies wide
 //! four pedestrians (two against the jambs, two in front of the door) can hold one another at
-//! contact for good. Weighting those behind less lets such an arch give way; it also weakens the
-//! push from behind that breaks other standstills (docs/VALIDATION.md, "The narrow door",
-//! measures both), which is why it is not the default.
+//! contact for good. Weighting those behind less lets some such arches give way and others
+//! form: over a sweep of `lambda` the validation cases that lock change, not in one direction
+//! (docs/VALIDATION.md, "The narrow door"), which is why it is not the default.
 //!
 //! Reference speed (not in the paper, off by default): with [`Cfsm::reference_speed`] `v_r > 0`
 //! a pedestrian with the desired speed `v0` takes the time gaps times `v_r / v0`, so that `v /

@@ -205,8 +205,9 @@ pub const CASES: &[Case] = &[
         about: "A corridor 1.8 m wide whose first 90 m hold the crowd at 0.3 to 4 persons/m^2, \
                 all at 1.11 m/s (the experiment's speed below 0.5 persons/m^2); Voronoi \
                 density and speed (PedPy's) in 6 x 1.8 m over t 10 to 30 s, binned by 0.5 \
-                persons/m^2, against the UNI_CORR runs ug-180-*. Criterion: each bin's mean speed within 15% of the experiment's, at least 60% \
-                of its bins judged. Quick: 0.6, 1.5, 2.5, 3.5 persons/m^2.",
+                persons/m^2, against the UNI_CORR runs ug-180-*. Criterion: each bin's mean speed \
+                within 15% of the experiment's, at least 60% of its bins judged. Quick: 0.3, 1, \
+                1.5, 2.5, 3.5 and 4 persons/m^2.",
         run: super::experiments::exp_unidirectional,
     },
     Case {
@@ -225,8 +226,8 @@ pub const CASES: &[Case] = &[
         about: "A corridor 3.6 m wide, x 20 to 80 m filled at 0.5 to 3 persons/m^2 on a lattice \
                 whose columns walk alternately right and left at 1.5 m/s; Voronoi density and \
                 speed in 6 x 3.6 m over t 5 to 20 s, binned by 0.5, against the BI_CORR runs \
-                bot-360-*. Criterion: each bin within 15%, at least 60% judged. Quick: 1 and 2 \
-                persons/m^2.",
+                bot-360-*. Criterion: each bin within 15%, at least 60% judged. Quick: 0.5, 1, 2 \
+                and 3 persons/m^2.",
         run: super::experiments::exp_bidirectional,
     },
     Case {
@@ -236,7 +237,7 @@ pub const CASES: &[Case] = &[
                 corridor walk to the junction and merge into the branch at 1.23 m/s; Voronoi \
                 density and speed in the experiment's three 2 x 2.4 m areas (left and right arm \
                 pooled, and after the merge) over t 10 to 50 s, binned by 0.5, against the runs \
-                ko-240-*. Criterion: each bin within 15%, at least 60% judged. Quick: 2 \
+                ko-240-*. Criterion: each bin within 15%, at least 60% judged. Quick: 1 and 3 \
                 persons/m^2.",
         run: super::experiments::exp_t_junction,
     },

@@ -263,8 +263,12 @@ impl PySimulation {
     /// walkable area, external agents, the time step) to a checkpoint file at `path`, written
     /// crash-safe; `Simulation.load(path)` resumes it bit for bit.
     fn save(&self, path: std::path::PathBuf) -> PyResult<()> {
+        // The model's name, then every model's table of `params=` (also of models no group
+        // uses yet), which the world's groups alone would not keep.
+        let table = toml::to_string(&self.pedestrian)
+            .map_err(|e| invalid("params", format!("cannot be written: {e}")))?;
         let run = throng::checkpoint::RunInfo {
-            scenario: format!("{SAVED_AS}{}", self.model.name()),
+            scenario: format!("{SAVED_AS}{}\n{table}", self.model.name()),
             dt: self.dt,
             steps: self.world.frame(),
             checkpoint_every: 0,
@@ -287,7 +291,10 @@ impl PySimulation {
                          command line resume the others)",
                     )
                 })?;
-            let model = Model::parse(&run.scenario[SAVED_AS.len()..]).unwrap_or_default();
+            let (name, table) = run.scenario[SAVED_AS.len()..]
+                .split_once('\n')
+                .unwrap_or((&run.scenario[SAVED_AS.len()..], ""));
+            let model = Model::parse(name).unwrap_or_default();
             let mut groups = Vec::new();
             let mut external = None;
             for (g, p) in world.groups().iter().enumerate() {
@@ -301,24 +308,15 @@ impl PySimulation {
                     _ => {}
                 }
             }
-            // Every model's table from the group of that model; the speeds and pre-movement
-            // times, which all groups share, from the first.
-            let mut pedestrian = PedestrianTable::default();
-            for (k, ped) in world
-                .groups()
-                .iter()
-                .filter_map(|p| p.pedestrian)
-                .enumerate()
-            {
-                if k == 0 {
-                    pedestrian.desired_speed = ped.desired_speed;
-                    pedestrian.premovement = ped.premovement;
-                }
-                match ped.params {
-                    ModelParams::Cfsm(c) => pedestrian.cfsm = c,
-                    ModelParams::SocialForce(f) => pedestrian.social_force = f,
-                }
-            }
+            let pedestrian = if table.is_empty() {
+                from_groups(&world)
+            } else {
+                let t: PedestrianTable = toml::from_str(table).map_err(|e| {
+                    invalid("path", format!("the checkpoint's params= do not read: {e}"))
+                })?;
+                t.validate().or_raise()?;
+                t
+            };
             Ok(PySimulation {
                 world,
                 dt: run.dt,
@@ -416,4 +414,27 @@ impl PySimulation {
             Ok(())
         })
     }
+}
+
+/// The table of `params=` of a checkpoint written without it: every model's table from the
+/// group of that model, the speeds and pre-movement times, which all groups share, from the
+/// first.
+fn from_groups(world: &World) -> PedestrianTable {
+    let mut pedestrian = PedestrianTable::default();
+    for (k, ped) in world
+        .groups()
+        .iter()
+        .filter_map(|p| p.pedestrian)
+        .enumerate()
+    {
+        if k == 0 {
+            pedestrian.desired_speed = ped.desired_speed;
+            pedestrian.premovement = ped.premovement;
+        }
+        match ped.params {
+            ModelParams::Cfsm(c) => pedestrian.cfsm = c,
+            ModelParams::SocialForce(f) => pedestrian.social_force = f,
+        }
+    }
+    pedestrian
 }
