@@ -309,6 +309,7 @@ mod tests {
         // candidates of a previous rebuild would answer wrongly.
         let mut rng = AgentRng::new(11, 0, 0, 0);
         let (mut b1, mut b2) = (Vec::new(), Vec::new());
+        let mut served = 0;
         for bounds in [
             Bounds::torus(300.0, 200.0).unwrap(),
             Bounds::bounded(300.0, 200.0).unwrap(),
@@ -345,11 +346,21 @@ mod tests {
                                 ni.nearest(p, within, i, &mut b2),
                                 "{bounds:?} {count} points, within {within}, at {p}"
                             );
+                            // Whether the candidates, not the searches, answered.
+                            let mut c = CellCandidates::default();
+                            if within <= ni.start && c.of_cell(&ni.index, p, within, false) {
+                                served += 1;
+                            }
                         }
                     }
                 }
             }
         }
+        // Two of the three radii are no wider than the first search at every count.
+        assert!(
+            served > 8_000,
+            "the candidates answered {served} of 28,800 queries"
+        );
     }
 
     #[test]
