@@ -335,3 +335,42 @@ fn different_seeds_differ() {
     }
     assert_ne!(a.agents().pos_x(), b.agents().pos_x());
 }
+
+/// The bits of built-in scene `name` at `agents` agents after `steps` steps on `threads`
+/// threads (0: `step_sequential` on one).
+fn scene_bits(name: &str, agents: usize, threads: usize, steps: usize) -> Vec<u32> {
+    let s = throng::scenario::builtin(name)
+        .unwrap()
+        .with_agents(agents)
+        .unwrap();
+    let pool = rayon::ThreadPoolBuilder::new()
+        .num_threads(threads.max(1))
+        .build()
+        .unwrap();
+    pool.install(|| {
+        let mut w = s.build().unwrap();
+        for _ in 0..steps {
+            if threads == 0 {
+                w.step_sequential(s.dt).unwrap();
+            } else {
+                w.step(s.dt).unwrap();
+            }
+        }
+        snapshot(&w)
+    })
+}
+
+#[test]
+fn nearest_targets_from_cell_candidates_give_the_same_bits_on_any_thread_count() {
+    // Pursuit's prey find their nearest predator from candidates each worker shares across a
+    // cell's agents: which agents a worker serves must not change a bit.
+    for (name, agents) in [("pursuit", 6_000)] {
+        let one = scene_bits(name, agents, 1, 30);
+        for threads in [0, 2, 4] {
+            assert!(
+                one == scene_bits(name, agents, threads, 30),
+                "{name} on {threads} threads (0: sequential)"
+            );
+        }
+    }
+}

@@ -19,7 +19,7 @@ use crate::gravity::GravityField;
 use crate::group::GroupMovement;
 use crate::obstacles::Obstacles;
 use crate::profile::Profile;
-use crate::spatial::{GridIndex, Neighbour, NeighbourIndex, SpatialIndex};
+use crate::spatial::{CellCandidates, GridIndex, Neighbour, NeighbourIndex, SpatialIndex};
 use crate::steering::{NeighbourSums, Target};
 use crate::targets::TargetPoint;
 
@@ -47,6 +47,12 @@ pub(crate) struct NearestIndex {
     start: f32,
     /// The agents' order `agents` indexes into.
     order: AgentOrder,
+}
+
+thread_local! {
+    /// Per-worker candidates of the last cell a nearest-agent target searched.
+    static CANDIDATES: std::cell::RefCell<CellCandidates> =
+        std::cell::RefCell::new(CellCandidates::default());
 }
 
 /// Rebuilds, per group, the index some plan's nearest-agent target looks into (reusing the
@@ -117,6 +123,40 @@ impl NearestIndex {
             .filter(|w| w.is_finite() && *w > 0.0);
         self.start = spacing.map_or(r, |w| w.min(r));
         self.index.rebuild(&self.xs, &self.ys, bounds, self.start);
+    }
+
+    /// [`NearestIndex::nearest`] answered from the candidates of `position`'s cell, which the
+    /// queries of the same cell and radius that follow on this worker share: the same agent
+    /// (the nearest other than `i` within `within` by `(distance², index)`, as the one search
+    /// over the radius finds it), from one gathering per cell. Searches that would widen (a
+    /// radius beyond the first search's) and positions the candidates cannot serve take the
+    /// reference.
+    fn nearest_by_cell(
+        &self,
+        position: Vec2,
+        within: f32,
+        i: usize,
+        buf: &mut Vec<Neighbour>,
+    ) -> Option<usize> {
+        // A search no wider than the first is one search over the radius, which the cell's
+        // candidates answer; a wider one widens from a few cells, cheaper per agent.
+        if within > self.start {
+            return self.nearest(position, within, i, buf);
+        }
+        CANDIDATES.with_borrow_mut(|c| {
+            if !c.of_cell(&self.index, position, within, false) {
+                return self.nearest(position, within, i, buf);
+            }
+            let mut best: Option<(f32, u32)> = None;
+            c.within(&self.index, position, within, usize::MAX, |nb| {
+                let (d, k) = (nb.dist_sq, nb.index);
+                let closer = best.is_none_or(|(b, m)| d < b || (d == b && k < m));
+                if closer && self.agents[k as usize] as usize != i {
+                    best = Some((d, k));
+                }
+            });
+            best.map(|(_, k)| self.agents[k as usize] as usize)
+        })
     }
 
     /// The storage index of the indexed agent other than `i` nearest to `position` within
@@ -197,7 +237,8 @@ impl SteerView<'_> {
             }
             Target::Nearest { group, within } => {
                 let ni = self.nearest.get(group)?.as_ref()?;
-                let j = NEIGHBOURS.with_borrow_mut(|buf| ni.nearest(position, within, i, buf))?;
+                let j = NEIGHBOURS
+                    .with_borrow_mut(|buf| ni.nearest_by_cell(position, within, i, buf))?;
                 (a.position(j), a.velocity(j))
             }
         };
@@ -259,6 +300,67 @@ mod tests {
             .filter(|&(d, _)| d <= within * within)
             .min_by(|a, b| a.0.total_cmp(&b.0).then(a.1.cmp(&b.1)))
             .map(|(_, k)| ni.agents[k] as usize)
+    }
+
+    #[test]
+    fn the_cell_candidates_answer_what_the_searches_answer() {
+        // Queries in runs along cells (as agents in the grid's order ask), at random, from
+        // indexed agents and from outside the index; every rebuild moves the points, so that
+        // candidates of a previous rebuild would answer wrongly.
+        let mut rng = AgentRng::new(11, 0, 0, 0);
+        let (mut b1, mut b2) = (Vec::new(), Vec::new());
+        let mut served = 0;
+        for bounds in [
+            Bounds::torus(300.0, 200.0).unwrap(),
+            Bounds::bounded(300.0, 200.0).unwrap(),
+        ] {
+            for count in [1, 2, 40, 600] {
+                let mut ni = NearestIndex::default();
+                for round in 0..3 {
+                    ni.agents.clear();
+                    ni.xs.clear();
+                    ni.ys.clear();
+                    for k in 0..count {
+                        ni.agents.push(2 * k as u32 + round);
+                        ni.xs.push(rng.unit() * 300.0);
+                        ni.ys.push(rng.unit() * 200.0);
+                    }
+                    for within in [3.0_f32, 15.0, 60.0] {
+                        ni.rebuild(bounds, within);
+                        let mut p = Vec2::new(rng.unit() * 300.0, rng.unit() * 200.0);
+                        for q in 0..400 {
+                            p = if q % 3 == 0 {
+                                Vec2::new(rng.unit() * 300.0, rng.unit() * 200.0)
+                            } else {
+                                bounds.wrap(p + Vec2::new(rng.unit() - 0.5, rng.unit() - 0.5))
+                            };
+                            let i = if q % 2 == 0 && count > 0 {
+                                let k = q % count;
+                                p = Vec2::new(ni.xs[k], ni.ys[k]);
+                                ni.agents[k] as usize
+                            } else {
+                                usize::MAX
+                            };
+                            assert_eq!(
+                                ni.nearest_by_cell(p, within, i, &mut b1),
+                                ni.nearest(p, within, i, &mut b2),
+                                "{bounds:?} {count} points, within {within}, at {p}"
+                            );
+                            // Whether the candidates, not the searches, answered.
+                            let mut c = CellCandidates::default();
+                            if within <= ni.start && c.of_cell(&ni.index, p, within, false) {
+                                served += 1;
+                            }
+                        }
+                    }
+                }
+            }
+        }
+        // Two of the three radii are no wider than the first search at every count.
+        assert!(
+            served > 8_000,
+            "the candidates answered {served} of 28,800 queries"
+        );
     }
 
     #[test]

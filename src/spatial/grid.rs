@@ -5,7 +5,7 @@
 //! `order`. The layout, geometry and rebuild are documented on [`GridIndex`].
 
 use std::ops::Range;
-use std::sync::atomic::{AtomicU32, Ordering};
+use std::sync::atomic::{AtomicU32, AtomicU64, Ordering};
 
 use glam::Vec2;
 use rayon::prelude::*;
@@ -83,6 +83,8 @@ pub struct GridIndex {
     /// The points sorted by cell: `start` (`cells + 1` prefix sums), `order` and the sorted
     /// positions, with the sort's scratch.
     sort: CountingSort,
+    /// Changed by every rebuild and reorder ([`GridIndex::generation`]).
+    generation: u64,
 }
 
 impl Default for GridIndex {
@@ -97,6 +99,7 @@ impl Default for GridIndex {
             scale: 0.0,
             cell: Vec::new(),
             sort: CountingSort::with_keys(1),
+            generation: 0,
         }
     }
 }
@@ -264,6 +267,7 @@ impl GridIndex {
     /// In parallel chunks from 8,192 points on (every value is a function of its position
     /// alone, so the result is the same).
     pub fn adopt_order(&mut self) {
+        self.generation = next_generation();
         let sort = &mut self.sort;
         let n = sort.order.len();
         let start = &sort.start;
@@ -304,6 +308,12 @@ impl GridIndex {
     #[must_use]
     pub fn bounds(&self) -> Bounds {
         self.bounds
+    }
+
+    /// A number no other rebuild or reorder of any grid took (its clones share it until they
+    /// change): what [`super::CellCandidates`] were gathered from.
+    pub(crate) fn generation(&self) -> u64 {
+        self.generation
     }
 
     /// Calls `visit` with ranges into [`order`](Self::order), [`sorted_x`](Self::sorted_x) and
@@ -500,6 +510,7 @@ impl GridIndex {
         parts: usize,
     ) {
         assert_eq!(xs.len(), ys.len(), "xs and ys must have the same length");
+        self.generation = next_generation();
         let n = xs.len();
         to_u32(n);
         let parts = parts.clamp(1, 64);
@@ -539,6 +550,12 @@ impl GridIndex {
             (SORTED_PAD, 0.0),
         );
     }
+}
+
+/// The next [`GridIndex::generation`].
+fn next_generation() -> u64 {
+    static NEXT: AtomicU64 = AtomicU64::new(1);
+    NEXT.fetch_add(1, Ordering::Relaxed)
 }
 
 /// Lower and upper corners of the points' bounding box (zero when there are none).

@@ -41,12 +41,14 @@ use crate::bounds::Bounds;
 use crate::error::Error;
 
 mod brute;
+mod candidates;
 mod grid;
 mod hash;
 mod kdtree;
 mod sort;
 
 pub use brute::BruteIndex;
+pub(crate) use candidates::CellCandidates;
 pub use grid::GridIndex;
 pub(crate) use grid::SORTED_PAD;
 pub(crate) use hash::farthest_move;
