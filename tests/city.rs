@@ -8,6 +8,7 @@ use std::time::{Duration, Instant};
 use glam::Vec2;
 use throng::World;
 use throng::scenario::{Scenario, builtin};
+use throng::steering::{Behaviour, Weighted};
 
 #[path = "support/checkpoint.rs"]
 mod support;
@@ -185,4 +186,31 @@ fn city_grows_by_tiles_with_its_buildings_and_field() {
     assert_eq!(free, one_free * 10);
     assert_outside_buildings(&s, &w, 1);
     assert!(took < Duration::from_secs(60), "took {took:?}");
+}
+
+#[test]
+fn city_field_followers_plan_equals_the_general_loop() {
+    // Commuters and shoppers (`follow_field`, `separation`, `avoid_walls`) run in the field
+    // lanes; an angular-only behaviour appended sends the same profiles through the general
+    // loop, which samples the flow with the scalar `FlowField::sample`. Bits must agree.
+    let run = |extra: bool| {
+        let mut s = city(3_000);
+        let look = Weighted::new(Behaviour::look_where_you_are_going(), 1.0);
+        for g in [COMMUTERS, SHOPPERS].into_iter().filter(|_| extra) {
+            s.groups[g as usize]
+                .params
+                .steering
+                .behaviours
+                .push(look.clone());
+        }
+        let mut w = s.build().unwrap();
+        for _ in 0..60 {
+            w.step(s.dt).unwrap();
+        }
+        let ran = if extra { "general" } else { "follow_field" };
+        assert_eq!(w.last_plans()[..2], [ran; 2], "the plans that ran");
+        // The orientations face the velocities: the angular requests leave them alone.
+        bits(&w)
+    };
+    assert_eq!(run(false), run(true));
 }

@@ -341,6 +341,132 @@ impl FlowField {
     }
 }
 
+impl FlowField {
+    /// [`FlowField::sample`] at the first `len` of `N` points at once (zero in the other lanes),
+    /// the same bits in every lane: the cells and
+    /// bilinear weights computed lane by lane, each lane's own cell, its 3x3 block's walls and
+    /// the four blended directions gathered, then the blend and the wall rules with each case
+    /// computed in every lane and the lane's own selected (a cell the scalar path skips leaves
+    /// the sum as it was).
+    #[inline(always)]
+    pub(crate) fn sample_lanes<const N: usize>(
+        &self,
+        px: &[f32; N],
+        py: &[f32; N],
+        len: usize,
+    ) -> ([f32; N], [f32; N]) {
+        let l = &self.lattice;
+        let (width, height) = (l.width as usize, l.height as usize);
+        // In lanes: `cell_space`, `cell_coords`' test and cell, the block's corner and weights.
+        let (mut inside, mut cx, mut cy) = ([false; N], [0_u32; N], [0_u32; N]);
+        let (mut fx, mut fy, mut ox, mut oy) = ([0.0_f32; N], [0.0_f32; N], [0_i32; N], [0_i32; N]);
+        for k in 0..N {
+            let u = l.cell_space(Vec2::new(px[k], py[k]));
+            inside[k] = u.x >= 0.0 && u.y >= 0.0 && u.x <= width as f32 && u.y <= height as f32;
+            cx[k] = (u.x as u32).min(l.width - 1);
+            cy[k] = (u.y as u32).min(l.height - 1);
+            let g = u - 0.5;
+            let (bx, by) = (floor(g.x), floor(g.y));
+            (fx[k], fy[k]) = (g.x - bx, g.y - by);
+            ox[k] = bx as i32 - cx[k] as i32;
+            oy[k] = by as i32 - cy[k] as i32;
+        }
+        // Per lane (the first `len`): whether the scalar path blends at all, the open cells of
+        // the 3x3 block around the own cell (bit `3 (dy + 1) + dx + 1`), the four blended
+        // cells' directions (zero where skipped) and whether each counts, the own cell's
+        // direction.
+        let mut valid = [false; N];
+        let mut open = [0_u16; N];
+        let (mut dx, mut dy, mut on) = ([[0.0_f32; N]; 4], [[0.0_f32; N]; 4], [[false; N]; 4]);
+        let (mut odx, mut ody) = ([0.0_f32; N], [0.0_f32; N]);
+        let stride = l.stride;
+        let continuous = !self.dirs.is_empty();
+        const BLOCK: [(i32, i32); 4] = [(0, 0), (1, 0), (0, 1), (1, 1)];
+        for k in 0..len.min(N) {
+            if !inside[k] {
+                continue;
+            }
+            let c = l.index(cx[k], cy[k]);
+            if self.codes[c] >= 8 {
+                continue;
+            }
+            valid[k] = true;
+            debug_assert!((-1..=0).contains(&ox[k]) && (-1..=0).contains(&oy[k]));
+            // The padded lattice has a cell on every side of an interior one.
+            let mut block = [NONE; 9];
+            for (r, row) in block.chunks_exact_mut(3).enumerate() {
+                let start = c + r * stride - stride - 1;
+                row.copy_from_slice(&self.codes[start..start + 3]);
+            }
+            let mut bits = 0_u16;
+            for (b, &code) in block.iter().enumerate() {
+                bits |= u16::from(code != NONE) << b;
+            }
+            open[k] = bits;
+            let at = |rx: i32, ry: i32| (3 * (ry + 1) + rx + 1) as usize;
+            let is_open = |rx: i32, ry: i32| (bits >> at(rx, ry)) & 1 == 1;
+            let dir = |rx: i32, ry: i32| {
+                if continuous {
+                    self.dirs[(c + (ry + 1) as usize * stride + (rx + 1) as usize) - stride - 1]
+                } else {
+                    unit(block[at(rx, ry)])
+                }
+            };
+            for (j, (bx, by)) in BLOCK.into_iter().enumerate() {
+                let (rx, ry) = (ox[k] + bx, oy[k] + by);
+                let counts =
+                    is_open(rx, ry) && (rx == 0 || ry == 0 || (is_open(rx, 0) && is_open(0, ry)));
+                let d = if counts { dir(rx, ry) } else { Vec2::ZERO };
+                (dx[j][k], dy[j][k], on[j][k]) = (d.x, d.y, counts);
+            }
+            let d = dir(0, 0);
+            (odx[k], ody[k]) = (d.x, d.y);
+        }
+        // In lanes: the blend, then the wall rules, as `sample` orders them.
+        let (mut rx_out, mut ry_out) = ([0.0_f32; N], [0.0_f32; N]);
+        for k in 0..N {
+            let w = [
+                (1.0 - fx[k]) * (1.0 - fy[k]),
+                fx[k] * (1.0 - fy[k]),
+                (1.0 - fx[k]) * fy[k],
+                fx[k] * fy[k],
+            ];
+            let (mut vx, mut vy) = (0.0_f32, 0.0_f32);
+            for j in 0..4 {
+                let (sx, sy) = (vx + w[j] * dx[j][k], vy + w[j] * dy[j][k]);
+                vx = if on[j][k] { sx } else { vx };
+                vy = if on[j][k] { sy } else { vy };
+            }
+            let (odx, ody) = (odx[k], ody[k]);
+            let back = vx * odx + vy * ody <= 0.0;
+            let bits = open[k];
+            let is_open = |rx: i32, ry: i32| (bits >> (3 * (ry + 1) + rx + 1)) & 1 == 1;
+            let sx = if vx > 0.0 { 1 } else { -1 };
+            let sy = if vy > 0.0 { 1 } else { -1 };
+            if vx != 0.0 && !is_open(sx, 0) {
+                vx = 0.0;
+            }
+            if vy != 0.0 && !is_open(0, sy) {
+                vy = 0.0;
+            }
+            if vx != 0.0 && vy != 0.0 && !is_open(sx, sy) {
+                if vx.abs() < vy.abs() {
+                    vx = 0.0;
+                } else {
+                    vy = 0.0;
+                }
+            }
+            // `try_normalize`, kept when it leans along the own direction.
+            let rcp = 1.0 / (vx * vx + vy * vy).sqrt();
+            let (nx, ny) = (vx * rcp, vy * rcp);
+            let keep = rcp.is_finite() && rcp > 0.0 && nx * odx + ny * ody > 0.0 && !back;
+            let (rx, ry) = if keep { (nx, ny) } else { (odx, ody) };
+            (rx_out[k], ry_out[k]) = if valid[k] { (rx, ry) } else { (0.0, 0.0) };
+        }
+        (rx_out, ry_out)
+    }
+}
+
 /// `v.floor()` for `v > -2^31` without a libm call on targets lacking SSE4.1.
 #[inline]
 fn floor(v: f32) -> f32 {
@@ -447,4 +573,110 @@ fn build(lattice: &Lattice, code: impl Fn(usize) -> u8 + Sync) -> Vec<u8> {
             }
         });
     codes
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use crate::field::{Cell, Neighbourhood, OccupancyGrid};
+
+    /// A grid of `w` x `h` cells of size `cell` from `origin`, about a third walls (a fixed
+    /// pseudo-random pattern), and its goals.
+    fn grid(w: u32, h: u32, cell: f32, origin: Vec2) -> (OccupancyGrid, Vec<(u32, u32)>) {
+        let mut g = OccupancyGrid::new(w, h)
+            .unwrap()
+            .with_geometry(cell, origin)
+            .unwrap();
+        let mut s = 0x9e37_79b9_u32;
+        let goals = vec![(1, 1), (w - 2, h / 2)];
+        for y in 0..h {
+            for x in 0..w {
+                s ^= s << 13;
+                s ^= s >> 17;
+                s ^= s << 5;
+                if s.is_multiple_of(3) && !goals.contains(&(x, y)) {
+                    g.set(x, y, Cell::Wall).unwrap();
+                }
+            }
+        }
+        (g, goals)
+    }
+
+    /// Points over the grid and a margin around it: pseudo-random ones, cell corners, centres
+    /// and edges (where the blend's corner and the own cell change), and the far edges.
+    fn points(w: u32, h: u32, cell: f32, origin: Vec2) -> Vec<Vec2> {
+        let mut v = Vec::new();
+        let mut s = 0x2545_f491_u32;
+        let mut unit = || {
+            s ^= s << 13;
+            s ^= s >> 17;
+            s ^= s << 5;
+            s as f32 / u32::MAX as f32
+        };
+        let (sw, sh) = (w as f32 * cell, h as f32 * cell);
+        for _ in 0..4000 {
+            let p = Vec2::new(unit() * (sw + 4.0) - 2.0, unit() * (sh + 4.0) - 2.0);
+            v.push(origin + p);
+        }
+        for y in 0..=2 * h {
+            for x in 0..=2 * w {
+                let p = Vec2::new(x as f32, y as f32) * (0.5 * cell);
+                v.extend([
+                    origin + p,
+                    origin + p + Vec2::splat(1e-4),
+                    origin + p - 1e-4,
+                ]);
+            }
+        }
+        v.extend([
+            origin + Vec2::new(sw, sh),
+            origin + Vec2::new(sw, 0.3),
+            origin,
+        ]);
+        v
+    }
+
+    #[test]
+    fn the_lanes_sample_gives_the_scalar_samples_bits() {
+        for (cell, origin) in [
+            (1.0, Vec2::ZERO),
+            (2.0, Vec2::new(-3.5, 7.25)),
+            (0.7, Vec2::ONE),
+        ] {
+            let (w, h) = (23, 17);
+            let (g, goals) = grid(w, h, cell, origin);
+            let potential = PotentialField::bfs(&g, &goals, 0.9, Neighbourhood::Eight).unwrap();
+            let four = PotentialField::bfs(&g, &goals, 0.9, Neighbourhood::Four).unwrap();
+            let distance = DistanceField::fast_marching(&g, &goals).unwrap();
+            let flows = [
+                FlowField::from_potential(&potential),
+                FlowField::from_potential(&four),
+                FlowField::from_distance(&distance),
+            ];
+            let pts = points(w, h, cell, origin);
+            for flow in &flows {
+                let mut blended = 0;
+                for block in pts.chunks(8) {
+                    let (mut px, mut py) = ([0.0; 8], [0.0; 8]);
+                    for (k, p) in block.iter().enumerate() {
+                        (px[k], py[k]) = (p.x, p.y);
+                    }
+                    let (sx, sy) = flow.sample_lanes(&px, &py, block.len());
+                    for (k, p) in block.iter().enumerate() {
+                        let s = flow.sample(*p);
+                        assert_eq!(
+                            (sx[k].to_bits(), sy[k].to_bits()),
+                            (s.x.to_bits(), s.y.to_bits()),
+                            "at {p}: lanes ({}, {}), scalar {s}",
+                            sx[k],
+                            sy[k]
+                        );
+                        // Count the samples that are not a cell's own unit step.
+                        blended += usize::from(s.x != 0.0 && s.y != 0.0 && s.x.abs() != s.y.abs());
+                    }
+                }
+                assert!(blended > 100, "the points exercise the blend: {blended}");
+            }
+        }
+    }
 }

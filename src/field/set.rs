@@ -36,10 +36,13 @@ use super::occupancy::cell_of;
 use crate::agents::{AgentId, Agents};
 use crate::bounds::Bounds;
 use crate::error::{Error, Result};
-use crate::field::{GoalChannels, GridWalkers, OccupancyGrid, WalkPolicy};
+use crate::field::{FlowField, GoalChannels, GridWalkers, OccupancyGrid, WalkPolicy};
 
 /// Agents per parallel task of the wall check.
 const WALL_CHUNK: usize = 4096;
+
+/// Moves checked together by the field walls' first test ([`Walls::same_open_cell`]).
+const WALL_LANES: usize = 8;
 
 /// Grid walkers made of the agents of one group.
 #[derive(Debug)]
@@ -279,6 +282,41 @@ impl<'a> Walls<'a> {
     #[inline]
     fn wall(&self, c: usize) -> bool {
         self.bits[c / 64] >> (c % 64) & 1 != 0
+    }
+
+    /// For up to [`WALL_LANES`] moves from `(ax, ay)` to `(bx, by)` (the first of each slice;
+    /// missing lanes are `false`), whether each starts and ends in the same open cell of a
+    /// world that does not wrap: a move [`Walls::unchanged`] leaves as it is. The cells are
+    /// [`Walls::cell`]'s, computed in lanes.
+    #[inline]
+    fn same_open_cell(&self, ax: &[f32], ay: &[f32], bx: &[f32], by: &[f32]) -> [bool; WALL_LANES] {
+        let mut out = [false; WALL_LANES];
+        let n = WALL_LANES.min(ax.len());
+        if self.bounds.is_torus() || n < WALL_LANES {
+            return out;
+        }
+        let (w, h) = (self.width as f32, self.height as f32);
+        let cell = |x: f32, y: f32| {
+            let (dx, dy) = (x - self.origin.x, y - self.origin.y);
+            let (ux, uy) = match self.inverse {
+                Some(inv) => (dx * inv, dy * inv),
+                None => (dx / self.cell_size, dy / self.cell_size),
+            };
+            let inside = ux >= 0.0 && uy >= 0.0 && ux <= w && uy <= h;
+            let c =
+                (uy as usize).min(self.height - 1) * self.width + (ux as usize).min(self.width - 1);
+            (inside, c)
+        };
+        let mut cells = [0_usize; WALL_LANES];
+        for k in 0..WALL_LANES {
+            let ((ia, ca), (ib, cb)) = (cell(ax[k], ay[k]), cell(bx[k], by[k]));
+            out[k] = ia & ib & (ca == cb);
+            cells[k] = cb;
+        }
+        for k in 0..WALL_LANES {
+            out[k] = out[k] && !self.wall(cells[k]);
+        }
+        out
     }
 
     /// Whether [`resolve`] leaves a move from `prev` to `p` as it is (velocity included): no
@@ -590,6 +628,15 @@ impl FieldSet {
         self.due = due;
     }
 
+    /// The flow of `channel` of field `field`, or `None` where there is none (as
+    /// [`FieldSet::follow`] reads it).
+    #[inline]
+    pub(crate) fn flow_of(&self, field: usize, channel: usize) -> Option<&FlowField> {
+        self.fields
+            .get(field)
+            .and_then(|f| f.channels.flow(channel))
+    }
+
     /// The linear steering of `follow_field` for one agent: a desired velocity (kinematic) or
     /// the force towards it (dynamic); braking on a goal cell or once arrived.
     #[allow(clippy::too_many_arguments)]
@@ -603,11 +650,7 @@ impl FieldSet {
         max_speed: f32,
         kinematic: bool,
     ) -> Vec2 {
-        let Some(flow) = self
-            .fields
-            .get(field)
-            .and_then(|f| f.channels.flow(channel))
-        else {
+        let Some(flow) = self.flow_of(field, channel) else {
             return Vec2::ZERO;
         };
         let dir = if self.arrived_of(id) {
@@ -650,7 +693,19 @@ impl FieldSet {
                           vy: &mut [f32],
                           ox: &[f32],
                           oy: &[f32]| {
+                // Blocks of moves that stay inside one open cell, found in lanes, stay as
+                // they are; the others are checked one by one.
+                let mut still = [false; WALL_LANES];
                 for k in 0..px.len() {
+                    if k % WALL_LANES == 0 {
+                        still = walls.same_open_cell(&ox[k..], &oy[k..], &px[k..], &py[k..]);
+                        if still == [true; WALL_LANES] {
+                            continue;
+                        }
+                    }
+                    if still[k % WALL_LANES] {
+                        continue;
+                    }
                     let prev = Vec2::new(ox[k], oy[k]);
                     let p = Vec2::new(px[k], py[k]);
                     // On a torus the wrapped position may lie across the world from the start:
@@ -718,23 +773,47 @@ impl FieldSet {
         let fields = &self.fields;
         let follow = &self.follow;
         let agents = &*agents;
-        let on_goal = |i: usize| {
+        // The flow and goals agent `i` arrives at, and whether they serve its whole group (a
+        // fixed channel).
+        let target = |i: usize| {
             let Some(&Some((field, channel))) = follow.get(agents.group[i] as usize) else {
-                return false;
+                return (None, true);
             };
+            let fixed = matches!(channel, FollowChannel::Fixed(_));
             let channel = this.channel_of(channel, agents.ids[i]);
             let Some(channels) = fields.get(field).map(|f| &f.channels) else {
-                return false;
+                return (None, fixed);
             };
             let (Some(flow), Ok(goals)) = (channels.flow(channel), channels.goals(channel)) else {
-                return false;
+                return (None, fixed);
             };
-            let p = Vec2::new(agents.pos_x[i], agents.pos_y[i]);
-            // A short goal list is searched instead of the flow's cells (no memory traffic).
-            if goals.len() <= 16 {
-                flow.world_to_cell(p).is_some_and(|c| goals.contains(&c))
-            } else {
-                flow.is_goal_at(p)
+            (Some((flow, goals)), fixed)
+        };
+        // The agents from `from` on, one flag each; the target resolved once per run of a group
+        // with a fixed channel.
+        let on_goal = |from: usize, flags: &mut [bool]| {
+            let mut last = None;
+            for (k, f) in flags.iter_mut().enumerate() {
+                let i = from + k;
+                let g = agents.group[i];
+                let t = match last {
+                    Some((h, t)) if h == g => t,
+                    _ => {
+                        let (t, fixed) = target(i);
+                        last = fixed.then_some((g, t));
+                        t
+                    }
+                };
+                let p = Vec2::new(agents.pos_x[i], agents.pos_y[i]);
+                // A short goal list is searched instead of the flow's cells (no memory
+                // traffic).
+                *f = t.is_some_and(|(flow, goals)| {
+                    if goals.len() <= 16 {
+                        flow.world_to_cell(p).is_some_and(|c| goals.contains(&c))
+                    } else {
+                        flow.is_goal_at(p)
+                    }
+                });
             }
         };
         flags_buf.resize(n, false);
@@ -742,15 +821,9 @@ impl FieldSet {
             flags_buf
                 .par_chunks_mut(WALL_CHUNK)
                 .enumerate()
-                .for_each(|(c, flags)| {
-                    for (k, f) in flags.iter_mut().enumerate() {
-                        *f = on_goal(c * WALL_CHUNK + k);
-                    }
-                });
+                .for_each(|(c, flags)| on_goal(c * WALL_CHUNK, flags));
         } else {
-            for (i, f) in flags_buf.iter_mut().enumerate() {
-                *f = on_goal(i);
-            }
+            on_goal(0, &mut flags_buf);
         }
         self.on_goal = flags_buf;
         for i in 0..n {

@@ -42,6 +42,7 @@ pub(crate) fn steer_agent_with(
             channel,
             weight,
             separation,
+            walls,
         } => {
             let f = v.fields.follow(
                 field,
@@ -63,6 +64,10 @@ pub(crate) fn steer_agent_with(
                 let max_speed = a.max_speed[i];
                 total += eval::flock_force(&sums, SEP, velocity, max_speed, adapter.kinematic) * w;
                 found = sums.count;
+            }
+            if let Some((feeler_length, w)) = walls {
+                let agent = (a.position(i), velocity, a.orientation[i], a.max_speed[i]);
+                total += eval::wall_request(v, agent, &adapter, feeler_length) * w;
             }
             (adapter.finish(Steering::linear(total)), a.wander[i], found)
         }

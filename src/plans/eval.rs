@@ -381,18 +381,31 @@ fn avoid_obstacles(v: &SteerView, me: &Me, box_length: f32) -> Steering {
 
 /// Feelers against the walls near the agent.
 fn avoid_walls(v: &SteerView, me: &Me, feeler_length: f32) -> Steering {
+    let agent = (me.position, me.velocity, me.orientation, me.max_speed);
+    Steering::linear(wall_request(v, agent, &me.adapter, feeler_length))
+}
+
+/// `avoid_walls`' linear request for an agent at `position` with `velocity`, `orientation` and
+/// `max_speed`: the feelers against the walls the broad phase finds near it, as a force or a
+/// desired velocity by `adapter`; zero in a world without walls.
+pub(crate) fn wall_request(
+    v: &SteerView,
+    (position, velocity, orientation, max_speed): (Vec2, Vec2, f32, f32),
+    adapter: &Adapter,
+    feeler_length: f32,
+) -> Vec2 {
     let obstacles = v.obstacles;
     if obstacles.walls().is_empty() {
-        return Steering::ZERO;
+        return Vec2::ZERO;
     }
-    let basis = Basis::from_velocity(me.position, me.velocity, me.orientation);
+    let basis = Basis::from_velocity(position, velocity, orientation);
     let mut near = [Wall {
         a: Vec2::ZERO,
         b: Vec2::X,
     }; 32];
     let mut count = 0;
     obstacles.broadphase().visit(
-        me.position,
+        position,
         feeler_length,
         |_| {},
         |w| {
@@ -405,10 +418,10 @@ fn avoid_walls(v: &SteerView, me: &Me, feeler_length: f32) -> Steering {
     let force = obstacles::avoid_walls(
         &basis,
         feeler_length,
-        me.max_speed,
+        max_speed,
         near[..count].iter().copied(),
     );
-    Steering::linear(me.adapter.force_request(force, me.velocity))
+    adapter.force_request(force, velocity)
 }
 
 fn containment(v: &SteerView, me: &Me, margin: f32, lookahead: f32) -> Steering {

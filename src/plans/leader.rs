@@ -45,19 +45,19 @@ struct Leader {
     hy: f32,
 }
 
-/// Up to [`LANES`] consecutive followers of one plan.
+/// Up to [`LANES`] consecutive followers of one plan (of a leader or of a field).
 #[derive(Debug, Default)]
-struct Lanes {
-    id: [u32; LANES],
-    px: [f32; LANES],
-    py: [f32; LANES],
-    vx: [f32; LANES],
-    vy: [f32; LANES],
-    max_speed: [f32; LANES],
+pub(super) struct Lanes {
+    pub id: [u32; LANES],
+    pub px: [f32; LANES],
+    pub py: [f32; LANES],
+    pub vx: [f32; LANES],
+    pub vy: [f32; LANES],
+    pub max_speed: [f32; LANES],
     /// The separation sums and the neighbour counts (zero without separation).
-    sep_x: [f32; LANES],
-    sep_y: [f32; LANES],
-    count: [f32; LANES],
+    pub sep_x: [f32; LANES],
+    pub sep_y: [f32; LANES],
+    pub count: [f32; LANES],
 }
 
 /// The plan's constants for one step.
@@ -105,12 +105,7 @@ pub(super) fn run(
     // Without its leader (removed) the per-agent path gives every follower the separation
     // term alone: rare, and left to it.
     let Some(j) = a.index_of(leader) else {
-        for i in from..to {
-            let sums = cells.map(|c| c.sums_of(view, i));
-            let (st, w, count) = steer_agent_with(view, i, sums);
-            let k = i - base;
-            (lx[k], ly[k], an[k], wa[k], nb[k]) = (st.linear.x, st.linear.y, st.angular, w, count);
-        }
+        per_agent(view, (from, to), base, (lx, ly, an, wa, nb), cells);
         return;
     };
     // `Basis::from_orientation` of the leader, once.
@@ -151,12 +146,27 @@ pub(super) fn run(
             wa[k0..k0 + len].copy_from_slice(&a.wander[s..s + len]);
         }
         for q in (0..len).filter(|&q| !exact[q] || s + q == lead.index) {
-            let i = s + q;
-            let (st, w, count) = steer_agent_with(view, i, cells.map(|c| c.sums_of(view, i)));
-            let kq = k0 + q;
-            (lx[kq], ly[kq], an[kq], wa[kq], nb[kq]) =
-                (st.linear.x, st.linear.y, st.angular, w, count);
+            let outs = (&mut *lx, &mut *ly, &mut *an, &mut *wa, &mut *nb);
+            per_agent(view, (s + q, s + q + 1), base, outs, cells);
         }
+    }
+}
+
+/// The outputs of the agents at storage indices `from..to` by the per-agent path, into the
+/// chunks starting at `base`, with their neighbour sums from `cells` when the batch computed
+/// them.
+#[inline]
+pub(super) fn per_agent(
+    view: &SteerView,
+    (from, to): (usize, usize),
+    base: usize,
+    (lx, ly, an, wa, nb): OutChunks,
+    cells: Option<&CellOut>,
+) {
+    for i in from..to {
+        let (st, w, count) = steer_agent_with(view, i, cells.map(|c| c.sums_of(view, i)));
+        let k = i - base;
+        (lx[k], ly[k], an[k], wa[k], nb[k]) = (st.linear.x, st.linear.y, st.angular, w, count);
     }
 }
 
@@ -164,7 +174,7 @@ impl Lanes {
     /// Takes the `len` (at most [`LANES`]) agents from storage index `i` on, with their
     /// separation sums from `cells` when `separation`.
     #[inline(always)]
-    fn fill(
+    pub(super) fn fill(
         &mut self,
         view: &SteerView,
         i: usize,
@@ -283,24 +293,7 @@ fn lanes(l: &Lanes, lead: &Leader, k: &Consts) -> ([f32; LANES], [f32; LANES], [
         };
         let (mut x, mut y) = (0.0 + fx * k.weight, 0.0 + fy * k.weight);
         if let Some(w) = k.separation {
-            // `flock_force` of separation: the sums' direction at full speed (kinematic), or
-            // that less the velocity, zero without a direction (dynamic).
-            let (dx, dy) = (l.sep_x[q], l.sep_y[q]);
-            let rcp = 1.0 / (dx * dx + dy * dy).sqrt();
-            let unit = rcp.is_finite() & (rcp > 0.0);
-            let (nx, ny) = if unit {
-                ((dx * rcp) * ms, (dy * rcp) * ms)
-            } else {
-                (0.0, 0.0)
-            };
-            let none = (dx == 0.0) & (dy == 0.0);
-            let (fx, fy) = if k.kinematic {
-                (nx, ny)
-            } else if none {
-                (0.0, 0.0)
-            } else {
-                (nx - l.vx[q], ny - l.vy[q])
-            };
+            let (fx, fy) = separation_lane(l, q, k.kinematic);
             x += fx * w;
             y += fy * w;
         }
@@ -309,4 +302,26 @@ fn lanes(l: &Lanes, lead: &Leader, k: &Consts) -> ([f32; LANES], [f32; LANES], [
         exact[q] = (ahead | len_sq.is_finite()) & (x * x + y * y).is_finite();
     }
     (tx, ty, exact)
+}
+
+/// Lane `q`'s separation request, `flock_force` of separation: the sums' direction at full
+/// speed (kinematic), or that less the velocity, zero without a direction (dynamic).
+#[inline(always)]
+pub(super) fn separation_lane(l: &Lanes, q: usize, kinematic: bool) -> (f32, f32) {
+    let (dx, dy, ms) = (l.sep_x[q], l.sep_y[q], l.max_speed[q]);
+    let rcp = 1.0 / (dx * dx + dy * dy).sqrt();
+    let unit = rcp.is_finite() & (rcp > 0.0);
+    let (nx, ny) = if unit {
+        ((dx * rcp) * ms, (dy * rcp) * ms)
+    } else {
+        (0.0, 0.0)
+    };
+    let none = (dx == 0.0) & (dy == 0.0);
+    if kinematic {
+        (nx, ny)
+    } else if none {
+        (0.0, 0.0)
+    } else {
+        (nx - l.vx[q], ny - l.vy[q])
+    }
 }

@@ -22,6 +22,7 @@
 //!   with;
 //! - [`lanes`]: a lone seek, arrive or wander a block of lanes at a time;
 //! - `leader`: leader following in lanes, the leader resolved once per run;
+//! - `follow`: field following in lanes, the flow resolved once per run;
 //! - [`pack`]: left-packing the candidates within a radius, eight lanes at a time;
 //! - [`ped`]: the pedestrian models, which replace the requests of pedestrian groups by the
 //!   social force model's accelerations or the collision-free speed model's velocities;
@@ -35,6 +36,7 @@ pub(crate) mod adapter;
 pub(crate) mod agent;
 pub(crate) mod cells;
 pub(crate) mod eval;
+mod follow;
 pub(crate) mod lanes;
 mod leader;
 pub(crate) mod neighbours;

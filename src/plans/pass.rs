@@ -2,8 +2,8 @@
 //!
 //! [`run`] evaluates each agent by its group's [`Plan`]: flocking-only plans in cell batches
 //! through the grid kernel when the uniform grid is ready ([`super::cells`]); a lone seek,
-//! arrive or wander, and leader following, a block of agents at a time in lanes; everything
-//! else per agent ([`super::agent`]: the flocking, flow-field, path and formation plans without
+//! arrive or wander, leader following and field following, a block of agents at a time in
+//! lanes; everything else per agent ([`super::agent`]: the flocking, path and formation plans without
 //! dispatch, the general plan over the profile's behaviours and their combination, over
 //! neighbour sums the cell batch computed for it when the plan has flocking terms the batch
 //! serves).
@@ -90,6 +90,15 @@ pub(crate) fn run(
                         (batched && cells::is_summed_group(view, g)).then_some(&scratch.cells);
                     let turns = !still;
                     super::leader::run(view, g, (i, i + run), base, outs, turns, sums);
+                    run
+                }
+                // Field following in lanes, the same way.
+                PlanKind::FollowField { .. } => {
+                    let run = groups[k..].iter().take_while(|&&h| h as usize == g).count();
+                    let outs = (&mut *lx, &mut *ly, &mut *an, &mut *wa, &mut *nb);
+                    let sums =
+                        (batched && cells::is_summed_group(view, g)).then_some(&scratch.cells);
+                    super::follow::run(view, g, (i, i + run), base, outs, sums);
                     run
                 }
                 _ if batched && cells::is_batched(view, i) => {

@@ -32,9 +32,9 @@ pub(crate) enum PlanKind {
         /// Entries in use.
         len: u8,
     },
-    /// One `follow_field` (or `choose_exit`), alone or followed by `separation`, in a weighted
-    /// sum: per agent without the general loop's dispatch, the separation sums from the cell
-    /// batch when it runs.
+    /// One `follow_field` (or `choose_exit`), alone or followed by `separation`, or by
+    /// `separation` then `avoid_walls`, in a weighted sum: a block of lanes at a time
+    /// ([`super::follow`]), the separation sums from the cell batch when it runs.
     FollowField {
         /// The field.
         field: usize,
@@ -44,6 +44,8 @@ pub(crate) enum PlanKind {
         weight: f32,
         /// The separation term's weight, when the profile has one.
         separation: Option<f32>,
+        /// `avoid_walls`' feeler length and weight, when the profile has it.
+        walls: Option<(f32, f32)>,
     },
     /// One `seek` of a fixed point, a target slot or each agent's own target alone in a
     /// weighted sum: evaluated eight agents at a time in lanes.
@@ -268,6 +270,7 @@ impl Plan {
             Some((terms, len)) => PlanKind::Flock { terms, len },
             None => lone_plan(profile, follow)
                 .or_else(|| with_separation(profile, &spec, follow))
+                .or_else(|| field_with_walls(profile, &spec, follow))
                 .unwrap_or(PlanKind::General),
         };
         Ok(Plan {
@@ -302,6 +305,7 @@ fn lone_plan(profile: &Profile, follow: Option<(usize, FollowChannel)>) -> Optio
                 channel,
                 weight,
                 separation: None,
+                walls: None,
             }
         }
         Behaviour::Seek { target, threshold } if lanes(target) => PlanKind::Seek {
@@ -366,10 +370,44 @@ fn with_separation(
                 channel,
                 weight,
                 separation,
+                walls: None,
             })
         }
         _ => None,
     }
+}
+
+/// The plan of a profile that is `follow_field` (or `choose_exit`), `separation` the cell batch
+/// serves and `avoid_walls`, in that order, in a weighted sum (the shape of a crowd crossing a
+/// town), or `None` (`follow` as for [`lone_plan`]).
+fn field_with_walls(
+    profile: &Profile,
+    spec: &NeighbourSpec,
+    follow: Option<(usize, FollowChannel)>,
+) -> Option<PlanKind> {
+    let [lead, sep, avoid] = &profile.steering.behaviours[..] else {
+        return None;
+    };
+    let (Behaviour::Separation { .. }, Behaviour::AvoidWalls { feeler_length }) =
+        (&sep.behaviour, &avoid.behaviour)
+    else {
+        return None;
+    };
+    if profile.steering.combine != Combine::WeightedSum || !spec.kernel_ok() {
+        return None;
+    }
+    let (field, channel) = follow?;
+    matches!(
+        lead.behaviour,
+        Behaviour::FollowField { .. } | Behaviour::ChooseExit { .. }
+    )
+    .then_some(PlanKind::FollowField {
+        field,
+        channel,
+        weight: lead.weight,
+        separation: Some(sep.weight),
+        walls: Some((*feeler_length, avoid.weight)),
+    })
 }
 
 /// The neighbour spec of a profile (a behaviour listed twice: the last one counts), and its
@@ -484,6 +522,24 @@ mod tests {
                 ..
             }
         ));
+        // `avoid_walls` after the separation: still the field's plan, with the feelers.
+        let walls = Weighted::new(Behaviour::AvoidWalls { feeler_length: 2.0 }, 3.0);
+        assert!(matches!(
+            kind_of(vec![field.clone(), sep.clone(), walls.clone()]),
+            PlanKind::FollowField {
+                separation: Some(0.5),
+                walls: Some((2.0, 3.0)),
+                ..
+            }
+        ));
+        assert_eq!(
+            kind_of(vec![field.clone(), walls.clone(), sep.clone()]),
+            PlanKind::General
+        );
+        assert_eq!(
+            kind_of(vec![lead.clone(), sep.clone(), walls]),
+            PlanKind::General
+        );
         // Another order, a third behaviour, or repulsion beside it: the general plan.
         assert_eq!(kind_of(vec![sep.clone(), lead.clone()]), PlanKind::General);
         assert_eq!(
