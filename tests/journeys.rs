@@ -747,6 +747,17 @@ fn after_a_door_closes_nobody_passes_it() {
         .filter(|&i| a.position(i).x > 20.0)
         .map(|i| a.id(i))
         .collect();
+    // The room is cut off from the east exit: everyone in it is stranded, in a checkpoint too.
+    let mut room: Vec<AgentId> = (0..a.len())
+        .filter(|&i| a.position(i).x < 20.0)
+        .map(|i| a.id(i))
+        .collect();
+    room.sort_unstable();
+    assert!(!room.is_empty() && !corridor.is_empty());
+    assert_eq!(w.stranded_agents(), room);
+    let mut bytes = Vec::new();
+    w.save(&mut bytes).unwrap();
+    assert_eq!(World::load(&bytes[..]).unwrap().stranded_agents(), room);
     for &id in &ids {
         if let Some(s) = w.agent(id)
             && s.position.x < 20.0
@@ -754,6 +765,7 @@ fn after_a_door_closes_nobody_passes_it() {
             w.set_journey(id, to_north, None).unwrap();
         }
     }
+    assert_eq!(w.stranded_agents(), Vec::<AgentId>::new());
     for _ in 0..(120.0 / DT) as usize {
         w.step(DT).unwrap();
         let a = w.agents();

@@ -309,6 +309,27 @@ impl Journeys {
         Ok(())
     }
 
+    /// The live agents on a journey whose current stage cannot be reached from where they
+    /// stand, ascending by id: a stage with a place that the walkable area cuts off, or one
+    /// that no path of free cells joins to the agent's cell (as [`Journeys::assign`] judges
+    /// it). None without a walkable area or before the routes are built.
+    pub(crate) fn stranded(&self, agents: &Agents) -> Vec<AgentId> {
+        let Some(r) = self.current_routes() else {
+            return Vec::new();
+        };
+        let mut out: Vec<AgentId> = (0..agents.len())
+            .filter_map(|i| {
+                let id = agents.id(i);
+                let (_, s) = self.of(id)?;
+                let k = s.0 as usize;
+                let cut = !matches!(self.stages[k].stage, Stage::DirectSteering) && !r.has_route(k);
+                (cut || !r.reaches(k, agents.position(i))).then_some(id)
+            })
+            .collect();
+        out.sort_unstable();
+        out
+    }
+
     /// Agent `id`'s journey and stage, if it is on one.
     pub(crate) fn of(&self, id: AgentId) -> Option<(JourneyId, StageId)> {
         match self.agent.get(id.0 as usize) {
