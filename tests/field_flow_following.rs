@@ -187,3 +187,69 @@ proptest! {
         check_cave(w, h, fraction, seed, goals, 40, n).map_err(TestCaseError::fail)?;
     }
 }
+
+/// `sample`'s open-area path gives the bits of the general path with every wall rule checked
+/// (`sample_general`), at random points and at cell edges and corners, in caves sparse and
+/// dense, for every kind of flow; and the open-area path is taken at many of the points.
+#[test]
+fn sample_matches_the_general_path_bit_for_bit() {
+    let mut open_points = 0;
+    let mut points = 0;
+    for (fraction, seed) in [(0.1, 3), (0.3, 5), (0.6, 7)] {
+        let grid = OccupancyGrid::caves(80, 60, fraction, seed)
+            .unwrap()
+            .with_geometry(0.2, Vec2::new(-3.0, 1.5))
+            .unwrap();
+        let goals = random_free_cells(&grid, 3, seed ^ 0x55).unwrap();
+        let flows = [
+            FlowField::from_potential(
+                &PotentialField::bfs(&grid, &goals, 0.97, Neighbourhood::Eight).unwrap(),
+            ),
+            FlowField::from_integration(
+                &IntegrationField::dijkstra(&grid, &goals, Neighbourhood::Four, None).unwrap(),
+            ),
+            FlowField::from_distance(&DistanceField::fast_marching(&grid, &goals).unwrap()),
+        ];
+        let mut rng = ChaCha8Rng::seed_from_u64(seed);
+        let (w, h) = (grid.width() as f32, grid.height() as f32);
+        let mut at: Vec<Vec2> = (0..4000)
+            .map(|_| {
+                Vec2::new(
+                    rng.random_range(-1.0..w + 1.0),
+                    rng.random_range(-1.0..h + 1.0),
+                )
+            })
+            .collect();
+        // Cell edges and corners, where the blend's weights are 0 or 1.
+        at.extend((0..400).map(|k| Vec2::new((k % 80) as f32, (k / 80 * 7) as f32)));
+        at.extend((0..400).map(|k| Vec2::new((k % 80) as f32 + 0.5, (k / 80 * 7) as f32)));
+        for flow in &flows {
+            for &c in &at {
+                let p = grid.origin() + c * grid.cell_size();
+                let (fast, general) = (flow.sample(p), flow.sample_general(p));
+                assert_eq!(
+                    fast.to_array().map(f32::to_bits),
+                    general.to_array().map(f32::to_bits),
+                    "at {p}: {fast} against {general}"
+                );
+                points += 1;
+                let Some((x, y)) = grid.world_to_cell(p) else {
+                    continue;
+                };
+                let open = (-1i64..=1).all(|dy| {
+                    (-1i64..=1).all(|dx| {
+                        let (nx, ny) = (i64::from(x) + dx, i64::from(y) + dy);
+                        nx >= 0 && ny >= 0 && flow.is_reachable(nx as u32, ny as u32)
+                    })
+                });
+                if open && general != Vec2::ZERO {
+                    open_points += 1;
+                }
+            }
+        }
+    }
+    assert!(
+        open_points * 4 > points,
+        "{open_points} of {points} in open cells"
+    );
+}

@@ -458,6 +458,77 @@ fn journeys_give_the_same_bits_on_one_two_and_four_threads_and_after_a_checkpoin
     assert_eq!(r.stage_counts(), w.stage_counts());
 }
 
+/// A crowd of thousands, so that the journey passes' parallel tasks (1,024 agents each) split
+/// it: agents complete a waypoint in many steps, and each round robin and least-targeted
+/// choice and each target down a route round a hole is the same on the sequential reference
+/// step and on two and four threads.
+#[test]
+fn a_crowd_split_across_tasks_gives_the_sequential_bits_on_two_and_four_threads() {
+    let scene = || {
+        let mut w = world(
+            "POLYGON ((0 0, 60 0, 60 40, 0 40, 0 0), (44 18, 46 18, 46 22, 44 22, 44 18))",
+            Model::Cfsm,
+        );
+        let hall = waypoint_at(&mut w, Vec2::new(48.0, 20.0), 14.0);
+        let north = exit_at(&mut w, Vec2::new(56.0, 32.0), Vec2::new(60.0, 40.0));
+        let south = exit_at(&mut w, Vec2::new(56.0, 0.0), Vec2::new(60.0, 8.0));
+        let rr = w
+            .add_journey(
+                Journey::new([hall, north, south])
+                    .with_transition(hall, Transition::round_robin([(north, 1), (south, 3)])),
+            )
+            .unwrap();
+        let lt = w
+            .add_journey(
+                Journey::new([hall, north, south])
+                    .with_transition(hall, Transition::least_targeted([north, south])),
+            )
+            .unwrap();
+        let ids = add_grid(
+            &mut w,
+            3000,
+            Vec2::new(0.5, 0.5),
+            Vec2::new(40.0, 39.5),
+            0.7,
+            rr,
+        );
+        for id in ids.into_iter().skip(1).step_by(2) {
+            w.set_journey(id, lt, None).unwrap();
+        }
+        w
+    };
+    let run = |w: &mut World, sequential: bool| {
+        let mut moved_on = Vec::new();
+        for _ in 0..400 {
+            if sequential {
+                w.step_sequential(DT).unwrap();
+            } else {
+                w.step(DT).unwrap();
+            }
+            let on_hall = w.stage_counts()[0].targeting;
+            moved_on.push(on_hall);
+        }
+        moved_on
+    };
+    let mut reference = scene();
+    let on_hall = run(&mut reference, true);
+    // Agents complete the waypoint in the first step (over a hundred) and in many steps after.
+    let steps_with_completions = on_hall.windows(2).filter(|w| w[1] < w[0]).count();
+    assert!(steps_with_completions > 20, "{steps_with_completions}");
+    assert!(on_hall[0] < 2900 && on_hall[0] > 0 && *on_hall.last().unwrap() < on_hall[0] - 100);
+    let want = bits::by_id(&reference);
+    for threads in [2, 4] {
+        let pool = rayon::ThreadPoolBuilder::new()
+            .num_threads(threads)
+            .build()
+            .unwrap();
+        let mut w = scene();
+        pool.install(|| run(&mut w, false));
+        assert_eq!(bits::by_id(&w), want, "{threads} threads");
+        assert_eq!(decisions(&w), decisions(&reference), "{threads} threads");
+    }
+}
+
 #[test]
 fn bad_stages_and_journeys_are_errors_naming_them() {
     let mut w = world(HALL, Model::Cfsm);
@@ -676,6 +747,17 @@ fn after_a_door_closes_nobody_passes_it() {
         .filter(|&i| a.position(i).x > 20.0)
         .map(|i| a.id(i))
         .collect();
+    // The room is cut off from the east exit: everyone in it is stranded, in a checkpoint too.
+    let mut room: Vec<AgentId> = (0..a.len())
+        .filter(|&i| a.position(i).x < 20.0)
+        .map(|i| a.id(i))
+        .collect();
+    room.sort_unstable();
+    assert!(!room.is_empty() && !corridor.is_empty());
+    assert_eq!(w.stranded_agents(), room);
+    let mut bytes = Vec::new();
+    w.save(&mut bytes).unwrap();
+    assert_eq!(World::load(&bytes[..]).unwrap().stranded_agents(), room);
     for &id in &ids {
         if let Some(s) = w.agent(id)
             && s.position.x < 20.0
@@ -683,6 +765,7 @@ fn after_a_door_closes_nobody_passes_it() {
             w.set_journey(id, to_north, None).unwrap();
         }
     }
+    assert_eq!(w.stranded_agents(), Vec::<AgentId>::new());
     for _ in 0..(120.0 / DT) as usize {
         w.step(DT).unwrap();
         let a = w.agents();

@@ -37,9 +37,12 @@ def main() -> dict:
             sim.iterate()
     closed_at = sim.elapsed_time()
     left_east = sim.exit_counts()[east]
-    for i, p in zip(sim.ids(), sim.positions()):
-        if p[0] < 20.0:
-            sim.switch_agent_journey(int(i), to_north)
+    # Those in the room are cut off from the east exit: they turn north.
+    stranded = [int(i) for i in sim.stranded_agents()]
+    in_room = sorted(int(i) for i, p in zip(sim.ids(), sim.positions()) if p[0] < 20.0)
+    for i in stranded:
+        sim.switch_agent_journey(i, to_north)
+    stranded_after = len(sim.stranded_agents())
     in_corridor = {int(i) for i, p in zip(sim.ids(), sim.positions()) if p[0] > 20.0}
     crossed = 0
     while sim.agent_count() > 0 and sim.elapsed_time() < closed_at + 150:
@@ -55,6 +58,8 @@ def main() -> dict:
         "north": counts[north],
         "crossed_after": crossed,
         "in_corridor": len(in_corridor),
+        "stranded_were_in_room": stranded == in_room and len(stranded) > 0,
+        "stranded_after": stranded_after,
     }
 
 

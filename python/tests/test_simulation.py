@@ -198,6 +198,8 @@ def test_after_the_door_closes_only_those_beyond_it_leave_east():
     assert r["east"] == r["east_before"] + r["in_corridor"]
     assert r["east"] + r["north"] == 80 and r["north"] > 0
     assert r["crossed_after"] == 0, "nobody in the room passed the closed door"
+    assert r["stranded_were_in_room"], "the closed door strands exactly those in the room"
+    assert r["stranded_after"] == 0
 
 
 def test_no_pedestrian_comes_closer_to_the_robot_than_their_radii_less_five_percent():

@@ -270,8 +270,53 @@ impl FlowField {
 
     /// The flow at world point `p`: a unit vector, or zero on a goal cell, outside the grid, and
     /// in cells that cannot reach a goal. See the module docs for the blending and wall rules.
+    ///
+    /// Where every neighbour of `p`'s cell has a direction or is a goal (most of an open
+    /// area), no wall rule can apply: the four cells are blended without their checks, in the
+    /// same order and with the same arithmetic as [`FlowField::sample_general`], so the bits
+    /// are the same.
     #[must_use]
+    #[inline]
     pub fn sample(&self, p: Vec2) -> Vec2 {
+        let l = &self.lattice;
+        let Some((cx, cy)) = l.world_to_cell(p) else {
+            return Vec2::ZERO;
+        };
+        let c = l.index(cx, cy);
+        if self.codes[c] >= 8 {
+            return Vec2::ZERO;
+        }
+        let s = l.stride;
+        // The padded border is NONE, so the 3 x 3 block round an interior cell is in range.
+        let open = |row: usize| self.codes[row - 1..=row + 1].iter().all(|&k| k != NONE);
+        if !(open(c - s) && open(c) && open(c + s)) {
+            return self.sample_general(p);
+        }
+        let g = l.cell_space(p) - 0.5;
+        let (bx, by) = (floor(g.x), floor(g.y));
+        let (fx, fy) = (g.x - bx, g.y - by);
+        let ox = bx as i64 - i64::from(cx);
+        let oy = by as i64 - i64::from(cy);
+        let q = c.wrapping_add_signed(ox as isize + oy as isize * s as isize);
+        let mut v = Vec2::ZERO;
+        v += (1.0 - fx) * (1.0 - fy) * self.dir(q);
+        v += fx * (1.0 - fy) * self.dir(q + 1);
+        v += (1.0 - fx) * fy * self.dir(q + s);
+        v += fx * fy * self.dir(q + s + 1);
+        let own_dir = self.dir(c);
+        if v.dot(own_dir) <= 0.0 {
+            return own_dir;
+        }
+        match v.try_normalize() {
+            Some(r) if r.dot(own_dir) > 0.0 => r,
+            _ => own_dir,
+        }
+    }
+
+    /// [`FlowField::sample`] with every wall rule checked at every point: the reference its
+    /// open-area path is tested against, and its path next to walls.
+    #[must_use]
+    pub fn sample_general(&self, p: Vec2) -> Vec2 {
         let l = &self.lattice;
         let Some((cx, cy)) = l.world_to_cell(p) else {
             return Vec2::ZERO;

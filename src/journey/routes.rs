@@ -118,6 +118,11 @@ impl Routes {
         }
     }
 
+    /// Whether stage `k` has a route (a stage with a place that the area cuts off has none).
+    pub(crate) fn has_route(&self, k: usize) -> bool {
+        self.channel_of.get(k).copied().flatten().is_some()
+    }
+
     /// The centre of stage `k`'s goal cells.
     pub(crate) fn centre(&self, k: usize) -> Option<Vec2> {
         self.channel_of.get(k).copied().flatten()?;

@@ -11,6 +11,7 @@
 //! results do not depend on the agents' storage order.
 
 use glam::Vec2;
+use rayon::prelude::*;
 use serde::{Deserialize, Serialize};
 
 use super::routes::Routes;
@@ -34,6 +35,9 @@ const SEAT_REACH: f32 = 2.0;
 
 /// How close to a deactivated waiting set's first slot an agent completes it, m.
 const RELEASE_REACH: f32 = 1.0;
+
+/// The agents of one parallel task of the per-agent passes.
+const CHUNK: usize = 1024;
 
 /// The state of one stage.
 #[derive(Clone, Debug, PartialEq, Serialize, Deserialize)]
@@ -101,6 +105,12 @@ pub(crate) struct Journeys {
     /// Per stage, the live agents targeting it while transitions are applied, every step.
     #[serde(skip)]
     targeting: Vec<usize>,
+    /// Per agent (storage order), whether it completed its stage this step.
+    #[serde(skip)]
+    done: Vec<bool>,
+    /// The ids of the agents that completed their stage this step, ascending.
+    #[serde(skip)]
+    movers: Vec<u32>,
 }
 
 impl Journeys {
@@ -299,6 +309,27 @@ impl Journeys {
         Ok(())
     }
 
+    /// The live agents on a journey whose current stage cannot be reached from where they
+    /// stand, ascending by id: a stage with a place that the walkable area cuts off, or one
+    /// that no path of free cells joins to the agent's cell (as [`Journeys::assign`] judges
+    /// it). None without a walkable area or before the routes are built.
+    pub(crate) fn stranded(&self, agents: &Agents) -> Vec<AgentId> {
+        let Some(r) = self.current_routes() else {
+            return Vec::new();
+        };
+        let mut out: Vec<AgentId> = (0..agents.len())
+            .filter_map(|i| {
+                let id = agents.id(i);
+                let (_, s) = self.of(id)?;
+                let k = s.0 as usize;
+                let cut = !matches!(self.stages[k].stage, Stage::DirectSteering) && !r.has_route(k);
+                (cut || !r.reaches(k, agents.position(i))).then_some(id)
+            })
+            .collect();
+        out.sort_unstable();
+        out
+    }
+
     /// Agent `id`'s journey and stage, if it is on one.
     pub(crate) fn of(&self, id: AgentId) -> Option<(JourneyId, StageId)> {
         match self.agent.get(id.0 as usize) {
@@ -437,8 +468,15 @@ impl Journeys {
     }
 
     /// The start of a step: seats arriving agents, completes stages, applies transitions, and
-    /// writes every journey agent's own target point.
-    pub(crate) fn before_step(&mut self, agents: &mut Agents, obstacles: &Obstacles) {
+    /// writes every journey agent's own target point. With `parallel`, the per-agent tests and
+    /// targets run in tasks of [`CHUNK`] agents on the current pool (each agent's result
+    /// depends on itself alone, so the bits do not depend on the thread count).
+    pub(crate) fn before_step(
+        &mut self,
+        agents: &mut Agents,
+        obstacles: &Obstacles,
+        parallel: bool,
+    ) {
         if self.stages.is_empty() {
             return;
         }
@@ -466,8 +504,8 @@ impl Journeys {
             st.released.retain(|&id| agents.contains(id));
         }
         self.seat(agents, obstacles);
-        self.complete(agents);
-        self.write_targets(agents, obstacles);
+        self.complete(agents, parallel);
+        self.write_targets(agents, obstacles, parallel);
     }
 
     /// Queues and active waiting sets take, slot by slot from the first free one, the nearest
@@ -512,34 +550,66 @@ impl Journeys {
         }
     }
 
+    /// Whether agent `id` at `p`, on stage `s`, completed it.
+    fn completed(&self, id: AgentId, s: u32, p: Vec2) -> bool {
+        let st = &self.stages[s as usize];
+        match &st.stage {
+            Stage::Waypoint { position, distance } => p.distance(*position) <= *distance,
+            Stage::Queue { .. } => st.released.contains(&id),
+            Stage::WaitingSet {
+                slots,
+                active: false,
+            } => st.occupants.contains(&id) || p.distance(slots[0]) <= RELEASE_REACH,
+            _ => false,
+        }
+    }
+
     /// Every agent that completed its stage moves on by its transition, in ascending id order.
-    fn complete(&mut self, agents: &Agents) {
+    ///
+    /// Whether an agent completed its stage depends on its position and on the stage's slots
+    /// as they were before anyone moved on (moving on takes only the agent itself out of
+    /// them), so the tests run first, per agent (in parallel with `parallel`); the transitions
+    /// then run for the agents that completed, by ascending id.
+    fn complete(&mut self, agents: &Agents, parallel: bool) {
+        let mut done = std::mem::take(&mut self.done);
+        done.clear();
+        done.resize(agents.len(), false);
+        let this = &*self;
+        let test = |base: usize, out: &mut [bool]| {
+            for (k, d) in out.iter_mut().enumerate() {
+                let i = base + k;
+                let id = agents.id(i);
+                *d = match this.agent.get(id.0 as usize) {
+                    Some(&(j, s)) if j != NONE => this.completed(id, s, agents.position(i)),
+                    _ => false,
+                };
+            }
+        };
+        if parallel {
+            done.par_chunks_mut(CHUNK)
+                .enumerate()
+                .for_each(|(c, out)| test(c * CHUNK, out));
+        } else {
+            test(0, &mut done);
+        }
+        let mut movers = std::mem::take(&mut self.movers);
+        movers.clear();
+        // One reservation for the run: at most every agent moves on.
+        movers.reserve(agents.len());
+        movers.extend(
+            done.iter()
+                .enumerate()
+                .filter(|&(_, &d)| d)
+                .map(|(i, _)| agents.id(i).0),
+        );
+        movers.sort_unstable();
         let mut targeting = std::mem::take(&mut self.targeting);
         targeting.clear();
         targeting.extend(self.on_stage.iter().map(Vec::len));
-        for raw in 0..self.agent.len() {
+        for &raw in &movers {
+            let raw = raw as usize;
             let (j, s) = self.agent[raw];
-            if j == NONE {
-                continue;
-            }
             let id = AgentId(raw as u32);
-            let Some(i) = agents.index_of(id) else {
-                continue;
-            };
-            let p = agents.position(i);
-            let st = &self.stages[s as usize];
-            let done = match &st.stage {
-                Stage::Waypoint { position, distance } => p.distance(*position) <= *distance,
-                Stage::Queue { .. } => st.released.contains(&id),
-                Stage::WaitingSet {
-                    slots,
-                    active: false,
-                } => st.occupants.contains(&id) || p.distance(slots[0]) <= RELEASE_REACH,
-                _ => false,
-            };
-            if !done {
-                continue;
-            }
             let js = &mut self.journeys[j as usize];
             let Some(t) = js.journey.transitions.iter().position(|(f, _)| f.0 == s) else {
                 continue;
@@ -579,11 +649,14 @@ impl Journeys {
             self.agent[raw].1 = next.0;
         }
         self.targeting = targeting;
+        self.done = done;
+        self.movers = movers;
     }
 
     /// Writes each journey agent's own target: down its stage's route, or at the stage's point
-    /// (a slot within [`SIGHT`] in sight, a direct steering target, or on a goal cell).
-    fn write_targets(&mut self, agents: &mut Agents, obstacles: &Obstacles) {
+    /// (a slot within [`SIGHT`] in sight, a direct steering target, or on a goal cell); in
+    /// parallel tasks with `parallel`.
+    fn write_targets(&mut self, agents: &mut Agents, obstacles: &Obstacles, parallel: bool) {
         self.slot_of.clear();
         self.slot_of.resize(self.agent.len(), NONE);
         for st in &self.stages {
@@ -591,70 +664,87 @@ impl Journeys {
                 self.slot_of[id.0 as usize] = k as u32;
             }
         }
-        for i in 0..agents.len() {
-            let id = agents.id(i);
-            let Some(&(j, s)) = self.agent.get(id.0 as usize) else {
-                continue;
-            };
-            if j == NONE {
-                continue;
+        let this = &*self;
+        let n = agents.len();
+        let (ids, px, py) = (&agents.ids[..], &agents.pos_x[..], &agents.pos_y[..]);
+        let write = |base: usize, tx: &mut [f32], ty: &mut [f32]| {
+            for (k, (tx, ty)) in tx.iter_mut().zip(ty.iter_mut()).enumerate() {
+                let i = base + k;
+                if let Some(t) = this.target(ids[i], Vec2::new(px[i], py[i]), obstacles) {
+                    // Within the coordinate ceiling: positions and stage points are, and so
+                    // is a step of two metres from a position.
+                    (*tx, *ty) = (t.x, t.y);
+                }
             }
-            let p = agents.position(i);
-            let k = s as usize;
-            let st = &self.stages[k];
-            let (point, through) = match &st.stage {
-                Stage::Waypoint { position, .. } => (*position, true),
-                Stage::Exit { area } => (
-                    self.routes
-                        .as_ref()
-                        .and_then(|r| r.centre(k))
-                        .unwrap_or((area.min() + area.max()) * 0.5),
-                    true,
-                ),
-                Stage::Queue { slots }
-                | Stage::WaitingSet {
-                    slots,
-                    active: true,
-                } => {
-                    let slot = match self.slot_of[id.0 as usize] {
-                        NONE => st.occupants.len().min(slots.len() - 1),
-                        n => n as usize,
-                    };
-                    (slots[slot], false)
-                }
-                Stage::WaitingSet { slots, .. } => (slots[0], true),
-                Stage::DirectSteering => {
-                    let d = self.direct.get(id.0 as usize).copied().unwrap_or(Vec2::NAN);
-                    (if d.is_finite() { d } else { p }, false)
-                }
-            };
-            let routed = self
-                .routes
-                .as_ref()
-                .map_or(Vec2::ZERO, |r| r.direction(k, p));
-            // A point target in sight and near goes straight (a queue's slot along the queue).
-            let direct = !through
-                && (matches!(st.stage, Stage::DirectSteering)
-                    || (p.distance_squared(point) <= SIGHT * SIGHT
-                        && !obstacles.crosses_wall(p, point)));
-            let target = if routed != Vec2::ZERO && !direct {
-                p + routed * LOOKAHEAD
-            } else if through {
-                let d = point - p;
-                let len = d.length();
-                if len > 0.0 {
-                    p + d * (len.max(LOOKAHEAD) / len)
-                } else {
-                    point
-                }
+        };
+        let (tx, ty) = (&mut agents.target_x[..n], &mut agents.target_y[..n]);
+        if parallel {
+            tx.par_chunks_mut(CHUNK)
+                .zip(ty.par_chunks_mut(CHUNK))
+                .enumerate()
+                .for_each(|(c, (x, y))| write(c * CHUNK, x, y));
+        } else {
+            write(0, tx, ty);
+        }
+    }
+
+    /// The target of agent `id` standing at `p`, when it is on a journey.
+    #[inline]
+    fn target(&self, id: AgentId, p: Vec2, obstacles: &Obstacles) -> Option<Vec2> {
+        let &(j, s) = self.agent.get(id.0 as usize)?;
+        if j == NONE {
+            return None;
+        }
+        let k = s as usize;
+        let st = &self.stages[k];
+        let (point, through) = match &st.stage {
+            Stage::Waypoint { position, .. } => (*position, true),
+            Stage::Exit { area } => (
+                self.routes
+                    .as_ref()
+                    .and_then(|r| r.centre(k))
+                    .unwrap_or((area.min() + area.max()) * 0.5),
+                true,
+            ),
+            Stage::Queue { slots }
+            | Stage::WaitingSet {
+                slots,
+                active: true,
+            } => {
+                let slot = match self.slot_of[id.0 as usize] {
+                    NONE => st.occupants.len().min(slots.len() - 1),
+                    n => n as usize,
+                };
+                (slots[slot], false)
+            }
+            Stage::WaitingSet { slots, .. } => (slots[0], true),
+            Stage::DirectSteering => {
+                let d = self.direct.get(id.0 as usize).copied().unwrap_or(Vec2::NAN);
+                (if d.is_finite() { d } else { p }, false)
+            }
+        };
+        let routed = self
+            .routes
+            .as_ref()
+            .map_or(Vec2::ZERO, |r| r.direction(k, p));
+        // A point target in sight and near goes straight (a queue's slot along the queue).
+        let direct = !through
+            && (matches!(st.stage, Stage::DirectSteering)
+                || (p.distance_squared(point) <= SIGHT * SIGHT
+                    && !obstacles.crosses_wall(p, point)));
+        Some(if routed != Vec2::ZERO && !direct {
+            p + routed * LOOKAHEAD
+        } else if through {
+            let d = point - p;
+            let len = d.length();
+            if len > 0.0 {
+                p + d * (len.max(LOOKAHEAD) / len)
             } else {
                 point
-            };
-            // Within the coordinate ceiling: positions and stage points are, and so is a step
-            // of two metres from a position.
-            agents.target_x[i] = target.x;
-            agents.target_y[i] = target.y;
-        }
+            }
+        } else {
+            point
+        })
     }
 
     /// Whether agent `id` at `p` leaves through its exit stage (and counts it there).

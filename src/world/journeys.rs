@@ -101,6 +101,19 @@ impl World {
         }
     }
 
+    /// The agents on a journey whose current stage they cannot reach from where they stand,
+    /// ascending by id: their stage lies in a part of the walkable area that no path of free
+    /// routing cells joins to theirs, or the area cuts the stage off altogether. This happens
+    /// only after [`World::switch_walkable`] closed a door (or in a checkpoint saved after one):
+    /// adding an agent or giving it a journey refuses an unreachable stage. Such agents follow
+    /// the switch's rule: no route, straight at their stage's point, held by the walls; give
+    /// them a stage they can reach ([`World::set_journey`]) or remove them. Empty without a
+    /// walkable area.
+    #[must_use]
+    pub fn stranded_agents(&self) -> Vec<AgentId> {
+        self.journeys.stranded(&self.agents)
+    }
+
     /// Releases the first `n` agents of queue `stage`: at the next step they move on to their
     /// next stage, and everyone behind them moves up `n` slots.
     ///
@@ -230,8 +243,9 @@ impl World {
     /// The rule for agents is that none may be left outside the area: when an agent's centre
     /// lies outside the new area (in a doorway being closed, say), the switch is refused with
     /// an error naming the lowest such id, and nothing changes; the caller moves or removes it
-    /// and switches again. An agent inside the area whose stage the new area cuts off has no
-    /// route: it heads straight for its stage and the walls hold it.
+    /// and switches again. An agent inside the area whose stage the new area cuts off, or
+    /// that stands in a part no longer joined to its stage, has no route: it heads straight
+    /// for its stage and the walls hold it; [`World::stranded_agents`] lists them.
     ///
     /// # Errors
     /// [`Error::Invalid`] when the world has no walkable area yet (use

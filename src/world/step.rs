@@ -137,7 +137,11 @@ impl World {
         self.last_plans
             .extend(self.plans.iter().map(|p| p.kind.name()));
         let start = Instant::now();
-        self.journeys.before_step(&mut self.agents, &self.obstacles);
+        self.journeys.before_step(
+            &mut self.agents,
+            &self.obstacles,
+            exec == Execution::Parallel,
+        );
         let n = self.agents.len();
         let mut phases = PhaseTimes::default();
         self.scratch.out.resize(n);

@@ -340,6 +340,14 @@ impl PySimulation {
         })
     }
 
+    /// The ids (a uint32 array, ascending) of the agents whose current stage they cannot reach
+    /// from where they stand: after `switch_geometry` closed them off from it (they head
+    /// straight for it, held by the walls, until given another journey).
+    fn stranded_agents<'py>(&self, py: Python<'py>) -> Bound<'py, PyAny> {
+        let ids: Vec<u32> = self.world.stranded_agents().iter().map(|id| id.0).collect();
+        numpy::IntoPyArray::into_pyarray(ids, py).into_any()
+    }
+
     /// The walkable area as WKT text (or, with `shapely=True`, a shapely geometry).
     #[pyo3(signature = (*, shapely=false))]
     fn walkable_area<'py>(&self, py: Python<'py>, shapely: bool) -> PyResult<Bound<'py, PyAny>> {
