@@ -126,6 +126,48 @@ def test_a_saved_simulation_keeps_the_params_of_models_no_group_uses_yet(tmp_pat
     assert not np.array_equal(resumed, crowd(throng.Simulation(HALL, dt=0.01, seed=1)))
 
 
+def test_model_parameters_per_agent_walk_as_params_for_everyone_would():
+    def crowd(params=None, **own):
+        sim = throng.Simulation(HALL, dt=0.01, seed=1, params=params)
+        out = sim.add_exit_stage([(28.0, 8.0), (30.0, 8.0), (30.0, 12.0), (28.0, 12.0)])
+        j = sim.add_journey(throng.Journey([out]))
+        xy = np.array([(1.0 + 0.5 * (k % 10), 5.0 + 0.5 * (k // 10)) for k in range(100)])
+        ids = sim.add_agents(xy, journey=j, desired_speed=1.2, **own)
+        return sim, ids
+
+    everyone, _ = crowd({"cfsm": {"time_gap": 1.1}})
+    own, ids = crowd(time_gap=1.1)
+    plain, _ = crowd()
+    for sim in (everyone, own, plain):
+        sim.iterate(300)
+    assert np.array_equal(own.positions(), everyone.positions())
+    assert not np.array_equal(own.positions(), plain.positions())
+    assert np.all(own.agent_params("time_gap") == np.float32(1.1))
+    assert np.all(plain.agent_params("time_gap") == np.float32(0.6))
+    assert np.all(np.isnan(plain.agent_params("tau")))
+
+    # One per agent, then changed between steps.
+    sim, ids = crowd(time_gap=np.linspace(0.5, 1.5, 100))
+    assert math.isclose(float(sim.agent_params("time_gap")[99]), 1.5, rel_tol=1e-6)
+    sim.set_agent_params(ids[:10], "strength_neighbour", 4.0)
+    gaps = sim.agent_params("strength_neighbour")
+    assert np.all(gaps[:10] == np.float32(4.0)) and np.all(gaps[10:] == np.float32(8.0))
+
+    # Bad input changes nothing.
+    for bad, match in [({"time_gp": 1.0}, "time_gp"), ({"time_gap": -1.0}, "time_gap"),
+                       ({"time_gap": float("nan")}, "time_gap"), ({"tau": 0.4}, "tau"),
+                       ({"time_gap": [1.0, 2.0]}, "time_gap")]:
+        before = sim.agent_count()
+        with pytest.raises(throng.ThrongError, match=match):
+            sim.add_agents([(20.0, 5.0), (20.0, 6.0), (20.0, 7.0)], journey=0, **bad)
+        assert sim.agent_count() == before
+    with pytest.raises(throng.ThrongError, match="time_gap"):
+        sim.set_agent_params(ids, "time_gap", [1.0] * 99 + [float("inf")])
+    assert math.isclose(float(sim.agent_params("time_gap")[0]), 0.5, rel_tol=1e-6)
+    with pytest.raises(throng.ThrongError, match="speed_function"):
+        sim.agent_params("speed_function")
+
+
 def test_the_walkable_area_is_the_geometry_given():
     sim = throng.Simulation(HALL)
     assert sim.walkable_area().startswith("POLYGON")

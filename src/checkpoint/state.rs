@@ -68,6 +68,10 @@ pub(super) struct WorldState {
     /// journeys existed: none).
     #[serde(default)]
     journeys: Option<crate::journey::Journeys>,
+    /// `(id, parameters)` of each agent with pedestrian model parameters of its own (absent
+    /// from files written before they existed: none).
+    #[serde(default)]
+    model_params: Vec<(u32, crate::ped::Pedestrian)>,
 }
 
 #[derive(Serialize, Deserialize)]
@@ -169,6 +173,7 @@ impl WorldState {
                 .collect(),
             field_rebuilds: w.fields.rebuilds,
             journeys: (!w.journeys.is_empty()).then(|| w.journeys.clone()),
+            model_params: w.model_params.entries(),
         }
     }
 
@@ -261,6 +266,10 @@ impl WorldState {
                 j.restored(w.walkable.as_ref(), issued),
             )?;
         }
+        w.model_params = at(
+            || "model_params".into(),
+            crate::world::model_params::AgentModelParams::from_entries(self.model_params, issued),
+        )?;
         // Profiles may name fields and channels: check every reference now, not at the first step.
         w.plans_stale = true;
         at(|| "groups".into(), w.ensure_plans())?;

@@ -294,6 +294,82 @@ impl ModelParams {
             ModelParams::Cfsm(p) => p.validate(),
         }
     }
+
+    /// The numeric parameter `key` (a key of the model's table in a scenario file:
+    /// `time_gap`, `tau`, ...), `None` when the model has no such number.
+    ///
+    /// # Examples
+    /// ```
+    /// use throng::ped::{Model, ModelParams};
+    /// let p = ModelParams::new(Model::Cfsm);
+    /// assert_eq!(p.value("time_gap"), Some(0.6));
+    /// assert_eq!(p.value("tau"), None);
+    /// let q = p.with_value("time_gap", 1.0).unwrap();
+    /// assert_eq!(q.value("time_gap"), Some(1.0));
+    /// assert!(p.with_value("time_gap", -1.0).is_err());
+    /// ```
+    #[must_use]
+    pub fn value(&self, key: &str) -> Option<f32> {
+        match self.table().get(key)? {
+            toml::Value::Float(v) => Some(*v as f32),
+            toml::Value::Integer(v) => Some(*v as f32),
+            _ => None,
+        }
+    }
+
+    /// These parameters with the numeric parameter `key` set to `value`, checked.
+    ///
+    /// # Errors
+    /// [`Error::Invalid`] when the model has no numeric parameter
+    /// `key`; the variant naming the key for a bad value.
+    pub fn with_value(&self, key: &str, value: f32) -> Result<ModelParams> {
+        let mut t = self.table();
+        if !matches!(
+            t.get(key),
+            Some(toml::Value::Float(_) | toml::Value::Integer(_))
+        ) {
+            let numbers: Vec<&str> = t
+                .iter()
+                .filter(|(_, v)| matches!(v, toml::Value::Float(_) | toml::Value::Integer(_)))
+                .map(|(k, _)| k.as_str())
+                .collect();
+            return Err(crate::Error::Invalid {
+                name: key.into(),
+                reason: format!(
+                    "not a numeric parameter of the {} model (those are: {})",
+                    self.model().name(),
+                    numbers.join(", ")
+                ),
+            });
+        }
+        if !value.is_finite() {
+            return Err(crate::Error::Invalid {
+                name: key.into(),
+                reason: format!("{value} is not a finite number"),
+            });
+        }
+        t.insert(key.into(), toml::Value::Float(f64::from(value)));
+        let invalid = |e: toml::de::Error| crate::Error::Invalid {
+            name: key.into(),
+            reason: e.message().to_string(),
+        };
+        let p = match self {
+            ModelParams::SocialForce(_) => ModelParams::SocialForce(t.try_into().map_err(invalid)?),
+            ModelParams::Cfsm(_) => ModelParams::Cfsm(t.try_into().map_err(invalid)?),
+        };
+        p.validate()?;
+        Ok(p)
+    }
+
+    /// The parameters as the model's table of a scenario file.
+    fn table(&self) -> toml::Table {
+        let t = match self {
+            ModelParams::SocialForce(p) => toml::Table::try_from(p),
+            ModelParams::Cfsm(p) => toml::Table::try_from(p),
+        };
+        // Plain structs of numbers, booleans and unit enums always serialise.
+        t.unwrap_or_default()
+    }
 }
 
 /// A group's pedestrian model and its parameters.

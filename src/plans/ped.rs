@@ -34,6 +34,7 @@ use crate::ped::{Cfsm, ModelParams, Pedestrian, SocialForce};
 use crate::simd::{apply, float_kernel};
 use crate::spatial::{GridIndex, Neighbour, NeighbourIndex, SORTED_PAD, SpatialIndex};
 use crate::steering::truncate;
+use crate::world::model_params::own;
 
 // The candidate scan (`gather`) reads the grid's sorted positions in whole blocks of `LANES`,
 // up to `LANES - 1` values past a run's end: the grid's padding must hold them.
@@ -119,7 +120,9 @@ fn requests(
     for k in 0..lx.len() {
         let i = base + k;
         let g = view.agents.group[i] as usize;
-        if let Some(ped) = &view.plans[g].pedestrian {
+        if let Some(group) = &view.plans[g].pedestrian {
+            let own = own(view.model_params, view.agents.ids[i], group);
+            let ped = own.as_ref().unwrap_or(group);
             let r = agent(view, grid, avx2, radii, ped, i, Vec2::new(lx[k], ly[k]), b);
             lx[k] = r.x;
             ly[k] = r.y;

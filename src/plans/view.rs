@@ -208,6 +208,8 @@ pub(crate) struct SteerView<'a> {
     pub fields: &'a FieldSet,
     /// The world's target slots.
     pub targets: &'a [TargetPoint],
+    /// Pedestrian model parameters of single agents.
+    pub model_params: &'a crate::world::model_params::AgentModelParams,
 }
 
 /// A resolved target: its position (nearest image) and velocity.

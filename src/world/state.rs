@@ -87,6 +87,8 @@ pub struct World {
     pub(crate) walkable: Option<crate::geometry::Walkable>,
     /// Stages, journeys and the agents on them.
     pub(crate) journeys: crate::journey::Journeys,
+    /// Pedestrian model parameters of single agents ([`World::set_agent_model_params`]).
+    pub(crate) model_params: super::model_params::AgentModelParams,
 }
 
 impl World {
@@ -114,6 +116,7 @@ impl World {
             departures: Vec::new(),
             walkable: None,
             journeys: Default::default(),
+            model_params: Default::default(),
         }
     }
 

@@ -281,6 +281,7 @@ impl World {
             group_movement: &self.group_movement,
             fields: &self.fields,
             targets: self.targets.as_slice(),
+            model_params: &self.model_params,
         };
         plans::pass::run(
             &view,
@@ -554,7 +555,7 @@ impl World {
                     .max(orca)
                     .max(p.pedestrian.map_or(0.0, |m| m.cutoff()))
             })
-            .fold(0.0_f32, f32::max);
+            .fold(self.model_params.max_cutoff, f32::max);
         let reorder_due = self.reorder_every > 0
             && self.frame.is_multiple_of(u64::from(self.reorder_every))
             && !self.agents.is_empty();

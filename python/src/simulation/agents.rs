@@ -4,6 +4,8 @@
 use numpy::IntoPyArray;
 use numpy::ndarray::Array1;
 use pyo3::prelude::*;
+use pyo3::types::PyDict;
+use throng::ped::{Model, ModelParams};
 use throng::{AgentId, AgentInit};
 
 use super::{PySimulation, agent_ids, glam_zero, model, stage_id};
@@ -15,13 +17,15 @@ impl PySimulation {
     /// Adds agents at `positions` (one `(x, y)`, which returns an int id, or an (m, 2)
     /// array-like, which returns a uint32 array) on `journey` at `stage` (its first stage by
     /// default), with `desired_speed` and `radius` per agent or for all (default: Weidmann's
-    /// speeds and 0.2 m) and pedestrian `model` (default: the simulation's). On an error no
-    /// agent is added.
+    /// speeds and 0.2 m) and pedestrian `model` (default: the simulation's). Further keywords
+    /// are numeric parameters of that model (`time_gap=`, `strength_neighbour=`, `tau=`, ...),
+    /// one value or one per agent, which the agents then walk by instead of the simulation's
+    /// `params=`. On an error no agent is added.
     #[expect(
         clippy::too_many_arguments,
         reason = "the Python signature: one keyword per per-agent parameter"
     )]
-    #[pyo3(signature = (positions, *, journey=None, stage=None, desired_speed=None, radius=None, model=None))]
+    #[pyo3(signature = (positions, *, journey=None, stage=None, desired_speed=None, radius=None, model=None, **params))]
     fn add_agents<'py>(
         &mut self,
         py: Python<'py>,
@@ -31,6 +35,7 @@ impl PySimulation {
         desired_speed: Option<&Bound<'py, PyAny>>,
         radius: Option<&Bound<'py, PyAny>>,
         model: Option<&str>,
+        params: Option<&Bound<'py, PyDict>>,
     ) -> PyResult<Bound<'py, PyAny>> {
         guarded(|| {
             let single = positions.extract::<(f32, f32)>().is_ok();
@@ -80,6 +85,40 @@ impl PySimulation {
             } else {
                 self.group(model.map(self::model).transpose()?.unwrap_or(self.model))?
             };
+            // Each agent's own model parameters, all checked before any agent is added.
+            let own = match params.filter(|p| !p.is_empty()) {
+                None => None,
+                Some(_) if external => {
+                    return Err(invalid(
+                        "params",
+                        "external agents walk by no model: they take no model parameters",
+                    ));
+                }
+                Some(p) => {
+                    let base = self.world.groups()[group]
+                        .pedestrian
+                        .map(|ped| ped.params)
+                        .unwrap_or_default();
+                    let mut columns = Vec::new();
+                    for (key, value) in p.iter() {
+                        let key: String = key.extract()?;
+                        let values =
+                            arrays::broadcast(&key, arrays::read_floats(&key, &value)?, m)?;
+                        columns.push((key, values));
+                    }
+                    let mut own = Vec::with_capacity(m);
+                    for k in 0..m {
+                        let mut agent = base;
+                        for (key, values) in &columns {
+                            agent = agent
+                                .with_value(key, values[k])
+                                .map_err(|e| raise_in(Some(&format!("row {k}")), &e))?;
+                        }
+                        own.push(agent);
+                    }
+                    Some(own)
+                }
+            };
             let mut ids: Vec<u32> = Vec::with_capacity(m);
             let mut add = |k: usize| -> PyResult<u32> {
                 let init = AgentInit {
@@ -98,6 +137,10 @@ impl PySimulation {
                     Some(j) => self.world.set_journey(id, j, stage),
                     None => self.world.set_external(id, pos[k].into(), glam_zero()),
                 };
+                let placed = placed.and_then(|()| match &own {
+                    Some(own) => self.world.set_agent_model_params(id, Some(own[k])),
+                    None => Ok(()),
+                });
                 if let Err(e) = placed {
                     let _ = self.world.remove_agent(id);
                     return Err(raise_in(Some(&context), &e));
@@ -163,6 +206,73 @@ impl PySimulation {
     /// Radii, m, by ascending id.
     fn radii<'py>(&self, py: Python<'py>) -> PyResult<Bound<'py, PyAny>> {
         self.by_id(py, throng::Agents::radii)
+    }
+
+    /// The model parameter `name` (`time_gap`, `tau`, ...) each agent walks by, its own or
+    /// the simulation's, float32 by ascending id; NaN for agents whose model has no such
+    /// parameter (external agents, another model's).
+    fn agent_params<'py>(&self, py: Python<'py>, name: &str) -> PyResult<Bound<'py, PyAny>> {
+        guarded(|| {
+            let known = [Model::Cfsm, Model::SocialForce]
+                .iter()
+                .any(|&m| ModelParams::new(m).value(name).is_some());
+            if !known {
+                return Err(invalid(
+                    "name",
+                    format!("{name:?} is a numeric parameter of no pedestrian model"),
+                ));
+            }
+            let rows = self.rows();
+            let a = self.world.agents();
+            let values: Vec<f32> = rows
+                .iter()
+                .map(|&i| {
+                    self.world
+                        .agent_model_params(a.id(i))
+                        .ok()
+                        .flatten()
+                        .and_then(|p| p.value(name))
+                        .unwrap_or(f32::NAN)
+                })
+                .collect();
+            arrays::column(py, values.len(), None, "float32", |k| values[k], None)
+        })
+    }
+
+    /// Sets the model parameter `name` of agents `ids` (one value or one per id), which they
+    /// then walk by instead of the simulation's `params=`; on an error nothing changes.
+    fn set_agent_params(
+        &mut self,
+        ids: &Bound<'_, PyAny>,
+        name: &str,
+        values: &Bound<'_, PyAny>,
+    ) -> PyResult<()> {
+        guarded(|| {
+            let ids = arrays::read_ints("ids", ids)?;
+            let values = arrays::broadcast(name, arrays::read_floats(name, values)?, ids.len())?;
+            let ids = agent_ids(&ids)?;
+            // Checked in full first, so that an error changes nothing.
+            let mut own = Vec::with_capacity(ids.len());
+            for (k, (&id, &v)) in ids.iter().zip(&values).enumerate() {
+                let context = format!("{name}[{k}]");
+                let p = self
+                    .world
+                    .agent_model_params(id)
+                    .and_then(|p| {
+                        p.ok_or_else(|| throng::Error::Invalid {
+                            name: "ids".into(),
+                            reason: format!("agent {id} walks by no pedestrian model"),
+                        })
+                    })
+                    .and_then(|p| p.with_value(name, v))
+                    .map_err(|e| raise_in(Some(&context), &e))?;
+                own.push((id, p));
+            }
+            for (id, p) in own {
+                self.world.set_agent_model_params(id, Some(p)).or_raise()?;
+            }
+            Ok(())
+        })
     }
 
     /// Sets the desired speeds of agents `ids` (one value or one per id); on an error nothing
