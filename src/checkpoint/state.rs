@@ -268,7 +268,7 @@ impl WorldState {
         }
         w.model_params = at(
             || "model_params".into(),
-            crate::world::model_params::AgentModelParams::from_entries(self.model_params, issued),
+            crate::ped::own::AgentModelParams::from_entries(self.model_params, issued),
         )?;
         // Profiles may name fields and channels: check every reference now, not at the first step.
         w.plans_stale = true;

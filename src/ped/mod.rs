@@ -30,6 +30,7 @@
 mod approx;
 pub mod cfsm;
 pub(crate) mod lanes;
+pub(crate) mod own;
 pub mod social_force;
 
 use glam::Vec2;

@@ -30,11 +30,11 @@ use super::view::SteerView;
 use crate::agents::Agents;
 use crate::ped::cfsm::{BLOCKED_SPACING, SIDESTEP_WALL_MARGIN};
 use crate::ped::lanes::{LANES, Neighbours, lane_sum};
+use crate::ped::own::own;
 use crate::ped::{Cfsm, ModelParams, Pedestrian, SocialForce};
 use crate::simd::{apply, float_kernel};
 use crate::spatial::{GridIndex, Neighbour, NeighbourIndex, SORTED_PAD, SpatialIndex};
 use crate::steering::truncate;
-use crate::world::model_params::own;
 
 // The candidate scan (`gather`) reads the grid's sorted positions in whole blocks of `LANES`,
 // up to `LANES - 1` values past a run's end: the grid's padding must hold them.

@@ -209,7 +209,7 @@ pub(crate) struct SteerView<'a> {
     /// The world's target slots.
     pub targets: &'a [TargetPoint],
     /// Pedestrian model parameters of single agents.
-    pub model_params: &'a crate::world::model_params::AgentModelParams,
+    pub model_params: &'a crate::ped::own::AgentModelParams,
 }
 
 /// A resolved target: its position (nearest image) and velocity.

@@ -23,7 +23,7 @@ pub(crate) mod fields;
 mod formation;
 mod journeys;
 mod leave;
-pub(crate) mod model_params;
+mod model_params;
 mod scratch;
 mod state;
 mod stats;

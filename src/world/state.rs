@@ -88,7 +88,7 @@ pub struct World {
     /// Stages, journeys and the agents on them.
     pub(crate) journeys: crate::journey::Journeys,
     /// Pedestrian model parameters of single agents ([`World::set_agent_model_params`]).
-    pub(crate) model_params: super::model_params::AgentModelParams,
+    pub(crate) model_params: crate::ped::own::AgentModelParams,
 }
 
 impl World {
