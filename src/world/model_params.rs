@@ -60,24 +60,25 @@ impl World {
     /// # Errors
     /// [`Error::UnknownAgent`] for an id that names no live agent.
     pub fn agent_model_params(&self, id: AgentId) -> Result<Option<ModelParams>> {
-        let i = self.agents.index_of(id).ok_or(Error::UnknownAgent { id })?;
-        let Some(group) = self.groups[self.agents.group[i] as usize].pedestrian else {
-            return Ok(None);
-        };
-        Ok(Some(match self.model_params.get(id) {
-            Some(own) if own.model() == group.model() => *own,
-            _ => group.params,
-        }))
+        Ok(self
+            .group_pedestrian(id)?
+            .map(|group| match self.model_params.get(id) {
+                Some(own) if own.model() == group.model() => *own,
+                _ => group.params,
+            }))
     }
 
-    /// The pedestrian model of agent `id`'s group.
+    /// The pedestrian model of agent `id`'s group, an error when it has none.
     fn pedestrian_of(&self, id: AgentId) -> Result<Pedestrian> {
+        self.group_pedestrian(id)?.ok_or_else(|| Error::Invalid {
+            name: "model_params".into(),
+            reason: format!("agent {id} walks by no pedestrian model"),
+        })
+    }
+
+    /// The pedestrian model of agent `id`'s group, if it has one.
+    fn group_pedestrian(&self, id: AgentId) -> Result<Option<Pedestrian>> {
         let i = self.agents.index_of(id).ok_or(Error::UnknownAgent { id })?;
-        self.groups[self.agents.group[i] as usize]
-            .pedestrian
-            .ok_or_else(|| Error::Invalid {
-                name: "model_params".into(),
-                reason: format!("agent {id} walks by no pedestrian model"),
-            })
+        Ok(self.groups[self.agents.group[i] as usize].pedestrian)
     }
 }
