@@ -650,6 +650,39 @@ fn a_quickest_field_resumes_bit_for_bit_with_its_costs() {
 }
 
 #[test]
+fn a_clearance_cost_resumes_bit_for_bit_and_older_files_have_none() {
+    // The clearance's costs multiply the crowd's, rerouted every 7 frames.
+    let text = EUCLIDEAN_CORNER.replace(
+        "metric = \"euclidean\"",
+        "metric = \"quickest\"\nreroute_every = 7\nclearance = 0.5\nclearance_cost = 4",
+    );
+    let s = scenario::Scenario::from_toml(&text, "corner").unwrap();
+    for threads in [1, 2] {
+        assert_resumes("clearance cost", s.build().unwrap(), s.dt, threads);
+    }
+    let mut world = s.build().unwrap();
+    world.step(s.dt).unwrap();
+    assert_eq!(world.field(0).unwrap().clearance_cost(), Some((0.5, 4.0)));
+    let back = World::load(&saved(&world)[..]).unwrap();
+    assert_eq!(back.field(0).unwrap().clearance_cost(), Some((0.5, 4.0)));
+    let old = crafted(&saved(&world), |v| {
+        let fields = entry(v, &["world", "fields"]).as_array_mut().unwrap();
+        fields[0]
+            .as_map_mut()
+            .unwrap()
+            .retain(|(k, _)| k.as_text() != Some("clearance_cost"));
+    });
+    assert_eq!(
+        World::load(&old[..])
+            .unwrap()
+            .field(0)
+            .unwrap()
+            .clearance_cost(),
+        None
+    );
+}
+
+#[test]
 fn exit_choices_resume_bit_for_bit_and_older_files_have_none() {
     // Two exits, one channel each, chosen with no inertia and rerouted every 7 frames, so that
     // the choices in force at a checkpoint must come from the file.

@@ -151,10 +151,11 @@ fn choices_change_only_for_an_exit_quicker_by_the_switching_gain() {
 }
 
 /// Two groups, each allocated to the door at the other end of the room, with the scenario's
-/// seed replaced by `seed` when given: `Err` names what went wrong when anybody stays inside or
-/// leaves through the other door.
-fn allocated_escape_routes(seed: Option<u64>) -> Result<(), String> {
-    let text = two_doors(
+/// seed replaced by `seed` when given, and the field's clearance as walls (`cost` `None`) or
+/// as a cost: `Err` names what went wrong when anybody stays inside or leaves through the
+/// other door.
+fn allocated_escape_routes(seed: Option<u64>, cost: Option<f32>) -> Result<(), String> {
+    let mut text = two_doors(
         "euclidean",
         40,
         ([0.5, 4.5], [5.0, 8.5]),
@@ -169,6 +170,13 @@ radius = 0.2
 steering = { behaviours = [{ kind = "follow_field", channel = 0 }] }
 pedestrian = {}
 "#;
+    if let Some(cost) = cost {
+        assert!(text.contains("\nclearance = 0.2\n"));
+        text = text.replace(
+            "\nclearance = 0.2\n",
+            &format!("\nclearance = 0.2\nclearance_cost = {cost}\n"),
+        );
+    }
     let mut s = Scenario::from_toml(&text, "t.toml").unwrap();
     if let Some(seed) = seed {
         s.seed = seed;
@@ -212,19 +220,47 @@ pedestrian = {}
 #[test]
 fn allocated_escape_routes_are_kept() {
     // Each pedestrian crosses the room and the other crowd and leaves through its own door.
-    allocated_escape_routes(None).unwrap();
+    allocated_escape_routes(None, None).unwrap();
+    allocated_escape_routes(None, Some(4.0)).unwrap();
 }
 
-/// The same over ten seeds. Fails today at seeds 7 and 10: the field's clearance, rounded to
-/// whole 0.25 m cells, leaves the mouth of a door too narrow for two pedestrians of one crowd
-/// pressing in from either side, who then hold each other off (docs/VALIDATION.md, "The
-/// narrow door").
+/// Whether anybody stays inside at any of seeds 4 to 13, with the clearance as walls or as
+/// a cost.
+fn locked_seeds(cost: Option<f32>) -> Vec<String> {
+    (4..14)
+        .filter_map(|seed| match allocated_escape_routes(Some(seed), cost) {
+            Err(e) if e.contains("still inside") => Some(format!("seed {seed}: {e}")),
+            _ => None,
+        })
+        .collect()
+}
+
+/// Nobody stays inside at any of ten seeds with the clearance as a cost. With the clearance as
+/// walls some do (seeds 7 and 10; 4 of 30 seeds from 0): the clearance, rounded to whole
+/// 0.25 m cells, leaves the mouth of a door 0.5 m wide for the centres, too narrow for two
+/// pedestrians of one crowd pressing in from either side, who then hold each other off
+/// (docs/VALIDATION.md, "The narrow door"). The walls' run is the check that this test can
+/// fail.
 #[test]
-#[ignore = "the lock at a door in a coarse field is open (docs/VALIDATION.md)"]
+fn the_door_never_locks_with_the_clearance_as_a_cost() {
+    let locked = locked_seeds(Some(4.0));
+    assert!(locked.is_empty(), "{}", locked.join("; "));
+    assert!(
+        !locked_seeds(None).is_empty(),
+        "no lock with the clearance as walls either: the scene no longer tests the door"
+    );
+}
+
+/// Everyone out through their own door at every seed. Fails at 3 of these ten seeds (2 to 6
+/// of 30 from 0, with the clearance as walls or as a cost): a pedestrian crossing in front of
+/// the other crowd's door is pushed into it by that crowd and carried out
+/// (docs/VALIDATION.md, "The narrow door").
+#[test]
+#[ignore = "pedestrians pushed out through the other crowd's door (docs/VALIDATION.md)"]
 fn allocated_escape_routes_are_kept_for_every_seed() {
     let failed: Vec<String> = (4..14)
         .filter_map(|seed| {
-            allocated_escape_routes(Some(seed))
+            allocated_escape_routes(Some(seed), Some(4.0))
                 .err()
                 .map(|e| format!("seed {seed}: {e}"))
         })

@@ -318,6 +318,23 @@ fn bad_pedestrian_values_are_errors_naming_the_key() {
         ("clearance = -0.1", "clearance"),
         ("clearance = nan", "clearance"),
         ("clearance = 100", "clearance"),
+        ("clearance_cost = 4", "clearance_cost"),
+        (
+            "metric = \"euclidean\"\nclearance_cost = 0.5",
+            "clearance cost",
+        ),
+        (
+            "metric = \"euclidean\"\nclearance_cost = nan",
+            "clearance cost",
+        ),
+        (
+            "metric = \"euclidean\"\nclearance_cost = 21",
+            "clearance cost",
+        ),
+        (
+            "metric = \"euclidean\"\nclearance = 100\nclearance_cost = 4",
+            "clearance",
+        ),
         ("metric = \"manhattan\"", "manhattan"),
         ("metric = \"euclidean\"\nreroute_every = 5", "quickest"),
         ("density_radius = 1", "quickest"),

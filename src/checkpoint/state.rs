@@ -104,6 +104,9 @@ struct FieldState {
     reroute_every: u64,
     #[serde(default = "default_density_radius")]
     density_radius: f32,
+    /// The clearance and its cost (`GoalChannels::with_clearance_cost`); absent in older files.
+    #[serde(default)]
+    clearance_cost: Option<(f32, f32)>,
     /// Per channel: its goals and whether it waits for a rebuild.
     channels: Vec<(Vec<(u32, u32)>, bool)>,
     shuffle_every: u64,
@@ -438,6 +441,7 @@ impl FieldState {
             costs: ch.costs().to_vec(),
             reroute_every: f.reroute_every,
             density_radius: f.density_radius,
+            clearance_cost: ch.clearance_cost(),
             channels: (0..ch.len())
                 .map(|c| (ch.goals(c).unwrap_or_default().to_vec(), ch.is_dirty(c)))
                 .collect(),
@@ -471,6 +475,9 @@ impl FieldState {
             .with_geometry(self.cell_size, self.origin)?;
         let mut channels =
             GoalChannels::new(grid, self.decay, self.neighbourhood)?.with_metric(self.metric);
+        if let Some((distance, cost)) = self.clearance_cost {
+            channels = channels.with_clearance_cost(distance, cost)?;
+        }
         channels.set_costs(&self.costs)?;
         if self.reroute_every > 0 || self.metric == FlowMetric::Quickest {
             crate::world::fields::check_rerouting(

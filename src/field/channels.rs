@@ -14,7 +14,7 @@
 
 use rayon::prelude::*;
 
-use super::distance::DistanceField;
+use super::distance::{DistanceField, MAX_CELL_COST};
 use super::flow::FlowField;
 use super::lattice::{Neighbourhood, check_goals};
 use super::occupancy::{Cell, OccupancyGrid, random_free_cells};
@@ -73,6 +73,15 @@ pub struct GoalChannels {
     metric: FlowMetric,
     /// Per cell (row-major), the cost the distance flows are built with; empty for none.
     costs: Vec<f32>,
+    /// Cells whose centre lies within `.0` of a wall cost `.1` times as much to cross (the
+    /// distance flows only); none by default.
+    clearance: Option<(f32, f32)>,
+    /// Per cell, whether it lies within the clearance of a wall; `None` until computed for the
+    /// grid as it stands.
+    near: Option<Vec<bool>>,
+    /// With a clearance: `costs` (or 1) times the clearance's cost, capped at
+    /// [`MAX_CELL_COST`]; what the distance flows are built with then.
+    effective: Vec<f32>,
     channels: Vec<Channel>,
 }
 
@@ -104,8 +113,56 @@ impl GoalChannels {
             neighbourhood,
             metric: FlowMetric::Steps,
             costs: Vec::new(),
+            clearance: None,
+            near: None,
+            effective: Vec::new(),
             channels: Vec::new(),
         })
+    }
+
+    /// The same channels with every free cell whose centre lies within `distance` (world
+    /// units) of a wall cell or the grid's border ([`OccupancyGrid::near_walls`]) costing
+    /// `cost` times as much to cross, on top of any [`GoalChannels::set_costs`] (the product
+    /// capped at [`MAX_CELL_COST`]); every channel is marked dirty. The flows of a distance
+    /// metric then keep that far from walls where there is room, as
+    /// [`OccupancyGrid::dilated`] makes them, but still lead through a door narrower than
+    /// twice the distance, which a dilated grid closes or narrows to whole cells. The cells
+    /// follow the walls as they change ([`GoalChannels::set_blocked`]). Flows of the
+    /// [`FlowMetric::Steps`] metric ignore costs.
+    ///
+    /// # Examples
+    /// ```
+    /// # fn main() -> throng::Result<()> {
+    /// use throng::field::{FlowMetric, GoalChannels, Neighbourhood, OccupancyGrid};
+    /// // A wall with a door one cell wide at x = 2: dilating by one cell would close it.
+    /// let map = OccupancyGrid::parse_ascii(".....\n##.##\n.....\n", "<map>")?;
+    /// let mut channels = GoalChannels::new(map.grid, 0.9, Neighbourhood::Eight)?
+    ///     .with_metric(FlowMetric::Euclidean)
+    ///     .with_clearance_cost(1.0, 4.0)?;
+    /// let exit = channels.add_channel(&[(2, 2)])?;
+    /// channels.rebuild_dirty()?;
+    /// assert!(channels.travel_cost(exit, glam::Vec2::new(2.5, 0.5)).is_some());
+    /// # Ok(()) }
+    /// ```
+    ///
+    /// # Errors
+    /// [`Error::OutOfRange`] or [`Error::NonFinite`] for a distance outside `[0, 64]` cells or
+    /// a cost outside `[1, MAX_CELL_COST]`.
+    pub fn with_clearance_cost(mut self, distance: f32, cost: f32) -> Result<Self> {
+        self.grid.near_walls(distance)?;
+        crate::error::in_range("clearance cost", cost, 1.0, MAX_CELL_COST, "[1, 20]")?;
+        self.clearance = Some((distance, cost));
+        self.near = None;
+        for c in &mut self.channels {
+            c.dirty = true;
+        }
+        Ok(self)
+    }
+
+    /// The clearance and its cost ([`GoalChannels::with_clearance_cost`]), if any.
+    #[must_use]
+    pub fn clearance_cost(&self) -> Option<(f32, f32)> {
+        self.clearance
     }
 
     /// The same channels with flows that follow `metric` (every channel is marked dirty).
@@ -241,6 +298,7 @@ impl GoalChannels {
         let cell = if blocked { Cell::Wall } else { Cell::Free };
         if self.grid.cell(x, y) != Some(cell) {
             self.grid.set(x, y, cell)?;
+            self.near = None;
             for ch in &mut self.channels {
                 ch.dirty = true;
             }
@@ -278,9 +336,16 @@ impl GoalChannels {
     /// # Errors
     /// Only what [`PotentialField::bfs`] returns, which the checks on the way in rule out.
     pub fn rebuild_dirty(&mut self) -> Result<usize> {
-        let (grid, decay, neighbourhood) = (&self.grid, self.decay, self.neighbourhood);
         let distance = self.metric.is_distance();
-        let costs = (!self.costs.is_empty()).then_some(&self.costs[..]);
+        if distance && self.channels.iter().any(|c| c.dirty) {
+            self.update_effective_costs();
+        }
+        let (grid, decay, neighbourhood) = (&self.grid, self.decay, self.neighbourhood);
+        let costs = if self.clearance.is_some() {
+            Some(&self.effective[..])
+        } else {
+            (!self.costs.is_empty()).then_some(&self.costs[..])
+        };
         let results: Vec<Result<()>> = self
             .channels
             .par_iter_mut()
@@ -325,6 +390,28 @@ impl GoalChannels {
         let rebuilt = results.len();
         results.into_iter().collect::<Result<Vec<()>>>()?;
         Ok(rebuilt)
+    }
+
+    /// With a clearance, the costs the distance flows are built with: the set costs (or 1)
+    /// times the clearance's cost on the cells near walls, capped at [`MAX_CELL_COST`].
+    fn update_effective_costs(&mut self) {
+        let Some((distance, cost)) = self.clearance else {
+            return;
+        };
+        let near = self.near.get_or_insert_with(|| {
+            // The distance was checked against this grid's cell size, which never changes.
+            self.grid.near_walls(distance).unwrap_or_default()
+        });
+        self.effective.clear();
+        self.effective
+            .extend(near.iter().enumerate().map(|(i, &n)| {
+                let base = self.costs.get(i).copied().unwrap_or(1.0);
+                if n {
+                    (base * cost).min(MAX_CELL_COST)
+                } else {
+                    base
+                }
+            }));
     }
 
     /// The potential field of `channel`, or `None` when it does not exist or is dirty.
@@ -433,5 +520,111 @@ impl<'de> serde::Deserialize<'de> for ChannelSet {
     fn deserialize<D: serde::Deserializer<'de>>(d: D) -> std::result::Result<Self, D::Error> {
         let list = <Vec<usize> as serde::Deserialize>::deserialize(d)?;
         ChannelSet::of(&list).map_err(serde::de::Error::custom)
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use glam::Vec2;
+
+    /// A room 12 x 9 cells split by a wall at row 4 with a door of `door` cells at x 5..,
+    /// the goal at (6, 7), two cells from the top border.
+    fn room(door: u32) -> OccupancyGrid {
+        let mut g = OccupancyGrid::new(12, 9).unwrap();
+        for x in 0..12 {
+            if !(5..5 + door).contains(&x) {
+                g.set(x, 4, Cell::Wall).unwrap();
+            }
+        }
+        g
+    }
+
+    fn built(grid: OccupancyGrid, clearance: Option<(f32, f32)>, costs: &[f32]) -> GoalChannels {
+        let mut c = GoalChannels::new(grid, 0.9, Neighbourhood::Eight)
+            .unwrap()
+            .with_metric(FlowMetric::Euclidean);
+        if let Some((d, k)) = clearance {
+            c = c.with_clearance_cost(d, k).unwrap();
+        }
+        c.set_costs(costs).unwrap();
+        c.add_channel(&[(6, 7)]).unwrap();
+        c.rebuild_dirty().unwrap();
+        c
+    }
+
+    /// Every cell's travel cost, row-major.
+    fn all_costs(c: &GoalChannels) -> Vec<Option<f32>> {
+        let g = c.grid();
+        (0..g.height())
+            .flat_map(|y| (0..g.width()).map(move |x| (x, y)))
+            .map(|(x, y)| c.travel_cost(0, g.cell_center(x, y)))
+            .collect()
+    }
+
+    #[test]
+    fn a_clearance_cost_is_the_near_wall_cells_costs_times_the_set_costs() {
+        let grid = room(2);
+        let near = grid.near_walls(0.5).unwrap();
+        assert!(near.iter().any(|&n| n) && near.iter().any(|&n| !n));
+        // Costs set from outside (a crowd): 1 to 19 over the cells.
+        let set: Vec<f32> = (0..grid.len()).map(|i| 1.0 + (i % 19) as f32).collect();
+        let by_hand = |set: &[f32], near: &[bool]| -> Vec<f32> {
+            near.iter()
+                .enumerate()
+                .map(|(i, &n)| {
+                    let b = set.get(i).copied().unwrap_or(1.0);
+                    if n { (b * 3.0).min(MAX_CELL_COST) } else { b }
+                })
+                .collect()
+        };
+        for costs in [&[][..], &set[..]] {
+            let with = built(grid.clone(), Some((0.5, 3.0)), costs);
+            let reference = built(grid.clone(), None, &by_hand(costs, &near));
+            assert_eq!(all_costs(&with), all_costs(&reference));
+        }
+        // A wall added later moves the costed cells with it.
+        let mut with = built(grid.clone(), Some((0.5, 3.0)), &[]);
+        with.set_blocked(1, 5, true).unwrap();
+        with.rebuild_dirty().unwrap();
+        let mut changed = grid.clone();
+        changed.set(1, 5, Cell::Wall).unwrap();
+        let reference = built(
+            changed.clone(),
+            None,
+            &by_hand(&[], &changed.near_walls(0.5).unwrap()),
+        );
+        assert_eq!(all_costs(&with), all_costs(&reference));
+        assert_ne!(
+            all_costs(&with),
+            all_costs(&built(grid, Some((0.5, 3.0)), &[]))
+        );
+    }
+
+    #[test]
+    fn a_door_that_the_dilated_grid_closes_stays_open_at_a_cost() {
+        // Two cells wide, a clearance of one cell: dilation walls the door up.
+        let (grid, below) = (room(2), Vec2::new(6.5, 1.5));
+        let dilated = built(grid.dilated(1.0).unwrap(), None, &[]);
+        assert_eq!(dilated.travel_cost(0, below), None);
+        let costed = built(grid.clone(), Some((1.0, 4.0)), &[]);
+        let plain = built(grid, None, &[]);
+        let (c, p) = (
+            costed.travel_cost(0, below).unwrap(),
+            plain.travel_cost(0, below).unwrap(),
+        );
+        assert!(c > p && c <= 4.0 * p, "{c} against {p}");
+        assert!(
+            [(5, 4), (6, 4)].iter().all(|&(x, y)| costed
+                .travel_cost(0, costed.grid().cell_center(x, y))
+                .is_some()),
+            "the door's cells are reachable"
+        );
+        // Where there is room, the flow steers off the walls: on the top border, left of the
+        // goal, it turns down away from the border more steeply than the plain flow.
+        let at = Vec2::new(2.5, 8.5);
+        let f = costed.flow(0).unwrap().sample(at);
+        let g = plain.flow(0).unwrap().sample(at);
+        assert!(f.x > 0.0 && g.x > 0.0 && f.y / f.x < g.y / g.x, "{f} {g}");
     }
 }

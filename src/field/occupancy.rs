@@ -299,6 +299,23 @@ impl OccupancyGrid {
     /// [`Error::OutOfRange`] for a clearance that is negative, not finite or more than 64
     /// cells.
     pub fn dilated(&self, clearance: f32) -> Result<OccupancyGrid> {
+        let near = self.near_walls(clearance)?;
+        let mut out = self.clone();
+        for (cell, near) in out.cells.iter_mut().zip(near) {
+            if near {
+                *cell = Cell::Wall;
+            }
+        }
+        Ok(out)
+    }
+
+    /// Per cell (row-major), whether it is a free cell whose centre lies within `clearance`
+    /// (world units) of a wall cell or of the grid's border: the cells that
+    /// [`OccupancyGrid::dilated`] turns into walls.
+    ///
+    /// # Errors
+    /// As [`OccupancyGrid::dilated`].
+    pub fn near_walls(&self, clearance: f32) -> Result<Vec<bool>> {
         in_range(
             "field.clearance / field.cell_size",
             clearance / self.cell_size,
@@ -306,7 +323,7 @@ impl OccupancyGrid {
             64.0,
             "[0, 64] cells",
         )?;
-        let mut out = self.clone();
+        let mut out = vec![false; self.cells.len()];
         if clearance <= 0.0 {
             return Ok(out);
         }
@@ -339,9 +356,7 @@ impl OccupancyGrid {
                         }
                     }
                 }
-                if blocked {
-                    out.cells[(y * w + x) as usize] = Cell::Wall;
-                }
+                out[(y * w + x) as usize] = blocked;
             }
         }
         Ok(out)
