@@ -51,8 +51,9 @@ pub const BYTES_PER_AGENT: u64 = 200;
 /// Bytes per group assumed by the memory estimate and by a tiling's check before it lays its
 /// copies (the group's table, its copy while tiling and the world's group with its plans).
 pub const BYTES_PER_GROUP: u64 = 2048;
-/// Bytes of a field cell assumed by the memory estimate: the occupancy, the costs and the
-/// quickest paths' density tables (8-byte fixed-point weights and their summed areas).
+/// Bytes of a field cell assumed by the memory estimate: the occupancy, the costs (set and
+/// with a clearance's, and the clearance's mask) and the quickest paths' density tables
+/// (8-byte fixed-point weights and their summed areas).
 pub const BYTES_PER_CELL: u64 = 32;
 /// Bytes per cell and channel (potential, step counts and flow).
 pub const BYTES_PER_CHANNEL_CELL: u64 = 16;

@@ -318,22 +318,26 @@ fn bad_pedestrian_values_are_errors_naming_the_key() {
         ("clearance = -0.1", "clearance"),
         ("clearance = nan", "clearance"),
         ("clearance = 100", "clearance"),
-        ("clearance_cost = 4", "clearance_cost"),
+        ("clearance = 0.5\nclearance_cost = 4", "distance metric"),
         (
-            "metric = \"euclidean\"\nclearance_cost = 0.5",
-            "clearance cost",
+            "metric = \"euclidean\"\nclearance_cost = 4",
+            "clearance above 0",
         ),
         (
-            "metric = \"euclidean\"\nclearance_cost = nan",
-            "clearance cost",
+            "metric = \"euclidean\"\nclearance = 0.5\nclearance_cost = 0.5",
+            "field.clearance_cost",
         ),
         (
-            "metric = \"euclidean\"\nclearance_cost = 21",
-            "clearance cost",
+            "metric = \"euclidean\"\nclearance = 0.5\nclearance_cost = nan",
+            "field.clearance_cost",
+        ),
+        (
+            "metric = \"euclidean\"\nclearance = 0.5\nclearance_cost = 21",
+            "field.clearance_cost",
         ),
         (
             "metric = \"euclidean\"\nclearance = 100\nclearance_cost = 4",
-            "clearance",
+            "field.clearance / field.cell_size",
         ),
         ("metric = \"manhattan\"", "manhattan"),
         ("metric = \"euclidean\"\nreroute_every = 5", "quickest"),
@@ -357,6 +361,16 @@ fn bad_pedestrian_values_are_errors_naming_the_key() {
             .to_string();
         assert!(e.contains(key), "{line}: {e}");
     }
+    // The clearance's cost applies to the walkable raster only.
+    let text = "name = \"t\"\n[field]\nmap = { ascii = \".....\\n.....\\n\" }\nmetric = \"euclidean\"\nclearance = 0.5\nclearance_cost = 4\n[[groups]]\ncount = 1\n";
+    let e = Scenario::from_toml(text, "t.toml")
+        .and_then(|s| s.build().map(|_| ()))
+        .unwrap_err()
+        .to_string();
+    assert!(
+        e.contains("field.clearance_cost") && e.contains("walkable"),
+        "{e}"
+    );
 }
 
 #[path = "support/two_doors.rs"]

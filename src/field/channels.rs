@@ -123,12 +123,14 @@ impl GoalChannels {
     /// The same channels with every free cell whose centre lies within `distance` (world
     /// units) of a wall cell or the grid's border ([`OccupancyGrid::near_walls`]) costing
     /// `cost` times as much to cross, on top of any [`GoalChannels::set_costs`] (the product
-    /// capped at [`MAX_CELL_COST`]); every channel is marked dirty. The flows of a distance
-    /// metric then keep that far from walls where there is room, as
-    /// [`OccupancyGrid::dilated`] makes them, but still lead through a door narrower than
-    /// twice the distance, which a dilated grid closes or narrows to whole cells. The cells
-    /// follow the walls as they change ([`GoalChannels::set_blocked`]). Flows of the
-    /// [`FlowMetric::Steps`] metric ignore costs.
+    /// capped at [`MAX_CELL_COST`], so that a crowd's cost of 5 or more on such a cell reads
+    /// as 20 with a cost of 4); every channel is marked dirty. The flows of a distance metric
+    /// then steer off walls where going round the band is cheaper than crossing it (a soft
+    /// version of [`OccupancyGrid::dilated`]'s walls), but still lead through a door narrower
+    /// than twice the distance, which a dilated grid closes or narrows to whole cells. The
+    /// grid itself keeps those cells free, so the walls that agents' moves are held to are the
+    /// grid's own. The cells follow the walls as they change ([`GoalChannels::set_blocked`]).
+    /// Flows of the [`FlowMetric::Steps`] metric ignore costs.
     ///
     /// # Examples
     /// ```
@@ -141,7 +143,9 @@ impl GoalChannels {
     ///     .with_clearance_cost(1.0, 4.0)?;
     /// let exit = channels.add_channel(&[(2, 2)])?;
     /// channels.rebuild_dirty()?;
-    /// assert!(channels.travel_cost(exit, glam::Vec2::new(2.5, 0.5)).is_some());
+    /// // Every cell lies within 1 of a wall or the border: the door is open, at 4 times the cost.
+    /// let cost = channels.travel_cost(exit, glam::Vec2::new(2.5, 0.5)).unwrap();
+    /// assert!((cost - 4.0 * 2.0).abs() < 1e-3, "{cost}");
     /// # Ok(()) }
     /// ```
     ///
@@ -149,10 +153,10 @@ impl GoalChannels {
     /// [`Error::OutOfRange`] or [`Error::NonFinite`] for a distance outside `[0, 64]` cells or
     /// a cost outside `[1, MAX_CELL_COST]`.
     pub fn with_clearance_cost(mut self, distance: f32, cost: f32) -> Result<Self> {
-        self.grid.near_walls(distance)?;
-        crate::error::in_range("clearance cost", cost, 1.0, MAX_CELL_COST, "[1, 20]")?;
+        let near = self.grid.near_walls(distance)?;
+        crate::error::in_range("field.clearance_cost", cost, 1.0, MAX_CELL_COST, "[1, 20]")?;
         self.clearance = Some((distance, cost));
-        self.near = None;
+        self.near = Some(near);
         for c in &mut self.channels {
             c.dirty = true;
         }
@@ -399,7 +403,8 @@ impl GoalChannels {
             return;
         };
         let near = self.near.get_or_insert_with(|| {
-            // The distance was checked against this grid's cell size, which never changes.
+            // The distance was checked against this grid's cell size, which never changes, so
+            // this is never the empty mask (whose costs `rebuild_dirty` would refuse).
             self.grid.near_walls(distance).unwrap_or_default()
         });
         self.effective.clear();
@@ -436,8 +441,9 @@ impl GoalChannels {
 
     /// How far the goals of `channel` are from world point `p`, for choosing among channels:
     /// with a distance metric the geodesic distance of `p`'s cell (with the quickest metric,
-    /// weighted by the cells' costs: the free speed's travel time through the crowd, in metres),
-    /// otherwise the BFS field's steps times the cell size. `None` when the channel does not
+    /// weighted by the cells' costs: the free speed's travel time through the crowd, in metres;
+    /// with a [clearance cost](GoalChannels::with_clearance_cost), weighted by it too, so that
+    /// of two doors the wider costs less), otherwise the BFS field's steps times the cell size. `None` when the channel does not
     /// exist or is dirty, or when `p` lies off the grid, on a wall or where no goal is reached.
     #[must_use]
     pub fn travel_cost(&self, channel: usize, p: glam::Vec2) -> Option<f32> {
@@ -583,6 +589,12 @@ mod tests {
             let reference = built(grid.clone(), None, &by_hand(costs, &near));
             assert_eq!(all_costs(&with), all_costs(&reference));
         }
+        // New costs on built channels (a reroute) are built in place with the clearance's.
+        let mut with = built(grid.clone(), Some((0.5, 3.0)), &[]);
+        with.set_costs(&set).unwrap();
+        with.rebuild_dirty().unwrap();
+        let reference = built(grid.clone(), None, &by_hand(&set, &near));
+        assert_eq!(all_costs(&with), all_costs(&reference));
         // A wall added later moves the costed cells with it.
         let mut with = built(grid.clone(), Some((0.5, 3.0)), &[]);
         with.set_blocked(1, 5, true).unwrap();

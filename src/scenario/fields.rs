@@ -58,11 +58,12 @@ pub struct FieldSpec {
     pub clearance: f32,
     /// With a distance `metric`: the cells within `clearance` of a wall stay walkable and cost
     /// this many times as much to cross, instead of becoming walls
-    /// ([`GoalChannels::with_clearance_cost`]); in `[1, 20]`. The flow then keeps that far
-    /// from walls where there is room, and still leads the whole width of a door through,
-    /// where walls made of those cells narrow a door to whole cells (a door 1 m wide in
-    /// 0.25 m cells with a clearance of 0.2 m leaves 0.5 m for the centres). Default: none
-    /// (the cells become walls).
+    /// ([`GoalChannels::with_clearance_cost`]); in `[1, 20]`, with `map = "walkable"` and a
+    /// clearance above 0. The flow then steers off walls where there is room, and still leads
+    /// the whole width of a door through, where walls made of those cells narrow a door to
+    /// whole cells (a door 1 m wide in 0.25 m cells with a clearance of 0.2 m leaves 0.5 m for
+    /// the centres). The field's walls that hold agents' moves, and grid walkers, then see the
+    /// raster without the clearance. Default: none (the cells become walls).
     #[serde(default, skip_serializing_if = "Option::is_none")]
     pub clearance_cost: Option<f32>,
     /// What the flow that `follow_field` agents read follows: `"steps"` (the BFS field's best
@@ -233,7 +234,22 @@ impl FieldSpec {
                 )?;
             }
         }
-        if self.clearance_cost.is_some() {
+        if let Some(cost) = self.clearance_cost {
+            crate::error::in_range(
+                "field.clearance_cost",
+                cost,
+                1.0,
+                crate::field::MAX_CELL_COST,
+                "[1, 20]",
+            )?;
+            if self.clearance <= 0.0 {
+                return Err(Error::Invalid {
+                    name: "field.clearance_cost".into(),
+                    reason:
+                        "it costs the cells within `clearance` of a wall: set a clearance above 0"
+                            .into(),
+                });
+            }
             if self.metric == FlowMetric::Steps {
                 return Err(Error::Invalid {
                     name: "field.clearance_cost".into(),
