@@ -120,6 +120,18 @@ pub enum Error {
         /// How many stages the world has.
         count: usize,
     },
+    /// A journey (being added or checked) names a stage, in its stage list or in one of its
+    /// transitions, that the world does not have.
+    #[error("{} names no stage {stage} (the world has {stages})", escaped(journey))]
+    UnknownJourneyStage {
+        /// The journey, as the error names it (`"journey 2"`, or a scenario file's
+        /// `journeys[0]`).
+        journey: String,
+        /// The stage id it names.
+        stage: u32,
+        /// How many stages the world has.
+        stages: usize,
+    },
     /// A journey id that names no journey of the world.
     #[error("no journey {journey} (the world has {count})")]
     UnknownJourney {

@@ -575,8 +575,12 @@ fn bad_stages_and_journeys_are_errors_naming_them() {
     assert!(e.contains("journey 0") && e.contains("for ever"), "{e}");
     let e = w.add_journey(Journey::chain([p, StageId(9)])).unwrap_err();
     assert!(
-        matches!(e, throng::Error::UnknownStage { stage: 9, .. }),
+        matches!(&e, throng::Error::UnknownJourneyStage { journey, stage: 9, stages: 2 } if journey == "journey 0"),
         "{e}"
+    );
+    assert_eq!(
+        e.to_string(),
+        "journey 0 names no stage 9 (the world has 2)"
     );
     let e = w.pop_queue(p, 1).unwrap_err().to_string();
     assert!(e.contains("only a queue"), "{e}");

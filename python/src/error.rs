@@ -28,6 +28,7 @@ fn parameter(e: &Error) -> Option<String> {
         Error::InvalidTimeStep { .. } => Some("dt".into()),
         Error::UnknownAgent { .. } => Some("ids".into()),
         Error::UnknownGroup { .. } => Some("group".into()),
+        Error::UnknownJourneyStage { .. } => Some("journey".into()),
         Error::Io { .. } => Some("path".into()),
         _ => None,
     }

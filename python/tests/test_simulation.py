@@ -56,6 +56,19 @@ def small(threads=None, seed=1):
     return sim, ids, via, out
 
 
+def test_an_unknown_stage_of_a_journey_names_the_journey_and_the_stage():
+    sim, ids, via, out = small()
+    with pytest.raises(throng.ThrongError) as e:
+        sim.add_journey(throng.Journey([via, 9]))
+    assert str(e.value) == "journey 1 names no stage 9 (the world has 2)"
+    assert e.value.parameter == "journey"
+    j = throng.Journey([via, out])
+    j.set_transition(via, throng.Transition.least_targeted([out, 7]))
+    with pytest.raises(throng.ThrongError, match=r"^journey 1 names no stage 7 "):
+        sim.add_journey(j)
+    assert sim.add_journey(throng.Journey([via, out], chain=True)) == 1, "nothing was added"
+
+
 def test_agents_carry_their_own_parameters_readable_and_writable_between_steps():
     sim, ids, via, out = small()
     assert ids.dtype == np.uint32 and list(ids) == list(range(60))

@@ -300,7 +300,7 @@ impl Journey {
     /// stage, an exit or a direct steering stage is reachable.
     ///
     /// # Errors
-    /// [`Error::UnknownStage`] or [`Error::Invalid`] naming the journey and the stage.
+    /// [`Error::UnknownJourneyStage`] or [`Error::Invalid`] naming the journey and the stage.
     pub fn validate(&self, name: &str, stages: &[Stage]) -> Result<()> {
         self.validate_named(name, stages, &|s| format!("stage {}", s.0))
     }
@@ -327,9 +327,10 @@ impl Journey {
             if (s.0 as usize) < stages.len() {
                 Ok(())
             } else {
-                Err(Error::UnknownStage {
+                Err(Error::UnknownJourneyStage {
+                    journey: name.into(),
                     stage: s.0,
-                    count: stages.len(),
+                    stages: stages.len(),
                 })
             }
         };
@@ -461,7 +462,19 @@ mod tests {
             .to_string();
         assert!(e.contains("no transition"), "{e}");
         let e = Journey::chain([StageId(0), StageId(7)]).validate("journey 0", &stages());
-        assert!(matches!(e, Err(Error::UnknownStage { stage: 7, count: 3 })));
+        assert!(
+            matches!(&e, Err(Error::UnknownJourneyStage { journey, stage: 7, stages: 3 }) if journey == "journey 0"),
+            "{e:?}"
+        );
+        let e = Journey::new([StageId(0), StageId(2)])
+            .with_transition(
+                StageId(0),
+                Transition::least_targeted([StageId(2), StageId(5)]),
+            )
+            .validate("journey 4", &stages())
+            .unwrap_err()
+            .to_string();
+        assert_eq!(e, "journey 4 names no stage 5 (the world has 3)");
         let e = Journey::new([StageId(0), StageId(2)])
             .with_transition(StageId(0), Transition::round_robin([(StageId(2), 0)]))
             .validate("journey 0", &stages())

@@ -1,6 +1,7 @@
 //! The pair terms of both pedestrian models over all of an agent's neighbours at once: loops
-//! over plain slices with branch-free bodies, which the compiler turns into SIMD lanes, and a
-//! polynomial exponential ([`exp_poly`](super::approx::exp_poly)).
+//! with branch-free bodies, which the compiler turns into SIMD lanes (the speed model's over
+//! fixed blocks of [`LANES`], so that an agent with a single block of neighbours gets lanes
+//! too), and a polynomial exponential ([`exp_poly`](super::approx::exp_poly)).
 //!
 //! Each element gets what the scalar term gives ([`SocialForce::pair`], [`Cfsm::repulsion`],
 //! [`Cfsm::spacing`]), with the same operations in the same order, except that `exp` is the
@@ -67,6 +68,11 @@ impl Cfsm {
     /// [`Cfsm::repulsion`] of every neighbour on an agent with the preferred direction
     /// `(ex, ey)` into `fx`, `fy` (zero beyond the count) and the pair distances into `dist`;
     /// all as long as the neighbours' slices.
+    ///
+    /// Block by block, each a fixed [`LANES`] wide, so that a single block (the usual count in
+    /// a sparse crowd) runs in vector lanes: a loop over the whole slices vectorises only from
+    /// two blocks on and leaves one block to scalar code. Every element gets the operations of
+    /// `repulsion_lanes_reference` (the tests' reference) in the same order: the same bits.
     #[inline(always)]
     pub(crate) fn repulsion_lanes(
         &self,
@@ -78,59 +84,94 @@ impl Cfsm {
     ) {
         let (s, range) = (self.strength_neighbour, self.range_neighbour);
         let lambda = self.anisotropy;
-        let ins = nb.rx.iter().zip(nb.ry).zip(nb.reach.iter().zip(nb.side));
-        let outs = dist.iter_mut().zip(fx.iter_mut().zip(fy.iter_mut()));
-        for (k, (((&rx, &ry), (&reach, &side)), (dist, (fx, fy)))) in ins.zip(outs).enumerate() {
-            let (d, nx, ny) = distance_and_away(rx, ry, side);
-            let w = lambda + (1.0 - lambda) * (0.5 - 0.5 * (ex * nx + ey * ny));
-            let m = s * exp_poly((reach - d) / range) * w;
-            let valid = k < nb.count;
-            *dist = d;
-            *fx = if valid { nx * m } else { 0.0 };
-            *fy = if valid { ny * m } else { 0.0 };
+        let ins = nb.rx.chunks_exact(LANES).zip(nb.ry.chunks_exact(LANES));
+        let ins = ins.zip(
+            nb.reach
+                .chunks_exact(LANES)
+                .zip(nb.side.chunks_exact(LANES)),
+        );
+        let outs = dist.chunks_exact_mut(LANES);
+        let outs = outs.zip(fx.chunks_exact_mut(LANES).zip(fy.chunks_exact_mut(LANES)));
+        let mut left = nb.count;
+        for (((rx, ry), (reach, side)), (dist, (fx, fy))) in ins.zip(outs) {
+            let block = |x: &[f32]| -> [f32; LANES] { x.try_into().expect("a block") };
+            let (rx, ry, reach, side) = (block(rx), block(ry), block(reach), block(side));
+            let mut out = [[0.0f32; LANES]; 3];
+            for l in 0..LANES {
+                let (d, nx, ny) = distance_and_away(rx[l], ry[l], side[l]);
+                let w = lambda + (1.0 - lambda) * (0.5 - 0.5 * (ex * nx + ey * ny));
+                let m = s * exp_poly((reach[l] - d) / range) * w;
+                let valid = l < left;
+                out[0][l] = d;
+                out[1][l] = if valid { nx * m } else { 0.0 };
+                out[2][l] = if valid { ny * m } else { 0.0 };
+            }
+            dist.copy_from_slice(&out[0]);
+            fx.copy_from_slice(&out[1]);
+            fy.copy_from_slice(&out[2]);
+            left = left.saturating_sub(LANES);
         }
     }
 
     /// The smallest [`Cfsm::spacing_to`] along the unit direction `(ex, ey)` over the
     /// neighbours, given their distances `dist` (`INFINITY` when none is ahead), and how many
     /// of them lie behind ([`Cfsm::is_behind`], the pressure's count).
+    ///
+    /// The spacing's kind is a constant of the loop and each block a fixed [`LANES`] wide, so
+    /// that one block runs in vector lanes; every lane gets the operations of
+    /// `min_spacing_lanes_reference` (the tests' reference), and a minimum and a count of
+    /// ones do not depend on how the lanes are grouped: the same bits.
     #[inline(always)]
     #[must_use]
     pub(crate) fn min_spacing_lanes(
         &self,
-        (ex, ey): (f32, f32),
+        e: (f32, f32),
         nb: &Neighbours,
         dist: &[f32],
     ) -> (f32, f32) {
-        let contact = self.spacing == Spacing::Contact;
-        let mut best = [f32::INFINITY; LANES];
-        let mut behind = [0.0f32; LANES];
-        let mut left = nb.count as f32;
-        let blocks = nb.rx.chunks_exact(LANES).zip(nb.ry.chunks_exact(LANES));
-        let blocks = blocks.zip(dist.chunks_exact(LANES).zip(nb.reach.chunks_exact(LANES)));
-        for ((rx, ry), (dist, reach)) in blocks {
-            for l in 0..LANES {
-                let (x, y) = (rx[l], ry[l]);
-                let along = ex * x + ey * y;
-                let side = (-ey * x + ex * y).abs();
-                let real = (l as f32) < left;
-                let ahead = real & ((x != 0.0) | (y != 0.0)) & (along >= 0.0) & (side <= reach[l]);
-                let s = if contact {
-                    along - (reach[l] * reach[l] - side * side).max(0.0).sqrt()
-                } else {
-                    dist[l] - reach[l]
-                };
-                // `f32::min` for a non-NaN `best`, in a form that stays in lanes.
-                best[l] = if ahead & (s < best[l]) { s } else { best[l] };
-                behind[l] += if real & (along < 0.0) { 1.0 } else { 0.0 };
-            }
-            left -= LANES as f32;
+        if self.spacing == Spacing::Contact {
+            min_spacing_blocks::<true>(e, nb, dist)
+        } else {
+            min_spacing_blocks::<false>(e, nb, dist)
         }
-        let spacing = best
-            .into_iter()
-            .fold(f32::INFINITY, |m, v| if v < m { v } else { m });
-        (spacing, behind.into_iter().sum())
     }
+}
+
+/// [`Cfsm::min_spacing_lanes`] for one kind of spacing (`CONTACT`: [`Spacing::Contact`]).
+#[inline(always)]
+fn min_spacing_blocks<const CONTACT: bool>(
+    (ex, ey): (f32, f32),
+    nb: &Neighbours,
+    dist: &[f32],
+) -> (f32, f32) {
+    let mut best = [f32::INFINITY; LANES];
+    let mut behind = [0.0f32; LANES];
+    let mut left = nb.count as f32;
+    let blocks = nb.rx.chunks_exact(LANES).zip(nb.ry.chunks_exact(LANES));
+    let blocks = blocks.zip(dist.chunks_exact(LANES).zip(nb.reach.chunks_exact(LANES)));
+    for ((rx, ry), (dist, reach)) in blocks {
+        let block = |x: &[f32]| -> [f32; LANES] { x.try_into().expect("a block") };
+        let (rx, ry, dist, reach) = (block(rx), block(ry), block(dist), block(reach));
+        for l in 0..LANES {
+            let (x, y) = (rx[l], ry[l]);
+            let along = ex * x + ey * y;
+            let side = (-ey * x + ex * y).abs();
+            let real = (l as f32) < left;
+            let ahead = real & ((x != 0.0) | (y != 0.0)) & (along >= 0.0) & (side <= reach[l]);
+            let s = if CONTACT {
+                along - (reach[l] * reach[l] - side * side).max(0.0).sqrt()
+            } else {
+                dist[l] - reach[l]
+            };
+            best[l] = if ahead & (s < best[l]) { s } else { best[l] };
+            behind[l] += if real & (along < 0.0) { 1.0 } else { 0.0 };
+        }
+        left -= LANES as f32;
+    }
+    let spacing = best
+        .into_iter()
+        .fold(f32::INFINITY, |m, v| if v < m { v } else { m });
+    (spacing, behind.into_iter().sum())
 }
 
 impl SocialForce {
@@ -223,6 +264,109 @@ mod tests {
             ry,
             reach,
             side,
+        }
+    }
+
+    /// [`Cfsm::repulsion_lanes`] as one loop over the whole slices (as it was before its blocks):
+    /// the reference they are held to, bit for bit.
+    fn repulsion_lanes_reference(
+        cf: &Cfsm,
+        nb: &Neighbours,
+        fx: &mut [f32],
+        fy: &mut [f32],
+        dist: &mut [f32],
+        (ex, ey): (f32, f32),
+    ) {
+        let (s, range) = (cf.strength_neighbour, cf.range_neighbour);
+        let lambda = cf.anisotropy;
+        let ins = nb.rx.iter().zip(nb.ry).zip(nb.reach.iter().zip(nb.side));
+        let outs = dist.iter_mut().zip(fx.iter_mut().zip(fy.iter_mut()));
+        for (k, (((&rx, &ry), (&reach, &side)), (dist, (fx, fy)))) in ins.zip(outs).enumerate() {
+            let (d, nx, ny) = distance_and_away(rx, ry, side);
+            let w = lambda + (1.0 - lambda) * (0.5 - 0.5 * (ex * nx + ey * ny));
+            let m = s * exp_poly((reach - d) / range) * w;
+            let valid = k < nb.count;
+            *dist = d;
+            *fx = if valid { nx * m } else { 0.0 };
+            *fy = if valid { ny * m } else { 0.0 };
+        }
+    }
+
+    /// [`Cfsm::min_spacing_lanes`] with the spacing's kind read per lane (as it was before its
+    /// blocks): the reference they are held to, bit for bit.
+    #[must_use]
+    fn min_spacing_lanes_reference(
+        cf: &Cfsm,
+        (ex, ey): (f32, f32),
+        nb: &Neighbours,
+        dist: &[f32],
+    ) -> (f32, f32) {
+        let contact = cf.spacing == Spacing::Contact;
+        let mut best = [f32::INFINITY; LANES];
+        let mut behind = [0.0f32; LANES];
+        let mut left = nb.count as f32;
+        let blocks = nb.rx.chunks_exact(LANES).zip(nb.ry.chunks_exact(LANES));
+        let blocks = blocks.zip(dist.chunks_exact(LANES).zip(nb.reach.chunks_exact(LANES)));
+        for ((rx, ry), (dist, reach)) in blocks {
+            for l in 0..LANES {
+                let (x, y) = (rx[l], ry[l]);
+                let along = ex * x + ey * y;
+                let side = (-ey * x + ex * y).abs();
+                let real = (l as f32) < left;
+                let ahead = real & ((x != 0.0) | (y != 0.0)) & (along >= 0.0) & (side <= reach[l]);
+                let s = if contact {
+                    along - (reach[l] * reach[l] - side * side).max(0.0).sqrt()
+                } else {
+                    dist[l] - reach[l]
+                };
+                // `f32::min` for a non-NaN `best`, in a form that stays in lanes.
+                best[l] = if ahead & (s < best[l]) { s } else { best[l] };
+                behind[l] += if real & (along < 0.0) { 1.0 } else { 0.0 };
+            }
+            left -= LANES as f32;
+        }
+        let spacing = best
+            .into_iter()
+            .fold(f32::INFINITY, |m, v| if v < m { v } else { m });
+        (spacing, behind.into_iter().sum())
+    }
+
+    #[test]
+    fn speed_model_blocks_give_the_bits_of_one_loop_over_the_slices() {
+        let mut rng = AgentRng::new(12, 0, 0, 0);
+        for (seed, count) in [(1, 0), (2, 1), (3, 4), (4, 8), (5, 13), (6, 40)] {
+            let [rx, ry, reach, side, _, _] = neighbours(seed, count);
+            let nb = as_neighbours(count, &rx, &ry, &reach, &side);
+            let n = rx.len();
+            let mut got = [vec![f32::NAN; n], vec![f32::NAN; n], vec![f32::NAN; n]];
+            let mut want = [vec![0.0; n], vec![0.0; n], vec![0.0; n]];
+            for (anisotropy, spacing) in [(1.0, Spacing::Centre), (0.8, Spacing::Contact)] {
+                let cf = Cfsm {
+                    anisotropy,
+                    spacing,
+                    ..Cfsm::default()
+                };
+                for e in [Vec2::ZERO, Vec2::X, Vec2::new(-0.6, 0.8)] {
+                    let [fx, fy, dist] = &mut got;
+                    cf.repulsion_lanes(&nb, fx, fy, dist, (e.x, e.y));
+                    let [wx, wy, wd] = &mut want;
+                    repulsion_lanes_reference(&cf, &nb, wx, wy, wd, (e.x, e.y));
+                    for k in 0..n {
+                        for (g, w) in got.iter().zip(&want) {
+                            assert_eq!(g[k].to_bits(), w[k].to_bits(), "{k} of {count}");
+                        }
+                    }
+                }
+                for _ in 0..20 {
+                    let e = Vec2::from_angle(rng.unit() * std::f32::consts::TAU);
+                    let (s, behind) = cf.min_spacing_lanes((e.x, e.y), &nb, &got[2]);
+                    let (ws, wb) = min_spacing_lanes_reference(&cf, (e.x, e.y), &nb, &got[2]);
+                    assert_eq!(
+                        (s.to_bits(), behind.to_bits()),
+                        (ws.to_bits(), wb.to_bits())
+                    );
+                }
+            }
         }
     }
 

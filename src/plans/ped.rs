@@ -202,8 +202,11 @@ fn gather(
         Some(grid) => {
             // The runs first, so the scan below is compiled here, with this function's lanes.
             b.runs.clear();
-            grid.for_each_run(pos, r, |run| b.runs.push(run));
-            let candidates: usize = b.runs.iter().map(ExactSizeIterator::len).sum();
+            let mut candidates = 0;
+            grid.for_each_run(pos, r, |run| {
+                candidates += run.len();
+                b.runs.push(run);
+            });
             at_least(&mut b.rx, candidates + LANES);
             at_least(&mut b.ry, candidates + LANES);
             at_least(&mut b.js, candidates + LANES);
@@ -212,18 +215,13 @@ fn gather(
             let (sx, sy) = grid.sorted_padded();
             let r_sq = r * r;
             for run in &b.runs {
-                let len = run.len();
                 // The grid's positions are padded with a block of zeros, so every block of a
                 // run is read whole, in lanes, its tail masked off, and the lanes within the
                 // cut-off packed without a branch per lane (`plans::pack`).
-                let end = run.start + len.div_ceil(LANES) * LANES;
-                let blocks = sx[run.start..end]
-                    .chunks_exact(LANES)
-                    .zip(sy[run.start..end].chunks_exact(LANES));
-                for (c, (xs, ys)) in blocks.enumerate() {
-                    let xs: &[f32; LANES] = xs.try_into().expect("a block");
-                    let ys: &[f32; LANES] = ys.try_into().expect("a block");
-                    let at = run.start + c * LANES;
+                let mut at = run.start;
+                while at < run.end {
+                    let xs: &[f32; LANES] = sx[at..at + LANES].try_into().expect("a block");
+                    let ys: &[f32; LANES] = sy[at..at + LANES].try_into().expect("a block");
                     let mut out = Packed {
                         rx,
                         ry,
@@ -232,8 +230,9 @@ fn gather(
                         r_sq,
                         me: i as u32,
                     };
-                    let left = len - c * LANES;
+                    let left = run.end - at;
                     count = pack_block(xs, ys, order, at, left, &mut out, count, avx2);
+                    at += LANES;
                 }
             }
         }
@@ -252,11 +251,12 @@ fn gather(
             }
         }
     }
-    let padded = count.div_ceil(LANES) * LANES;
-    for k in count..padded {
-        (b.rx[k], b.ry[k], b.js[k]) = (0.0, 0.0, i as u32);
-    }
-    (count, padded)
+    // A whole block of padding from `count` on (the buffers have room for it): what lies past
+    // the padded length is never read.
+    b.rx[count..count + LANES].fill(0.0);
+    b.ry[count..count + LANES].fill(0.0);
+    b.js[count..count + LANES].fill(i as u32);
+    (count, count.div_ceil(LANES) * LANES)
 }
 
 /// The agents' radii as the pair inputs need them: the largest, and the one every agent has
@@ -281,16 +281,31 @@ impl Radii {
     }
 }
 
-/// The smallest squared distance of the first `count` gathered neighbours (infinity for none).
+/// The smallest squared distance of the first `count` of the `n` gathered neighbours (a whole
+/// number of blocks; infinity for none), block by block in lanes. A minimum does not depend on
+/// the order it is taken in: the bits of one neighbour after the other (the tests'
+/// `nearest_sq_reference`).
 #[inline(always)]
-fn nearest_sq(b: &Buffers, count: usize) -> f32 {
-    let mut nearest = f32::INFINITY;
-    for (&x, &y) in b.rx[..count].iter().zip(&b.ry[..count]) {
-        let d = x * x + y * y;
-        // `f32::min` for finite offsets, in a form that stays in lanes.
-        nearest = if d < nearest { d } else { nearest };
+fn nearest_sq(b: &Buffers, count: usize, n: usize) -> f32 {
+    let mut best = [f32::INFINITY; LANES];
+    // The count as a float, as the speed model's spacing counts its lanes (exact below 2^24).
+    let mut left = count as f32;
+    let blocks = b.rx[..n]
+        .chunks_exact(LANES)
+        .zip(b.ry[..n].chunks_exact(LANES));
+    for (xs, ys) in blocks {
+        let xs: &[f32; LANES] = xs.try_into().expect("a block");
+        let ys: &[f32; LANES] = ys.try_into().expect("a block");
+        for l in 0..LANES {
+            let d = xs[l] * xs[l] + ys[l] * ys[l];
+            let real = (l as f32) < left;
+            // `f32::min` for finite offsets, in a form that stays in lanes.
+            best[l] = if real & (d < best[l]) { d } else { best[l] };
+        }
+        left -= LANES as f32;
     }
-    nearest
+    best.into_iter()
+        .fold(f32::INFINITY, |m, d| if d < m { d } else { m })
 }
 
 /// Fills the pair inputs of the first `n` gathered neighbours (`count` of them real, the rest
@@ -323,7 +338,7 @@ fn fill(
             }
         }
     }
-    let nearest = nearest_sq(b, count);
+    let nearest = nearest_sq(b, count, n);
     // `d > 1e-6` in the lanes holds wherever `d^2` exceeds 1e-10.
     if nearest <= 1e-10 {
         for (&j, side) in b.js[..n].iter().zip(&mut b.side[..n]) {
@@ -396,22 +411,30 @@ fn social_force_sum(
 /// agent with the preferred direction `e0`; keeps their distances in `b.dist` for the spacing.
 #[apply(float_kernel!)]
 fn speed_model_sum(cf: &Cfsm, b: &mut Buffers, count: usize, n: usize, e0: Vec2) -> Vec2 {
-    let (mut fx, mut fy) = (std::mem::take(&mut b.fx), std::mem::take(&mut b.fy));
-    let mut dist = std::mem::take(&mut b.dist);
-    at_least(&mut fx, n);
-    at_least(&mut fy, n);
-    at_least(&mut dist, n);
+    at_least(&mut b.fx, n);
+    at_least(&mut b.fy, n);
+    at_least(&mut b.dist, n);
+    // The outputs borrowed beside the inputs, field by field.
+    let Buffers {
+        rx,
+        ry,
+        reach,
+        side,
+        fx,
+        fy,
+        dist,
+        ..
+    } = b;
+    let nb = Neighbours {
+        count,
+        rx: &rx[..n],
+        ry: &ry[..n],
+        reach: &reach[..n],
+        side: &side[..n],
+    };
     let (sx, sy) = (&mut fx[..n], &mut fy[..n]);
-    cf.repulsion_lanes(
-        &neighbours(b, count, n),
-        sx,
-        sy,
-        &mut dist[..n],
-        (e0.x, e0.y),
-    );
-    let sum = Vec2::new(lane_sum(sx), lane_sum(sy));
-    (b.fx, b.fy, b.dist) = (fx, fy, dist);
-    sum
+    cf.repulsion_lanes(&nb, sx, sy, &mut dist[..n], (e0.x, e0.y));
+    Vec2::new(lane_sum(sx), lane_sum(sy))
 }
 
 /// The smallest spacing along `e` to the `count` filled neighbours ([`Cfsm::spacing_to`]) and
@@ -597,6 +620,58 @@ mod tests {
         a
     }
 
+    /// [`nearest_sq`] one neighbour after the other (as it was before its lanes): the reference
+    /// its lanes are held to.
+    fn nearest_sq_reference(b: &Buffers, count: usize) -> f32 {
+        let mut nearest = f32::INFINITY;
+        for (&x, &y) in b.rx[..count].iter().zip(&b.ry[..count]) {
+            let d = x * x + y * y;
+            nearest = if d < nearest { d } else { nearest };
+        }
+        nearest
+    }
+
+    #[test]
+    fn the_nearest_neighbour_in_lanes_is_the_nearest_one_by_one() {
+        for (seed, uniform) in [(5, true), (6, false)] {
+            let a = crowd(seed, uniform);
+            let mut b = Buffers::default();
+            for i in 0..a.len() {
+                let (count, n) = gather(&a, i, 0.6 + 0.1 * (i % 20) as f32, &mut b);
+                let got = nearest_sq(&b, count, n);
+                assert_eq!(
+                    got.to_bits(),
+                    nearest_sq_reference(&b, count).to_bits(),
+                    "agent {i}"
+                );
+            }
+        }
+    }
+
+    /// Agent `i`'s neighbours within `r` in index order, padded with `i` as `gather` leaves
+    /// them, with leftovers of an earlier agent past the padding.
+    fn gather(a: &Agents, i: usize, r: f32, b: &mut Buffers) -> (usize, usize) {
+        b.rx.clear();
+        b.ry.clear();
+        b.js.clear();
+        for j in (0..a.len()).filter(|&j| j != i) {
+            let rel = a.position(j) - a.position(i);
+            if rel.length() <= r {
+                b.rx.push(rel.x);
+                b.ry.push(rel.y);
+                b.js.push(j as u32);
+            }
+        }
+        let count = b.js.len();
+        let n = count.div_ceil(LANES) * LANES;
+        b.rx.resize(n, 0.0);
+        b.ry.resize(n, 0.0);
+        b.js.resize(n, i as u32);
+        b.rx.extend([-7.0; LANES]);
+        b.ry.extend([0.0; LANES]);
+        (count, n)
+    }
+
     #[test]
     fn pair_inputs_read_only_where_they_matter_give_the_same_bits() {
         let (sf, cf) = (SocialForce::default(), Cfsm::default());
@@ -609,19 +684,7 @@ mod tests {
                 // The neighbours within the cut-off in index order, padded with `i`, as
                 // `gather` leaves them; the velocities and directions left from an earlier agent.
                 let (mut lazy, mut full) = (Buffers::default(), Buffers::default());
-                for j in (0..a.len()).filter(|&j| j != i) {
-                    let rel = a.position(j) - a.position(i);
-                    if rel.length() <= sf.cutoff {
-                        lazy.rx.push(rel.x);
-                        lazy.ry.push(rel.y);
-                        lazy.js.push(j as u32);
-                    }
-                }
-                let count = lazy.js.len();
-                let n = count.div_ceil(LANES) * LANES;
-                lazy.rx.resize(n, 0.0);
-                lazy.ry.resize(n, 0.0);
-                lazy.js.resize(n, i as u32);
+                let (count, n) = gather(&a, i, sf.cutoff, &mut lazy);
                 for v in [&mut lazy.vx, &mut lazy.vy, &mut lazy.side] {
                     v.extend((0..n).map(|_| 5.0 * rng.signed()));
                 }

@@ -330,6 +330,31 @@ impl GridIndex {
             return;
         }
         let rg = gather_radius(r, self.scale);
+        let cx = self.cells_x as usize;
+        if !self.bounds.is_torus() {
+            // One span per axis, as `spans` finds it off a torus: the same runs without the
+            // span loops.
+            let col = |x: f32| axis_cell(x, self.origin.x, self.inv_cell.x, self.cells_x) as usize;
+            let row = |y: f32| axis_cell(y, self.origin.y, self.inv_cell.y, self.cells_y) as usize;
+            let (c0, c1) = (col(p.x - rg), col(p.x + rg) + 1);
+            for row in row(p.y - rg)..row(p.y + rg) + 1 {
+                let (a, b) = (
+                    self.sort.start[row * cx + c0],
+                    self.sort.start[row * cx + c1],
+                );
+                if a < b {
+                    visit(a as usize..b as usize);
+                }
+            }
+            return;
+        }
+        self.runs_by_spans(p, rg, visit);
+    }
+
+    /// [`GridIndex::for_each_run`] for the gather radius `rg`, through the cell intervals of
+    /// each axis ([`GridIndex::spans`]): the path of a torus, and the reference of the others'.
+    fn runs_by_spans(&self, p: Vec2, rg: f32, mut visit: impl FnMut(Range<usize>)) {
+        let cx = self.cells_x as usize;
         let side = self.bounds.size().filter(|_| self.bounds.is_torus());
         let cols = self.spans(
             p.x,
@@ -347,7 +372,6 @@ impl GridIndex {
             self.cells_y,
             side.map(|s| s.y),
         );
-        let cx = self.cells_x as usize;
         for &(r0, r1) in rows.as_slice() {
             for row in r0 as usize..=r1 as usize {
                 for &(c0, c1) in cols.as_slice() {
@@ -889,6 +913,31 @@ mod tests {
         g.rebuild_with(&xs, &ys, Bounds::Open, 1.0, 4);
         check_layout(&g, &xs, &ys);
         assert_eq!(g.order().to_vec(), (0..50_000).collect::<Vec<u32>>());
+    }
+
+    #[test]
+    fn runs_off_a_torus_are_the_runs_by_the_axes_spans() {
+        let (xs, ys) = points(3_000, 50.0, 7);
+        let mut g = GridIndex::default();
+        for bounds in [Bounds::Open, Bounds::bounded(50.0, 50.0).unwrap()] {
+            g.rebuild(&xs, &ys, bounds, 0.8);
+            assert!(!g.bounds().is_torus(), "the single-span path runs");
+            let (mut fast, mut spans) = (Vec::new(), Vec::new());
+            let mut probes: Vec<Vec2> = (0..400).map(|k| Vec2::new(xs[k], ys[k])).collect();
+            probes.extend([
+                Vec2::new(-3.0, 25.0),
+                Vec2::new(49.9, 60.0),
+                Vec2::splat(0.0),
+            ]);
+            for (k, &p) in probes.iter().enumerate() {
+                let r = [0.0, 0.3, 1.1, 2.0, 7.5, 80.0][k % 6];
+                fast.clear();
+                spans.clear();
+                g.for_each_run(p, r, |run| fast.push(run));
+                g.runs_by_spans(p, gather_radius(r, g.scale), |run| spans.push(run));
+                assert_eq!(fast, spans, "{p} within {r}");
+            }
+        }
     }
 
     #[test]

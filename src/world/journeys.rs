@@ -38,7 +38,8 @@ impl World {
     /// Adds a journey and returns its id.
     ///
     /// # Errors
-    /// As [`Journey::validate`]: an unknown stage, a transition that leaves the journey, a
+    /// As [`Journey::validate`]: an unknown stage ([`Error::UnknownJourneyStage`], naming the
+    /// journey and the stage), a transition that leaves the journey, a
     /// stage with no transition that does not end it, a cycle with no way out; and, where the
     /// world has a walkable area, [`Error::Invalid`] for a transition to a stage that no path of
     /// free cells of its routing raster joins to the stage it leaves.
