@@ -8,6 +8,11 @@
 //!
 //! [`antigravity_seek`] is the anti-gravity seek:
 //! `normalize(normalize(target - p) + total_force)`.
+//!
+//! Powers of the distance (`distance_power`): whole exponents 0 to 4 are exact products of the
+//! distance and its square (the square as the offset's squared length), any other exponent is
+//! `powf`; agent repulsion (`plans::neighbours` and the cell batch's kernel) uses the same
+//! function, so the lane forms give its bits.
 
 use glam::Vec2;
 use serde::{Deserialize, Serialize};
@@ -115,7 +120,44 @@ impl GravityPoint {
             return Vec2::ZERO;
         }
         let dist = d_sq.sqrt();
-        d / dist * (self.strength / dist.powf(self.exponent))
+        d / dist * (self.strength / distance_power(dist, d_sq, self.exponent))
+    }
+}
+
+/// `exponent` as a whole number from 0 to 4, the exponents [`distance_power`] takes as exact
+/// products, or `None`.
+#[inline]
+#[must_use]
+pub(crate) fn whole_exponent(exponent: f32) -> Option<u8> {
+    (0..=4u8).find(|&e| f32::from(e) == exponent)
+}
+
+/// `dist^E` for a whole exponent `E` from 0 to 4, from the distance `dist` and its square
+/// `d_sq` (the offset's squared length): 1, `dist`, `d_sq`, `d_sq * dist`, `d_sq * d_sq`.
+#[inline(always)]
+#[must_use]
+pub(crate) fn whole_power<const E: u8>(dist: f32, d_sq: f32) -> f32 {
+    match E {
+        0 => 1.0,
+        1 => dist,
+        2 => d_sq,
+        3 => d_sq * dist,
+        _ => d_sq * d_sq,
+    }
+}
+
+/// `dist^exponent` for the distance `dist` whose square is `d_sq`: [`whole_power`] for whole
+/// exponents from 0 to 4, `powf` otherwise.
+#[inline]
+#[must_use]
+pub(crate) fn distance_power(dist: f32, d_sq: f32, exponent: f32) -> f32 {
+    match whole_exponent(exponent) {
+        Some(0) => whole_power::<0>(dist, d_sq),
+        Some(1) => whole_power::<1>(dist, d_sq),
+        Some(2) => whole_power::<2>(dist, d_sq),
+        Some(3) => whole_power::<3>(dist, d_sq),
+        Some(_) => whole_power::<4>(dist, d_sq),
+        None => dist.powf(exponent),
     }
 }
 

@@ -1,6 +1,8 @@
 //! Obstacles are never entered or crossed, document 000's anti-gravity seek reaches its target
-//! around repelling points, and nearest-of-group targets find the nearest agent.
+//! around repelling points, repulsion summed by the cell batch agrees with each agent's own
+//! neighbour query, and nearest-of-group targets find the nearest agent.
 
+use throng::IndexKind;
 use throng::gravity::GravityPoint;
 use throng::obstacles::{Circle, Wall};
 use throng::prelude::*;
@@ -158,6 +160,87 @@ fn antigravity_seek_reaches_the_target_without_entering_exclusion_radii() {
         closest > 0.5 * exclusion,
         "came within {closest} of a point (exclusion radius {exclusion})"
     );
+}
+
+#[test]
+fn repulsion_from_the_cell_batch_equals_the_scalar_traversal_to_rounding() {
+    // Anti-gravity seek beside repulsion of every whole exponent the batch's kernel serves, and
+    // of one it leaves to each agent's own query: on the grid the cell batch sums repulsion (in
+    // the grid's order), on the k-d tree each agent queries its neighbours (in ascending index
+    // order, the scalar reference). One step from the same state agrees to rounding.
+    for bounds in [
+        Bounds::bounded(60.0, 40.0).unwrap(),
+        Bounds::torus(60.0, 40.0).unwrap(),
+    ] {
+        for (exponent, batched) in [
+            (0.0, true),
+            (1.0, true),
+            (2.0, true),
+            (3.0, true),
+            (4.0, true),
+            (2.5, false),
+        ] {
+            let run = |index: IndexKind| {
+                let steering = SteeringProfile::single(Behaviour::anti_gravity_seek(
+                    Target::Point(Vec2::new(55.0, 20.0)),
+                ))
+                .with(
+                    Behaviour::Repulsion {
+                        strength: 4.0,
+                        exponent,
+                        radius: 3.0,
+                    },
+                    1.0,
+                );
+                let g = Profile {
+                    max_speed: 6.0,
+                    max_acceleration: 1e6,
+                    ..Profile::dynamic(steering)
+                };
+                let mut b = World::builder()
+                    .bounds(bounds)
+                    .seed(5)
+                    .group(g)
+                    .gravity_point(GravityPoint::fixed(Vec2::new(30.0, 20.0), 60.0, 2.0, 15.0));
+                // A jittered lattice: neighbours at 0.7 to 4 units, a few dozen within reach.
+                let mut rng = throng::rng::AgentRng::new(5, 0, 0, 3);
+                for k in 0..900 {
+                    let (i, j) = ((k % 40) as f32, (k / 40) as f32);
+                    let p = Vec2::new(
+                        1.0 + 1.5 * i + 0.4 * rng.signed(),
+                        2.0 + 1.5 * j + 0.4 * rng.signed(),
+                    );
+                    b = b.agent(AgentInit {
+                        velocity: Vec2::new(rng.signed(), rng.signed()),
+                        ..AgentInit::at(p, 0)
+                    });
+                }
+                let mut w = b.build().unwrap();
+                w.set_index(index);
+                w.step(DT).unwrap();
+                let a = w.agents();
+                let v: Vec<(u32, Vec2)> =
+                    (0..a.len()).map(|i| (a.id(i).0, a.velocity(i))).collect();
+                (v, w.last_summed()[0])
+            };
+            let (mut grid, summed) = run(IndexKind::Grid);
+            let (mut tree, queried) = run(IndexKind::KdTree);
+            assert_eq!(
+                summed, batched,
+                "exponent {exponent}: the batch summed repulsion"
+            );
+            assert!(!queried, "no batch without the grid");
+            grid.sort_by_key(|e| e.0);
+            tree.sort_by_key(|e| e.0);
+            for ((id, g), (_, t)) in grid.iter().zip(&tree) {
+                // The change of velocity is the force times dt: rounding of the summed terms.
+                assert!(
+                    (*g - *t).length() <= 1e-5 * g.length().max(1.0),
+                    "{bounds:?}, exponent {exponent}, agent {id}: {g} vs {t}"
+                );
+            }
+        }
+    }
 }
 
 #[test]
