@@ -440,7 +440,7 @@ fn containment(v: &SteerView, me: &Me, margin: f32, lookahead: f32) -> Steering 
 }
 
 fn gravity_force(v: &SteerView, me: &Me) -> Vec2 {
-    NEIGHBOURS.with_borrow_mut(|buf| v.gravity.force_at(me.position, buf))
+    NEIGHBOURS.with_borrow_mut(|buf| v.gravity.force_near(me.position, buf))
 }
 
 fn anti_gravity(v: &SteerView, me: &Me) -> Steering {
