@@ -114,7 +114,10 @@ pub(crate) fn is_summed_group(view: &SteerView, g: usize) -> bool {
 fn summed(plan: &super::plan::Plan) -> bool {
     matches!(
         plan.kind,
-        PlanKind::General | PlanKind::FollowLeader { .. } | PlanKind::FollowField { .. }
+        PlanKind::General
+            | PlanKind::FollowLeader { .. }
+            | PlanKind::FollowField { .. }
+            | PlanKind::AntiGravitySeek { .. }
     ) && plan.spec.active
         && plan.spec.summed_ok()
 }
