@@ -374,3 +374,35 @@ fn nearest_targets_from_cell_candidates_give_the_same_bits_on_any_thread_count()
         }
     }
 }
+
+#[test]
+fn repulsion_from_the_cell_batch_gives_the_same_bits_on_any_thread_count() {
+    // Antigravity's seekers (the anti-gravity seek plan) repel each other through the cell
+    // batch's repulsion kernel, in the grid's fixed order: one copy of the scene (one group) and three side by side (three
+    // groups, cells of one group each), on 1, 2 and 4 threads and sequentially.
+    for agents in [1_000, 3_000] {
+        let s = throng::scenario::builtin("antigravity")
+            .unwrap()
+            .with_agents(agents)
+            .unwrap();
+        let mut w = s.build().unwrap();
+        w.step(s.dt).unwrap();
+        assert!(
+            w.last_plans().iter().all(|&p| p == "anti_gravity_seek"),
+            "the anti-gravity seek plan ran: {:?}",
+            w.last_plans()
+        );
+        assert!(
+            !w.last_summed().is_empty() && w.last_summed().iter().all(|&b| b),
+            "the batch summed every group's repulsion: {:?}",
+            w.last_summed()
+        );
+        let one = scene_bits("antigravity", agents, 1, 30);
+        for threads in [0, 2, 4] {
+            assert!(
+                one == scene_bits("antigravity", agents, threads, 30),
+                "antigravity at {agents} on {threads} threads (0: sequential)"
+            );
+        }
+    }
+}

@@ -1,10 +1,15 @@
 //! Obstacles are never entered or crossed, document 000's anti-gravity seek reaches its target
-//! around repelling points, and nearest-of-group targets find the nearest agent.
+//! around repelling points, repulsion summed by the cell batch agrees with each agent's own
+//! neighbour query, and nearest-of-group targets find the nearest agent.
 
+use throng::IndexKind;
 use throng::gravity::GravityPoint;
 use throng::obstacles::{Circle, Wall};
 use throng::prelude::*;
 use throng::scenario;
+
+#[path = "support/bits.rs"]
+mod bits;
 
 const DT: f32 = 1.0 / 30.0;
 
@@ -158,6 +163,157 @@ fn antigravity_seek_reaches_the_target_without_entering_exclusion_radii() {
         closest > 0.5 * exclusion,
         "came within {closest} of a point (exclusion radius {exclusion})"
     );
+}
+
+#[test]
+fn repulsion_from_the_cell_batch_equals_the_scalar_traversal_to_rounding() {
+    // Anti-gravity seek beside repulsion of every whole exponent the batch's kernel serves, and
+    // of one it leaves to each agent's own query: on the grid the cell batch sums repulsion (in
+    // the grid's order), on the k-d tree each agent queries its neighbours (in ascending index
+    // order, the scalar reference). One step from the same state agrees to rounding.
+    for bounds in [
+        Bounds::bounded(60.0, 40.0).unwrap(),
+        Bounds::torus(60.0, 40.0).unwrap(),
+    ] {
+        for (exponent, batched) in [
+            (0.0, true),
+            (1.0, true),
+            (2.0, true),
+            (3.0, true),
+            (4.0, true),
+            (2.5, false),
+        ] {
+            let run = |index: IndexKind| {
+                let steering = SteeringProfile::single(Behaviour::anti_gravity_seek(
+                    Target::Point(Vec2::new(55.0, 20.0)),
+                ))
+                .with(
+                    Behaviour::Repulsion {
+                        strength: 4.0,
+                        exponent,
+                        radius: 3.0,
+                    },
+                    1.0,
+                );
+                let g = Profile {
+                    max_speed: 6.0,
+                    max_acceleration: 1e6,
+                    ..Profile::dynamic(steering)
+                };
+                let mut b = World::builder()
+                    .bounds(bounds)
+                    .seed(5)
+                    .group(g)
+                    .gravity_point(GravityPoint::fixed(Vec2::new(30.0, 20.0), 60.0, 2.0, 15.0));
+                // A jittered lattice: neighbours at 0.7 to 4 units, a few dozen within reach.
+                let mut rng = throng::rng::AgentRng::new(5, 0, 0, 3);
+                for k in 0..900 {
+                    let (i, j) = ((k % 40) as f32, (k / 40) as f32);
+                    let p = Vec2::new(
+                        1.0 + 1.5 * i + 0.4 * rng.signed(),
+                        2.0 + 1.5 * j + 0.4 * rng.signed(),
+                    );
+                    b = b.agent(AgentInit {
+                        velocity: Vec2::new(rng.signed(), rng.signed()),
+                        ..AgentInit::at(p, 0)
+                    });
+                }
+                let mut w = b.build().unwrap();
+                w.set_index(index);
+                w.step(DT).unwrap();
+                let a = w.agents();
+                let v: Vec<(u32, Vec2)> =
+                    (0..a.len()).map(|i| (a.id(i).0, a.velocity(i))).collect();
+                (v, w.last_summed()[0])
+            };
+            let (mut grid, summed) = run(IndexKind::Grid);
+            let (mut tree, queried) = run(IndexKind::KdTree);
+            assert_eq!(
+                summed, batched,
+                "exponent {exponent}: the batch summed repulsion"
+            );
+            assert!(!queried, "no batch without the grid");
+            grid.sort_by_key(|e| e.0);
+            tree.sort_by_key(|e| e.0);
+            for ((id, g), (_, t)) in grid.iter().zip(&tree) {
+                // The change of velocity is the force times dt: rounding of the summed terms.
+                assert!(
+                    (*g - *t).length() <= 1e-5 * g.length().max(1.0),
+                    "{bounds:?}, exponent {exponent}, agent {id}: {g} vs {t}"
+                );
+            }
+        }
+    }
+}
+
+#[test]
+fn the_anti_gravity_seek_plan_equals_the_general_loop_bit_for_bit() {
+    // Anti-gravity seek alone, and followed by repulsion the cell batch sums (exponent 2) or
+    // each agent's own query sums (exponent 2.5): its own plan, and through the general loop
+    // (a seek of weight 0 beside it adds a zero to the sum), the same bits over 40 steps, walled
+    // and on a torus, dynamic and kinematic, among repelling and attracting points.
+    let target = Target::Point(Vec2::new(70.0, 30.0));
+    for bounds in [
+        Bounds::bounded(80.0, 60.0).unwrap(),
+        Bounds::torus(80.0, 60.0).unwrap(),
+    ] {
+        for model in [MovementModel::Dynamic, MovementModel::Kinematic] {
+            for repulsion in [None, Some(2.0), Some(2.5)] {
+                let run = |general: bool| {
+                    let mut steering =
+                        SteeringProfile::single(Behaviour::anti_gravity_seek(target));
+                    steering.behaviours[0].weight = 1.5;
+                    if let Some(exponent) = repulsion {
+                        let repel = Behaviour::Repulsion {
+                            strength: 4.0,
+                            exponent,
+                            radius: 3.0,
+                        };
+                        steering = steering.with(repel, 0.8);
+                    }
+                    if general {
+                        steering = steering.with(Behaviour::seek(Target::Point(Vec2::ZERO)), 0.0);
+                    }
+                    let g = Profile {
+                        model,
+                        max_speed: 6.0,
+                        max_acceleration: 9.0,
+                        ..Profile::dynamic(steering)
+                    };
+                    let mut b = World::builder().bounds(bounds).seed(4).group(g);
+                    for (k, strength) in [60.0_f32, -20.0, 40.0, 80.0].into_iter().enumerate() {
+                        let p = Vec2::new(20.0 + 12.0 * k as f32, 15.0 + 9.0 * k as f32);
+                        b = b.gravity_point(GravityPoint::fixed(p, strength, 2.0, 18.0));
+                    }
+                    let mut rng = throng::rng::AgentRng::new(4, 0, 0, 3);
+                    for _ in 0..300 {
+                        let p = Vec2::new(rng.unit() * 80.0, rng.unit() * 60.0);
+                        b = b.agent(AgentInit {
+                            velocity: Vec2::new(rng.signed(), rng.signed()) * 3.0,
+                            ..AgentInit::at(p, 0)
+                        });
+                    }
+                    let mut w = b.build().unwrap();
+                    for _ in 0..40 {
+                        w.step(DT).unwrap();
+                    }
+                    let ran = if general {
+                        "general"
+                    } else {
+                        "anti_gravity_seek"
+                    };
+                    assert_eq!(w.last_plans(), [ran], "the plan that ran");
+                    let summed = repulsion == Some(2.0);
+                    assert_eq!(w.last_summed(), [summed], "the batch summed repulsion");
+                    bits::by_id(&w)
+                };
+                assert!(
+                    run(false) == run(true),
+                    "{bounds:?} {model:?} repulsion {repulsion:?}"
+                );
+            }
+        }
+    }
 }
 
 #[test]

@@ -1,5 +1,5 @@
 //! One agent's steering by its group's plan, per agent: the flocking, flow-field, path,
-//! formation and wander plans without dispatch, and the general plan (every behaviour of the
+//! formation, wander and anti-gravity seek plans without dispatch, and the general plan (every behaviour of the
 //! profile evaluated by [`evaluate`] and combined). The batched paths (the cell batch, the lanes,
 //! leader following) fall back to it where their vector form does not serve an agent exactly,
 //! and are held to its bits by the tests.
@@ -129,6 +129,26 @@ pub(crate) fn steer_agent_with(
                 a.wander[i],
                 sums.count,
             )
+        }
+        PlanKind::AntiGravitySeek {
+            target,
+            weight,
+            repulsion,
+        } => {
+            // The general loop's sum without its dispatch (0 + s w, then the repulsion term, as
+            // there).
+            let agent = (a.position(i), velocity, a.max_speed[i]);
+            let s = eval::anti_gravity_seek_request(v, i, agent, &adapter, target);
+            let mut total = Steering::ZERO + s.scaled(weight);
+            let mut found = 0.0;
+            if let Some(w) = repulsion {
+                let sums = sums
+                    .copied()
+                    .unwrap_or_else(|| v.sums(i, velocity, a.orientation[i]));
+                total += Steering::linear(sums.repulsion).scaled(w);
+                found = sums.count;
+            }
+            (adapter.finish(total), a.wander[i], found)
         }
         PlanKind::General
         | PlanKind::Vicsek { .. }

@@ -440,7 +440,7 @@ fn containment(v: &SteerView, me: &Me, margin: f32, lookahead: f32) -> Steering 
 }
 
 fn gravity_force(v: &SteerView, me: &Me) -> Vec2 {
-    NEIGHBOURS.with_borrow_mut(|buf| v.gravity.force_at(me.position, buf))
+    NEIGHBOURS.with_borrow_mut(|buf| v.gravity.force_near(me.position, buf))
 }
 
 fn anti_gravity(v: &SteerView, me: &Me) -> Steering {
@@ -448,12 +448,25 @@ fn anti_gravity(v: &SteerView, me: &Me) -> Steering {
 }
 
 fn anti_gravity_seek(v: &SteerView, me: &Me, t: Target) -> Steering {
-    let Some(r) = target(v, me, t) else {
+    let agent = (me.position, me.velocity, me.max_speed);
+    anti_gravity_seek_request(v, me.i, agent, &me.adapter, t)
+}
+
+/// Agent `i`'s `anti_gravity_seek` request (its position, velocity and maximum speed given):
+/// the general plan's evaluation and the `AntiGravitySeek` plan's.
+pub(crate) fn anti_gravity_seek_request(
+    v: &SteerView,
+    i: usize,
+    (position, velocity, max_speed): (Vec2, Vec2, f32),
+    adapter: &Adapter,
+    t: Target,
+) -> Steering {
+    let Some(r) = v.resolve(i, t, position) else {
         return Steering::ZERO;
     };
-    let force = gravity_force(v, me);
-    let desired = gravity::antigravity_seek(me.position, r.position, force) * me.max_speed;
-    Steering::linear(me.adapter.toward(desired, me.velocity))
+    let force = NEIGHBOURS.with_borrow_mut(|buf| v.gravity.force_near(position, buf));
+    let desired = gravity::antigravity_seek(position, r.position, force) * max_speed;
+    Steering::linear(adapter.toward(desired, velocity))
 }
 
 /// Agent `i`'s `follow_path` request (its position, velocity and maximum speed given): the

@@ -4,7 +4,8 @@
 //!
 //! - the **scalar reference** asks the [`NeighbourIndex`] for the neighbours within the largest
 //!   radius (ascending index order, so every backend gives bit-identical sums) and accumulates
-//!   them one by one; it also serves repulsion and neighbour caps;
+//!   them one by one; it also serves neighbour caps, and repulsion where the cell batch does not
+//!   (`cells`: repulsion alone, with a whole exponent up to 4);
 //! - the **grid kernel** reads the neighbour cells of the uniform grid as contiguous runs of
 //!   the grid's cell-ordered positions (padded with a block of zeros) and cell-ordered copies of
 //!   the velocities and groups, eight lanes at a time, with runtime CPU-feature dispatch (clones
@@ -18,6 +19,7 @@ use rayon::prelude::*;
 use super::spec::{ALI, COH, FlatSpec, NeighbourSpec, QueryAgent, SEP};
 use crate::agents::{AgentOrder, Agents};
 use crate::bounds::Bounds;
+use crate::gravity::distance_power;
 use crate::simd::{apply, float_kernel};
 use crate::spatial::{GridIndex, Neighbour, NeighbourIndex, SORTED_PAD, SpatialIndex};
 use crate::steering::NeighbourSums;
@@ -273,7 +275,7 @@ pub(crate) fn sums_scalar(
             && d2 <= r_sq
             && d2 > 0.0
         {
-            s.repulsion -= d / dist * (strength / dist.powf(exponent));
+            s.repulsion -= d / dist * (strength / distance_power(dist, d2, exponent));
         }
         if let Some(r_sq) = spec.vicsek_r_sq
             && d2 <= r_sq

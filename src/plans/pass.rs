@@ -26,6 +26,9 @@ use super::view::SteerView;
 pub(crate) struct PassScratch {
     /// The cell-batched outputs, in the grid's order.
     pub cells: cells::CellOut,
+    /// Per group, whether the latest pass took the group's neighbour sums from the cell batch
+    /// for its per-agent or lane evaluation (a summed group).
+    pub summed: Vec<bool>,
 }
 
 /// Runs the steering pass over all agents (in parallel, or on this thread when `parallel` is
@@ -39,6 +42,10 @@ pub(crate) fn run(
 ) {
     let batched = cells::run(view, &mut scratch.cells, parallel);
     let all = batched && (0..view.plans.len()).all(|g| cells::is_batched_group(view, g));
+    scratch.summed.clear();
+    scratch
+        .summed
+        .extend((0..view.plans.len()).map(|g| batched && cells::is_summed_group(view, g)));
     // The batch's total of the neighbours found (when it served every agent).
     out.found = scratch.cells.found();
     // The batch, the seek and arrive lanes and the leader lanes turn nobody and leave wander

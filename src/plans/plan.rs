@@ -115,6 +115,17 @@ pub(crate) enum PlanKind {
         /// The separation term's weight, when the profile has one.
         separation: Option<f32>,
     },
+    /// `anti_gravity_seek`, alone or followed by `repulsion`, in a weighted sum: the behaviour
+    /// itself per agent, without the general loop's dispatch, the repulsion sums from the cell
+    /// batch when it serves them.
+    AntiGravitySeek {
+        /// The point sought.
+        target: Target,
+        /// The behaviour's weight.
+        weight: f32,
+        /// The repulsion term's weight, when the profile has one.
+        repulsion: Option<f32>,
+    },
     /// The general loop over the profile's behaviours and its combination.
     General,
 }
@@ -122,7 +133,8 @@ pub(crate) enum PlanKind {
 impl PlanKind {
     /// The plan's name, as [`World::last_plans`](crate::World::last_plans) reports it:
     /// `"flock"`, `"follow_field"`, `"seek"`, `"arrive"`, `"wander"`, `"follow_path"`,
-    /// `"keep_formation"`, `"vicsek"`, `"follow_leader"` or `"general"`.
+    /// `"keep_formation"`, `"vicsek"`, `"follow_leader"`, `"anti_gravity_seek"` or
+    /// `"general"`.
     pub(crate) fn name(&self) -> &'static str {
         match self {
             PlanKind::Flock { .. } => "flock",
@@ -134,6 +146,7 @@ impl PlanKind {
             PlanKind::KeepFormation { .. } => "keep_formation",
             PlanKind::Vicsek { .. } => "vicsek",
             PlanKind::FollowLeader { .. } => "follow_leader",
+            PlanKind::AntiGravitySeek { .. } => "anti_gravity_seek",
             PlanKind::General => "general",
         }
     }
@@ -271,6 +284,7 @@ impl Plan {
             None => lone_plan(profile, follow)
                 .or_else(|| with_separation(profile, &spec, follow))
                 .or_else(|| field_with_walls(profile, &spec, follow))
+                .or_else(|| anti_gravity_seek(profile))
                 .unwrap_or(PlanKind::General),
         };
         Ok(Plan {
@@ -330,6 +344,22 @@ fn lone_plan(profile: &Profile, follow: Option<(usize, FollowChannel)>) -> Optio
     })
 }
 
+/// A weighted-sum profile's lead behaviour, alone or followed by one behaviour that `second`
+/// accepts (with that one's weight), or `None`.
+fn lead_then(
+    profile: &Profile,
+    second: impl Fn(&Behaviour) -> bool,
+) -> Option<(&crate::steering::Weighted, Option<f32>)> {
+    if profile.steering.combine != Combine::WeightedSum {
+        return None;
+    }
+    match &profile.steering.behaviours[..] {
+        [lead] => Some((lead, None)),
+        [lead, next] if second(&next.behaviour) => Some((lead, Some(next.weight))),
+        _ => None,
+    }
+}
+
 /// The plan of a profile that is one behaviour with a plan of its own for this shape
 /// (`follow_leader` of one agent, `follow_field` or `choose_exit`), alone or followed by
 /// `separation` the cell batch serves, in a weighted sum, or `None` (`follow` as for
@@ -339,16 +369,7 @@ fn with_separation(
     spec: &NeighbourSpec,
     follow: Option<(usize, FollowChannel)>,
 ) -> Option<PlanKind> {
-    if profile.steering.combine != Combine::WeightedSum {
-        return None;
-    }
-    let (lead, separation) = match &profile.steering.behaviours[..] {
-        [lead] => (lead, None),
-        [lead, sep] if matches!(sep.behaviour, Behaviour::Separation { .. }) => {
-            (lead, Some(sep.weight))
-        }
-        _ => return None,
-    };
+    let (lead, separation) = lead_then(profile, |b| matches!(b, Behaviour::Separation { .. }))?;
     if separation.is_some() && !spec.kernel_ok() {
         return None;
     }
@@ -375,6 +396,20 @@ fn with_separation(
         }
         _ => None,
     }
+}
+
+/// The plan of a profile that is `anti_gravity_seek`, alone or followed by `repulsion`, in a
+/// weighted sum, or `None`.
+fn anti_gravity_seek(profile: &Profile) -> Option<PlanKind> {
+    let (lead, repulsion) = lead_then(profile, |b| matches!(b, Behaviour::Repulsion { .. }))?;
+    let Behaviour::AntiGravitySeek { target } = lead.behaviour else {
+        return None;
+    };
+    Some(PlanKind::AntiGravitySeek {
+        target,
+        weight: lead.weight,
+        repulsion,
+    })
 }
 
 /// The plan of a profile that is `follow_field` (or `choose_exit`), `separation` the cell batch
@@ -554,6 +589,28 @@ mod tests {
             },
             1.0,
         );
-        assert_eq!(kind_of(vec![field, repel]), PlanKind::General);
+        assert_eq!(kind_of(vec![field, repel.clone()]), PlanKind::General);
+        // Anti-gravity seek, alone or followed by repulsion: its own plan; in another order, the
+        // general plan.
+        let seek = Weighted::new(
+            Behaviour::anti_gravity_seek(Target::Point(glam::Vec2::new(5.0, 1.0))),
+            2.0,
+        );
+        assert!(matches!(
+            kind_of(vec![seek.clone(), repel.clone()]),
+            PlanKind::AntiGravitySeek {
+                weight: 2.0,
+                repulsion: Some(1.0),
+                ..
+            }
+        ));
+        assert!(matches!(
+            kind_of(vec![seek.clone()]),
+            PlanKind::AntiGravitySeek {
+                repulsion: None,
+                ..
+            }
+        ));
+        assert_eq!(kind_of(vec![repel, seek]), PlanKind::General);
     }
 }

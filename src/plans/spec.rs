@@ -36,7 +36,7 @@ pub(crate) struct NeighbourSpec {
 }
 
 impl NeighbourSpec {
-    /// Whether the cell batch can gather this group's sums (no repulsion, no cap).
+    /// Whether the cell batch can evaluate this group's Vicsek sums (no repulsion, no cap).
     pub(crate) fn batch_ok(&self) -> bool {
         self.repel.is_none() && self.cap.is_none()
     }
@@ -45,6 +45,22 @@ impl NeighbourSpec {
     /// sums or caps).
     pub(crate) fn kernel_ok(&self) -> bool {
         self.repel.is_none() && self.cap.is_none() && self.vicsek_r_sq.is_none()
+    }
+
+    /// Whether the cell batch can sum this group's neighbours for the group's per-agent or lane
+    /// evaluation: the flocking sums the lane kernels serve, or repulsion alone (no flocking
+    /// term, no Vicsek sum, no cap) with a whole exponent from 0 to 4, which the batch's
+    /// repulsion kernel sums; any other repulsion is summed by the scalar traversal.
+    pub(crate) fn summed_ok(&self) -> bool {
+        match self.repel {
+            None => self.kernel_ok(),
+            Some((_, exponent, _)) => {
+                self.cap.is_none()
+                    && self.vicsek_r_sq.is_none()
+                    && !self.on.iter().any(|&on| on)
+                    && crate::gravity::whole_exponent(exponent).is_some()
+            }
+        }
     }
 }
 

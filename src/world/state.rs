@@ -131,6 +131,16 @@ impl World {
         &self.last_plans
     }
 
+    /// Per group, in group order, whether the latest step took the group's neighbour sums
+    /// (flocking terms, or repulsion) from the cell batch rather than from each agent's own
+    /// neighbour query; empty before the first step. For tests that must know which path summed
+    /// the neighbours; no stable interface.
+    #[doc(hidden)]
+    #[must_use]
+    pub fn last_summed(&self) -> &[bool] {
+        &self.scratch.pass.summed
+    }
+
     /// The world's obstacles.
     #[must_use]
     pub fn obstacles(&self) -> &Obstacles {

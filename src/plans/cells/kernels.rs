@@ -1,6 +1,7 @@
 //! The lane kernels: every agent of a cell summed over the cell's gathered buffer in [`KLANES`]
-//! lanes (two agents per 16-lane vector on AVX-512, [`avx512`]), one body per query shape,
-//! chosen once per call, the sums written into the task's [`Runs`].
+//! lanes (two agents per 16-lane vector on AVX-512, [`avx512`]), one body per query shape
+//! (the flock's, any flocking shape, Vicsek's, repulsion's per whole exponent), chosen once per
+//! call, the sums written into the task's [`Runs`].
 //!
 //! View cones are tested without a square root: for a cosine `c < 0` a neighbour at offset `d`
 //! is seen when `h . d >= 0` or `(h . d)^2 <= c^2 |d|^2`, for `c >= 0` when both `h . d >= 0`
@@ -83,12 +84,17 @@ pub(super) struct Query {
     cone: [u8; 3],
     /// The Vicsek neighbourhood's squared radius (`VICSEK` mode).
     vicsek_r_sq: f32,
+    /// Repulsion's strength and squared radius (`REPEL` modes).
+    repel: (f32, f32),
     /// The kernel body that serves this shape.
     pub(super) mode: u8,
 }
 
 /// The kernel mode of the Vicsek sum.
 pub(super) const VICSEK: u8 = 32;
+/// The kernel mode of the repulsion sum with exponent 0; `REPEL + e` for a whole exponent `e`
+/// up to 4 ([`crate::gravity::whole_power`]).
+pub(super) const REPEL: u8 = 64;
 
 impl Query {
     /// The query of agent `a`: this template with the agent's own numbers.
@@ -134,7 +140,12 @@ impl Query {
             && cone[ALI] == cone[COH]
             && c2[ALI] == c2[COH]
             && any_group[ALI] == any_group[COH];
-        let mode = if spec.vicsek_r_sq.is_some() {
+        let exponent = spec
+            .repel
+            .and_then(|(_, e, _)| crate::gravity::whole_exponent(e));
+        let mode = if let Some(e) = exponent {
+            REPEL + e
+        } else if spec.vicsek_r_sq.is_some() {
             VICSEK
         } else if shared {
             cone[ALI] | (u8::from(groups) << 2) | (u8::from(q_sq == r_sq[ALI]) << 4)
@@ -147,6 +158,7 @@ impl Query {
             c2,
             cone,
             vicsek_r_sq: spec.vicsek_r_sq.unwrap_or(-1.0),
+            repel: spec.repel.map_or((0.0, -1.0), |(s, _, r_sq)| (s, r_sq)),
             mode,
         }
     }
@@ -225,6 +237,11 @@ pub(super) fn kernel_cell(
         22 => each!(shared::<2, true, true>),
         8 => each!(general::<false>),
         VICSEK => each!(vicsek),
+        REPEL => each!(repel::<0>),
+        65 => each!(repel::<1>),
+        66 => each!(repel::<2>),
+        67 => each!(repel::<3>),
+        68 => each!(repel::<4>),
         _ => each!(general::<true>),
     }
 }
@@ -388,6 +405,60 @@ fn vicsek(buf: &CellBuf, q: &Query) -> Reduced {
         ..*q
     };
     shared_over::<0, false, true>(buf, &flock, (&buf.hx, &buf.hy))
+}
+
+/// The repulsion sum with a whole exponent `E`: `-d / |d| * strength / |d|^E` over every
+/// candidate within repulsion's radius other than at the agent's own spot (any group, all
+/// round), in separation's place, and the candidates within the query radius in the last (the
+/// agent itself included). Candidate `k` goes to lane `k % KLANES`, each lane in buffer order,
+/// the lanes then summed as trees: the sums of eight lanes of the scalar reference's
+/// operations ([`whole_power`] for the power) bit for bit. Each strip of candidates' terms is
+/// computed first in one flat loop of vector instructions (a square root and three divisions
+/// per candidate; written per lane of a block, the compiler paired the x and y terms instead),
+/// then added to the lanes; a term outside the radius is kept as `+0` ([`keep`]), which leaves
+/// an accumulator as it is.
+///
+/// [`whole_power`]: crate::gravity::whole_power
+#[inline(always)]
+fn repel<const E: u8>(buf: &CellBuf, q: &Query) -> Reduced {
+    const STRIP: usize = 8 * KLANES;
+    let z = [0.0_f32; KLANES];
+    let (mut rx, mut ry, mut n) = (z, z, z);
+    let (strength, r_sq) = q.repel;
+    let (me_x, me_y, q_sq) = (q.me.x, q.me.y, q.flat.q_sq);
+    let len = buf.len;
+    let [mut fx, mut fy, mut c] = [[0.0_f32; STRIP]; 3];
+    for (xs, ys) in buf.x[..len].chunks(STRIP).zip(buf.y[..len].chunks(STRIP)) {
+        let m = xs.len();
+        let (ys, tx, ty, tc) = (&ys[..m], &mut fx[..m], &mut fy[..m], &mut c[..m]);
+        for k in 0..m {
+            let dx = xs[k] - me_x;
+            let dy = ys[k] - me_y;
+            let d2 = dx * dx + dy * dy;
+            let inside = (d2 <= r_sq) & (d2 > 0.0);
+            let dist = d2.sqrt();
+            let f = strength / crate::gravity::whole_power::<E>(dist, d2);
+            tx[k] = keep(inside, dx / dist * f);
+            ty[k] = keep(inside, dy / dist * f);
+            tc[k] = keep(d2 <= q_sq, 1.0);
+        }
+        let blocks = tx
+            .as_chunks::<KLANES>()
+            .0
+            .iter()
+            .zip(ty.as_chunks::<KLANES>().0)
+            .zip(tc.as_chunks::<KLANES>().0);
+        for ((bx, by), bc) in blocks {
+            for l in 0..KLANES {
+                rx[l] -= bx[l];
+                ry[l] -= by[l];
+                n[l] += bc[l];
+            }
+        }
+    }
+    let mut r = [0.0; 9];
+    (r[0], r[1], r[8]) = (tree_sum(&rx), tree_sum(&ry), tree_sum(&n));
+    r
 }
 
 /// Any shape: a mask per slot, view cones by their kind per slot.
@@ -607,6 +678,69 @@ mod tests {
         assert!(seen > 100, "{seen}");
     }
 
+    /// The repulsion sum and the count as eight lanes of the scalar traversal's operations
+    /// (`plans::neighbours::sums_scalar`), each lane's in buffer order, the lanes then summed
+    /// as the kernels sum them: `[x, y, count]`.
+    fn repulsion_lanes(buf: &CellBuf, a: &QueryAgent, (s, e, r_sq): (f32, f32, f32)) -> [f32; 3] {
+        let (mut rx, mut ry, mut n) = ([0.0f32; KLANES], [0.0f32; KLANES], [0.0f32; KLANES]);
+        for k in 0..buf.len {
+            let d = Vec2::new(buf.x[k] - a.x, buf.y[k] - a.y);
+            let d2 = d.length_squared();
+            if d2 <= r_sq && d2 > 0.0 {
+                let dist = d2.sqrt();
+                let f = d / dist * (s / crate::gravity::distance_power(dist, d2, e));
+                rx[k % KLANES] -= f.x;
+                ry[k % KLANES] -= f.y;
+            }
+            n[k % KLANES] += if d2 <= r_sq { 1.0 } else { 0.0 };
+        }
+        [tree_sum(&rx), tree_sum(&ry), tree_sum(&n)]
+    }
+
+    #[test]
+    fn repulsion_sums_equal_the_scalar_lanes_bit_for_bit_for_every_whole_exponent() {
+        // Through the dispatched kernel (the best target this processor has), the repulsion
+        // query of each whole exponent: candidates on the agents' own spots (no term), on the
+        // radius and inside it, cells of more agents than a batch holds.
+        let mut rng = ChaCha8Rng::seed_from_u64(11);
+        let mut seen = [0usize; 5];
+        for case in 0..250 {
+            let e = (case % 5) as u8;
+            let (strength, r) = (rng.random_range(0.5f32..8.0), 2.0f32);
+            let spec = NeighbourSpec {
+                active: true,
+                query_r: r,
+                cos: [-1.0; 3],
+                repel: Some((strength, f32::from(e), r * r)),
+                ..NeighbourSpec::default()
+            };
+            let q = Query::of(&spec, case % 2 == 0);
+            assert_eq!(q.mode, REPEL + e, "the repulsion body serves exponent {e}");
+            let n = rng.random_range(1..2 * CELL_BATCH);
+            let agents: Vec<QueryAgent> = (0..n)
+                .map(|_| QueryAgent {
+                    x: rng.random_range(-2.0..2.0),
+                    y: rng.random_range(-2.0..2.0),
+                    ..QueryAgent::default()
+                })
+                .collect();
+            let m = rng.random_range(1..150);
+            let buf = buffer(&mut rng, m, &agents);
+            let out = kernel_sums(&buf, &q, &agents, (case % 3 == 0, false));
+            for (a, got) in agents.iter().zip(&out) {
+                let want = repulsion_lanes(&buf, a, spec.repel.unwrap());
+                let got = [got[0], got[1], got[8]];
+                assert_eq!(
+                    got.map(f32::to_bits),
+                    want.map(f32::to_bits),
+                    "case {case}, exponent {e}: {got:?} vs {want:?}"
+                );
+                seen[e as usize] += usize::from(want[0] != 0.0 && want[2] > 2.0);
+            }
+        }
+        assert!(seen.iter().all(|&k| k > 300), "{seen:?}");
+    }
+
     #[test]
     fn every_dispatch_target_gives_the_scalar_lanes_bits_for_every_flock_shape() {
         // `kernel_cell` runs the best target this processor has (on AVX-512, two agents per
@@ -631,6 +765,7 @@ mod tests {
                 c2: [1.0, cos * cos, cos * cos],
                 cone: [0, cone, cone],
                 vicsek_r_sq: -1.0,
+                repel: (0.0, -1.0),
                 mode: cone | (u8::from(groups) << 2) | (u8::from(q_ac) << 4),
             };
             // Cells of more agents than a batch holds, as the one-group path passes whole cells.

@@ -16,9 +16,10 @@
 //! outputs in the grid's order. Vicsek sums wait the same way; their turns (each agent's draw,
 //! computed from the frame's key without a per-agent generator), headings and the adapter then run
 //! over each run in lanes too; the Vicsek sums themselves are the flock's kernel summing the unit
-//! headings as alignment sums. For a general plan with flocking terms (a "summed" group) the batch
-//! stores the sums alone, which the per-agent evaluation then reads instead of querying the
-//! neighbourhood.
+//! headings as alignment sums. For a general plan with flocking terms, or with repulsion alone (a
+//! "summed" group), the batch stores the sums alone, which the per-agent evaluation then reads
+//! instead of querying the neighbourhood; the repulsion kernel sums `strength / d^n` for whole
+//! exponents `n` from 0 to 4 in the buffer's order.
 //!
 //! Invariants: an agent's sums depend only on its cell's buffer, whose order is fixed by the
 //! grid (cell by cell, and by index within a cell), so the result is the same for any number of
@@ -108,13 +109,17 @@ pub(crate) fn is_summed_group(view: &SteerView, g: usize) -> bool {
 
 /// Whether a plan's neighbour sums come from the batch while the rest of it is evaluated per
 /// agent or in the leader's lanes: the general plan, and leader and field following with
-/// separation, with sums the lane kernel serves.
+/// separation, with sums the lane kernels serve (flocking sums, or repulsion alone:
+/// [`NeighbourSpec::summed_ok`](super::spec::NeighbourSpec::summed_ok)).
 fn summed(plan: &super::plan::Plan) -> bool {
     matches!(
         plan.kind,
-        PlanKind::General | PlanKind::FollowLeader { .. } | PlanKind::FollowField { .. }
+        PlanKind::General
+            | PlanKind::FollowLeader { .. }
+            | PlanKind::FollowField { .. }
+            | PlanKind::AntiGravitySeek { .. }
     ) && plan.spec.active
-        && plan.spec.kernel_ok()
+        && plan.spec.summed_ok()
 }
 
 /// Whether a plan is evaluated by the batch: flocking the lane kernel serves, or Vicsek.

@@ -88,12 +88,17 @@ impl Outputs<'_> {
     }
 
     /// A summed plan's agent at slot `j`: its sums without itself, for its evaluation in the
-    /// pass.
+    /// pass (a repulsion query's sum, which the kernel leaves in separation's place, as
+    /// repulsion).
     #[inline(always)]
     fn summed(&mut self, spec: &NeighbourSpec, j: usize) {
         let p = self.base + j;
         let velocity = Vec2::new(self.sorted.vx[p], self.sorted.vy[p]);
-        self.sums[j] = without_self(self.runs.sums_at(j), velocity, spec);
+        let mut sums = self.runs.sums_at(j);
+        if spec.repel.is_some() {
+            (sums.repulsion, sums.separation) = (sums.separation, Vec2::ZERO);
+        }
+        self.sums[j] = without_self(sums, velocity, spec);
     }
 
     /// [`Outputs::settle`] for every agent of the task, all of group 0, whose storage indices

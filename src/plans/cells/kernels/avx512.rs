@@ -35,7 +35,7 @@ pub(super) fn pairs(
     slots: Slots,
     runs: &mut Runs,
 ) -> usize {
-    if q.mode & 8 != 0 || q.mode == VICSEK {
+    if q.mode & 8 != 0 || q.mode >= VICSEK {
         return 0;
     }
     let pair = |a: &QueryAgent, b: &QueryAgent| {
