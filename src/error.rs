@@ -361,12 +361,16 @@ pub enum CheckpointError {
     #[error("not a throng checkpoint (the file does not start with \"THRONGCK\")")]
     NotACheckpoint,
     /// The file was written in another format version.
-    #[error("format version {found} is not supported (this build reads version {supported})")]
+    #[error(
+        "format version {found} is not supported (this build reads versions {oldest} to {supported})"
+    )]
     UnsupportedVersion {
         /// The version in the file.
         found: u32,
-        /// The version this build reads.
+        /// The newest version this build reads (the one it writes).
         supported: u32,
+        /// The oldest version this build reads.
+        oldest: u32,
     },
     /// The data ends early.
     #[error("truncated: {what} needs {expected} bytes, only {found} present")]

@@ -7,7 +7,9 @@
 use std::io::Write;
 use std::path::PathBuf;
 
-use throng::checkpoint::{CheckpointError, FORMAT_VERSION, HEADER_LEN, RunInfo, write_atomic};
+use throng::checkpoint::{
+    CheckpointError, FORMAT_VERSION, HEADER_LEN, OLDEST_VERSION, RunInfo, write_atomic,
+};
 use throng::field::{FlowMetric, GoalChannels, OccupancyGrid, WalkPolicy};
 use throng::gravity::{GravityPoint, Motion};
 use throng::group::{FormationParams, Path, PathFollowParams, PathId};
@@ -302,13 +304,16 @@ fn trailing_bytes_another_version_and_other_files_are_named() {
         checkpoint_error(&longer),
         CheckpointError::TrailingBytes { extra: 1 }
     ));
-    bytes[8..12].copy_from_slice(&(FORMAT_VERSION - 1).to_le_bytes());
-    let e = checkpoint_error(&bytes);
-    assert!(
-        matches!(e, CheckpointError::UnsupportedVersion { found, .. } if found == FORMAT_VERSION - 1),
-        "{e}"
-    );
-    assert!(e.to_string().contains("version 0"), "{e}");
+    for version in [OLDEST_VERSION - 1, FORMAT_VERSION + 1] {
+        bytes[8..12].copy_from_slice(&version.to_le_bytes());
+        let e = checkpoint_error(&bytes);
+        assert!(
+            matches!(e, CheckpointError::UnsupportedVersion { found, .. } if found == version),
+            "{e}"
+        );
+        assert!(e.to_string().contains(&format!("version {version}")), "{e}");
+        assert!(e.to_string().contains("versions 1 to 2"), "{e}");
+    }
     let e = checkpoint_error(b"[world]\nsize = [10, 10]\n");
     assert!(matches!(e, CheckpointError::NotACheckpoint), "{e}");
     assert!(matches!(
@@ -736,4 +741,53 @@ fn exit_choices_resume_bit_for_bit_and_older_files_have_none() {
     for id in ids {
         assert!(back.chosen_channel(id).is_some_and(|c| c < 2), "{id:?}");
     }
+}
+
+/// Every `key` taken out of a decoded payload, at any depth.
+fn without_key(v: &mut ciborium::Value, key: &str) {
+    if let Some(map) = v.as_map_mut() {
+        map.retain(|(k, _)| k.as_text() != Some(key));
+        map.iter_mut().for_each(|(_, v)| without_key(v, key));
+    } else if let Some(items) = v.as_array_mut() {
+        items.iter_mut().for_each(|v| without_key(v, key));
+    }
+}
+
+#[test]
+fn a_version_1_file_resumes_without_the_pressed_anisotropy_as_it_would_have() {
+    // A version 1 world stepped with the anisotropy the same under pressure as without.
+    let mut s = scenario::builtin("bottleneck")
+        .unwrap()
+        .with_agents(60)
+        .unwrap();
+    for g in &mut s.groups {
+        let ped = g.params.pedestrian.as_mut().unwrap();
+        let throng::ped::ModelParams::Cfsm(cf) = &mut ped.params else {
+            panic!("the bottleneck walks by the speed model");
+        };
+        cf.pressed_anisotropy = cf.anisotropy;
+    }
+    let mut world = s.build().unwrap();
+    steps(&mut world, 40, s.dt);
+    let bytes = saved(&world);
+    let pressed = |w: &World| match w.groups()[0].pedestrian.unwrap().params {
+        throng::ped::ModelParams::Cfsm(cf) => (cf.anisotropy, cf.pressed_anisotropy),
+        _ => unreachable!(),
+    };
+    // A version 2 file without the key takes the default, 0.
+    let new = crafted(&bytes, |v| without_key(v, "pressed_anisotropy"));
+    assert_eq!(pressed(&World::load(&new[..]).unwrap()), (1.0, 0.0));
+    // A version 1 file takes it equal to the anisotropy and steps to the same bits.
+    let mut old = bytes.clone();
+    old[8..12].copy_from_slice(&1u32.to_le_bytes());
+    let old = crafted(&old, |v| without_key(v, "pressed_anisotropy"));
+    let mut resumed = World::load(&old[..]).unwrap();
+    assert_eq!(pressed(&resumed), (1.0, 1.0));
+    steps(&mut world, 60, s.dt);
+    steps(&mut resumed, 60, s.dt);
+    assert_eq!(bits(&world), bits(&resumed));
+    // Written again, it is a version 2 file that keeps the value.
+    let again = saved(&resumed);
+    assert_eq!(again[8..12], FORMAT_VERSION.to_le_bytes());
+    assert_eq!(pressed(&World::load(&again[..]).unwrap()), (1.0, 1.0));
 }

@@ -106,8 +106,8 @@ def test_params_set_the_speed_model_as_jupedsim_has_it():
         sim.iterate(300)
         return sim.positions()
 
-    jupedsim = {"cfsm": {"time_gap": 1.0, "pressed_time_gap": 1.0, "spacing": "centre",
-                         "speed_function": "linear"}}
+    jupedsim = {"cfsm": {"time_gap": 1.0, "pressed_time_gap": 1.0, "pressed_anisotropy": 1.0,
+                         "spacing": "centre", "speed_function": "linear"}}
     assert np.array_equal(crowd(None), crowd({}))
     # A longer time gap walks the packed crowd more slowly.
     assert crowd(jupedsim)[:, 0].mean() < crowd(None)[:, 0].mean()

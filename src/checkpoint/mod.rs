@@ -51,8 +51,15 @@ use crate::world::World;
 
 /// The first eight bytes of every checkpoint.
 pub const MAGIC: [u8; 8] = *b"THRONGCK";
-/// The version of the format this build writes and reads.
-pub const FORMAT_VERSION: u32 = 1;
+/// The version of the format this build writes (and the newest it reads).
+///
+/// Version 2 added the speed model's `pressed_anisotropy`. A version 1 file has none, and its
+/// worlds stepped as if it equalled `anisotropy`: they are read so, and resume as they would
+/// have.
+pub const FORMAT_VERSION: u32 = 2;
+
+/// The oldest version this build reads.
+pub const OLDEST_VERSION: u32 = 1;
 /// Bytes before the payload.
 pub const HEADER_LEN: usize = 24;
 /// The largest payload a checkpoint may declare (64 GiB, far above [`crate::error::MAX_AGENTS`]
@@ -164,8 +171,8 @@ fn read_up_to(reader: &mut impl Read, buf: &mut Vec<u8>, limit: u64) -> Result<u
         .map_err(|e| io_error("<checkpoint>", e))
 }
 
-/// Checks the header and the checksum and returns the payload's bytes.
-fn read_payload(mut reader: impl Read) -> Result<Vec<u8>> {
+/// Checks the header and the checksum and returns the format version and the payload's bytes.
+fn read_payload(mut reader: impl Read) -> Result<(u32, Vec<u8>)> {
     let bad = |e: CheckpointError| Err(Error::Checkpoint(e));
     let mut head = Vec::with_capacity(HEADER_LEN);
     let got = read_up_to(&mut reader, &mut head, HEADER_LEN as u64)?;
@@ -180,12 +187,14 @@ fn read_payload(mut reader: impl Read) -> Result<Vec<u8>> {
         }
         return bad(CheckpointError::NotACheckpoint);
     }
+    let mut version = FORMAT_VERSION;
     if head.len() >= 12 {
-        let version = u32::from_le_bytes(head[8..12].try_into().expect("four bytes"));
-        if version != FORMAT_VERSION {
+        version = u32::from_le_bytes(head[8..12].try_into().expect("four bytes"));
+        if !(OLDEST_VERSION..=FORMAT_VERSION).contains(&version) {
             return bad(CheckpointError::UnsupportedVersion {
                 found: version,
                 supported: FORMAT_VERSION,
+                oldest: OLDEST_VERSION,
             });
         }
     }
@@ -221,16 +230,19 @@ fn read_payload(mut reader: impl Read) -> Result<Vec<u8>> {
     if computed != stored {
         return bad(CheckpointError::ChecksumMismatch { stored, computed });
     }
-    Ok(payload)
+    Ok((version, payload))
 }
 
 /// Reads a checkpoint from `reader`: the world and the run's settings, if a run wrote it.
 fn load(reader: impl Read) -> Result<(World, Option<RunInfo>)> {
-    let payload = read_payload(reader)?;
-    let decoded: Payload = ciborium::from_reader(&payload[..])
+    let (version, payload) = read_payload(reader)?;
+    let mut decoded: Payload = ciborium::from_reader(&payload[..])
         .map_err(|e| Error::Checkpoint(CheckpointError::Decode(e.to_string())))?;
     if let Some(run) = &decoded.run {
         run.validate()?;
+    }
+    if version < 2 {
+        decoded.world.without_pressed_anisotropy();
     }
     let world = decoded.world.restore()?;
     Ok((world, decoded.run))

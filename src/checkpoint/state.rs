@@ -180,6 +180,18 @@ impl WorldState {
         }
     }
 
+    /// The speed model's parameters of a version 1 file, which has no `pressed_anisotropy`
+    /// (decoded as the default): set equal to `anisotropy`, as those worlds stepped.
+    pub(super) fn without_pressed_anisotropy(&mut self) {
+        let params = self.groups.iter_mut().filter_map(|p| p.pedestrian.as_mut());
+        let own = self.model_params.iter_mut().map(|(_, p)| p);
+        for ped in params.chain(own) {
+            if let crate::ped::ModelParams::Cfsm(cf) = &mut ped.params {
+                cf.pressed_anisotropy = cf.anisotropy;
+            }
+        }
+    }
+
     /// A world in this state, every part validated.
     pub(super) fn restore(self) -> Result<World> {
         at(|| "bounds".into(), self.bounds.validate())?;

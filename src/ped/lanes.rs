@@ -65,9 +65,9 @@ fn distance_and_away(rx: f32, ry: f32, side: f32) -> (f32, f32, f32) {
 }
 
 impl Cfsm {
-    /// [`Cfsm::repulsion`] of every neighbour on an agent with the preferred direction
-    /// `(ex, ey)` into `fx`, `fy` (zero beyond the count) and the pair distances into `dist`;
-    /// all as long as the neighbours' slices.
+    /// [`Cfsm::repulsion_under`] the anisotropy `lambda` of every neighbour on an agent with
+    /// the preferred direction `(ex, ey)` into `fx`, `fy` (zero beyond the count) and the pair
+    /// distances into `dist`; all as long as the neighbours' slices.
     ///
     /// Block by block, each a fixed [`LANES`] wide, so that a single block (the usual count in
     /// a sparse crowd) runs in vector lanes: a loop over the whole slices vectorises only from
@@ -81,9 +81,9 @@ impl Cfsm {
         fy: &mut [f32],
         dist: &mut [f32],
         (ex, ey): (f32, f32),
+        lambda: f32,
     ) {
         let (s, range) = (self.strength_neighbour, self.range_neighbour);
-        let lambda = self.anisotropy;
         let ins = nb.rx.chunks_exact(LANES).zip(nb.ry.chunks_exact(LANES));
         let ins = ins.zip(
             nb.reach
@@ -135,6 +135,35 @@ impl Cfsm {
             min_spacing_blocks::<false>(e, nb, dist)
         }
     }
+}
+
+/// The slope of a neighbour's share of "behind" in the cosine of its angle from the
+/// direction ([`behind_lanes`]): the share runs from 1 to 0 as the cosine runs from `-0.5 /
+/// BEHIND_RAMP` to `0.5 / BEHIND_RAMP` (within 11.5 degrees of beside).
+pub(crate) const BEHIND_RAMP: f32 = 2.5;
+
+/// How much of the neighbourhood lies behind the unit direction `(ex, ey)`, counted
+/// continuously: each neighbour at the angle `phi` from it counts `clamp(1/2 - BEHIND_RAMP cos
+/// phi, 0, 1)` (1 behind, 0 ahead, 1/2 exactly beside and at zero distance, a ramp within 11.5
+/// degrees of beside), so that a neighbour beside (a lattice's) does not flip the count on a
+/// rounding. In lanes, block by block.
+#[inline(always)]
+#[must_use]
+pub(crate) fn behind_lanes((ex, ey): (f32, f32), nb: &Neighbours) -> f32 {
+    let mut behind = [0.0f32; LANES];
+    let mut left = nb.count as f32;
+    for (rx, ry) in nb.rx.chunks_exact(LANES).zip(nb.ry.chunks_exact(LANES)) {
+        for l in 0..LANES {
+            let (x, y) = (rx[l], ry[l]);
+            let d = (x * x + y * y).sqrt();
+            let cos = if d > 0.0 { (ex * x + ey * y) / d } else { 0.0 };
+            let real = (l as f32) < left;
+            let h = (0.5 - BEHIND_RAMP * cos).clamp(0.0, 1.0);
+            behind[l] += if real { h } else { 0.0 };
+        }
+        left -= LANES as f32;
+    }
+    behind.into_iter().sum()
 }
 
 /// [`Cfsm::min_spacing_lanes`] for one kind of spacing (`CONTACT`: [`Spacing::Contact`]).
@@ -276,9 +305,9 @@ mod tests {
         fy: &mut [f32],
         dist: &mut [f32],
         (ex, ey): (f32, f32),
+        lambda: f32,
     ) {
         let (s, range) = (cf.strength_neighbour, cf.range_neighbour);
-        let lambda = cf.anisotropy;
         let ins = nb.rx.iter().zip(nb.ry).zip(nb.reach.iter().zip(nb.side));
         let outs = dist.iter_mut().zip(fx.iter_mut().zip(fy.iter_mut()));
         for (k, (((&rx, &ry), (&reach, &side)), (dist, (fx, fy)))) in ins.zip(outs).enumerate() {
@@ -348,9 +377,9 @@ mod tests {
                 };
                 for e in [Vec2::ZERO, Vec2::X, Vec2::new(-0.6, 0.8)] {
                     let [fx, fy, dist] = &mut got;
-                    cf.repulsion_lanes(&nb, fx, fy, dist, (e.x, e.y));
+                    cf.repulsion_lanes(&nb, fx, fy, dist, (e.x, e.y), anisotropy);
                     let [wx, wy, wd] = &mut want;
-                    repulsion_lanes_reference(&cf, &nb, wx, wy, wd, (e.x, e.y));
+                    repulsion_lanes_reference(&cf, &nb, wx, wy, wd, (e.x, e.y), anisotropy);
                     for k in 0..n {
                         for (g, w) in got.iter().zip(&want) {
                             assert_eq!(g[k].to_bits(), w[k].to_bits(), "{k} of {count}");
@@ -364,6 +393,25 @@ mod tests {
                     assert_eq!(
                         (s.to_bits(), behind.to_bits()),
                         (ws.to_bits(), wb.to_bits())
+                    );
+                    // The continuous count: within 1/2 of the count of those behind per
+                    // neighbour, and the same sum one by one.
+                    let share = behind_lanes((e.x, e.y), &nb);
+                    assert!((share - behind).abs() <= 0.5 * count as f32 + 1e-3);
+                    let one_by_one: f32 = (0..count)
+                        .map(|k| {
+                            let rel = Vec2::new(rx[k], ry[k]);
+                            let cos = if rel == Vec2::ZERO {
+                                0.0
+                            } else {
+                                e.dot(rel) / rel.length()
+                            };
+                            (0.5 - BEHIND_RAMP * cos).clamp(0.0, 1.0)
+                        })
+                        .sum();
+                    assert!(
+                        (share - one_by_one).abs() < 1e-4 * (1.0 + count as f32),
+                        "{share}"
                     );
                 }
             }
@@ -465,16 +513,23 @@ mod tests {
                 .into_iter()
                 .flat_map(|e0| isotropic_and_not.map(|cf| (e0, cf)))
             {
-                cf.repulsion_lanes(&nb, &mut fx, &mut fy, &mut dist, (e0.x, e0.y));
-                for k in 0..n {
-                    let rel = Vec2::new(rx[k], ry[k]);
-                    assert_eq!(dist[k], rel.length());
-                    let got = Vec2::new(fx[k], fy[k]);
-                    if k < count {
-                        let want = cf.repulsion(-rel, reach[k], ids(side[k]), e0);
-                        assert!(close(got, want), "{got} {want} at {rel}");
-                    } else {
-                        assert_eq!(got, Vec2::ZERO);
+                for lambda in [cf.anisotropy, 0.0, 0.3] {
+                    let e = (e0.x, e0.y);
+                    cf.repulsion_lanes(&nb, &mut fx, &mut fy, &mut dist, e, lambda);
+                    for k in 0..n {
+                        let rel = Vec2::new(rx[k], ry[k]);
+                        assert_eq!(dist[k], rel.length());
+                        let got = Vec2::new(fx[k], fy[k]);
+                        if k < count {
+                            let ids = ids(side[k]);
+                            let want = cf.repulsion_under(-rel, reach[k], ids, e0, lambda);
+                            assert!(close(got, want), "{got} {want} at {rel}");
+                            if lambda == cf.anisotropy {
+                                assert_eq!(want, cf.repulsion(-rel, reach[k], ids, e0));
+                            }
+                        } else {
+                            assert_eq!(got, Vec2::ZERO);
+                        }
                     }
                 }
             }

@@ -29,7 +29,7 @@ use super::pack::{Packed, pack_block};
 use super::view::SteerView;
 use crate::agents::Agents;
 use crate::ped::cfsm::{BLOCKED_SPACING, SIDESTEP_WALL_MARGIN};
-use crate::ped::lanes::{LANES, Neighbours, lane_sum};
+use crate::ped::lanes::{LANES, Neighbours, behind_lanes, lane_sum};
 use crate::ped::own::own;
 use crate::ped::{Cfsm, ModelParams, Pedestrian, SocialForce};
 use crate::simd::{apply, float_kernel};
@@ -408,9 +408,16 @@ fn social_force_sum(
 }
 
 /// The speed model's repulsion of the `count` filled neighbours (`n` with the padding) on an
-/// agent with the preferred direction `e0`; keeps their distances in `b.dist` for the spacing.
+/// agent with the preferred direction `e0`, under the anisotropy the pressure about `e0` gives
+/// ([`Cfsm::anisotropy_at`]); keeps their distances in `b.dist` for the spacing.
 #[apply(float_kernel!)]
 fn speed_model_sum(cf: &Cfsm, b: &mut Buffers, count: usize, n: usize, e0: Vec2) -> Vec2 {
+    let lambda = if cf.pressed_anisotropy_on() {
+        let behind = behind_lanes((e0.x, e0.y), &neighbours(b, count, n));
+        cf.anisotropy_at(cf.pressure(behind, count as f32))
+    } else {
+        cf.anisotropy
+    };
     at_least(&mut b.fx, n);
     at_least(&mut b.fy, n);
     at_least(&mut b.dist, n);
@@ -433,7 +440,7 @@ fn speed_model_sum(cf: &Cfsm, b: &mut Buffers, count: usize, n: usize, e0: Vec2)
         side: &side[..n],
     };
     let (sx, sy) = (&mut fx[..n], &mut fy[..n]);
-    cf.repulsion_lanes(&nb, sx, sy, &mut dist[..n], (e0.x, e0.y));
+    cf.repulsion_lanes(&nb, sx, sy, &mut dist[..n], (e0.x, e0.y), lambda);
     Vec2::new(lane_sum(sx), lane_sum(sy))
 }
 
