@@ -156,7 +156,10 @@ pub(crate) fn behind_lanes((ex, ey): (f32, f32), nb: &Neighbours) -> f32 {
         for l in 0..LANES {
             let (x, y) = (rx[l], ry[l]);
             let d = (x * x + y * y).sqrt();
-            let cos = if d > 0.0 { (ex * x + ey * y) / d } else { 0.0 };
+            // Divided in every lane and the zero distance selected after, so that the block stays
+            // in vector lanes (a branch around the division kept it scalar).
+            let cos = (ex * x + ey * y) / d;
+            let cos = if d > 0.0 { cos } else { 0.0 };
             let real = (l as f32) < left;
             let h = (0.5 - BEHIND_RAMP * cos).clamp(0.0, 1.0);
             behind[l] += if real { h } else { 0.0 };
