@@ -55,6 +55,12 @@
 //! diagram has `v / v0` one function of the density; pedestrians then keep a distance rather
 //! than a time.
 //!
+//! Path width (not in the paper): with [`Cfsm::path_width`] `w < 1` only a neighbour within
+//! `w l_ij` of the line along `e_i` counts for the spacing, so that a neighbour grazing the
+//! path (its body within `l_ij` but not within `w l_ij`) is passed and its contact left to the
+//! repulsion, as people turn a shoulder to pass; a line in single file is not changed. At 1
+//! the strip is the paper's.
+//!
 //! Sidestepping (not in the paper, off by default): a pedestrian blocked at contact ahead turns its direction by
 //! 45, then 90 degrees to either side and takes the first turn with room ahead, so that an arch
 //! of pedestrians at a narrow door, each in the way of another, breaks up as real ones do. It
@@ -134,6 +140,15 @@ pub struct Cfsm {
     /// pedestrians keep a distance rather than a time (Weidmann's `v / v0` as one function
     /// of the density). Default: 0 (as JuPedSim).
     pub reference_speed: f32,
+    /// The half-width of the path a pedestrian keeps clear ahead, as a fraction of `l_ij` (in
+    /// `(0, 1]`): only a neighbour within `path_width * l_ij` of the line along `e_i` counts
+    /// for the spacing, which it measures as before (the distance to contact under
+    /// [`Spacing::Contact`]). At 1 (the paper's strip) a neighbour whose body grazes the path
+    /// stops a pedestrian as one straight ahead does; below 1 a pedestrian walks past a
+    /// graze, leaving the shoulder contact to the repulsion, as people turn a shoulder or
+    /// sway to pass. A line of people in single file is not changed. Default: 1 (as
+    /// JuPedSim).
+    pub path_width: f32,
 }
 
 /// [`Cfsm::weight`] for the anisotropy `lambda`.
@@ -198,6 +213,7 @@ impl Default for Cfsm {
             anisotropy: 1.0,
             pressed_anisotropy: 0.0,
             reference_speed: 0.0,
+            path_width: 1.0,
         }
     }
 }
@@ -270,6 +286,14 @@ impl Cfsm {
             0.0,
             1e3,
             "[0, 1e3]",
+        )?;
+        positive("pedestrian.cfsm.path_width", self.path_width)?;
+        in_range(
+            "pedestrian.cfsm.path_width",
+            self.path_width,
+            0.0,
+            1.0,
+            "(0, 1]",
         )?;
         check_cutoff("pedestrian.cfsm.cutoff", self.cutoff)
     }
@@ -379,20 +403,19 @@ impl Cfsm {
     }
 
     /// The spacing to agent `j` at `x_j = x_i + rel` along `e` under this model's
-    /// [`Spacing`] rule, `None` when `j` is not ahead within the strip (as [`Cfsm::spacing`]).
+    /// [`Spacing`] rule, `None` when `j` is not ahead within the path of half-width
+    /// `path_width * l_ij` ([`Cfsm::path_width`]; at 1 as [`Cfsm::spacing`]).
     #[inline]
     #[must_use]
     pub fn spacing_to(&self, rel: Vec2, e: Vec2, l_ij: f32) -> Option<f32> {
-        match self.spacing {
-            Spacing::Centre => Self::spacing(rel, e, l_ij),
-            Spacing::Contact => {
-                let side = e.perp().dot(rel).abs();
-                if rel == Vec2::ZERO || e.dot(rel) < 0.0 || side > l_ij {
-                    return None;
-                }
-                Some(e.dot(rel) - (l_ij * l_ij - side * side).max(0.0).sqrt())
-            }
+        let side = e.perp().dot(rel).abs();
+        if rel == Vec2::ZERO || e.dot(rel) < 0.0 || side > l_ij * self.path_width {
+            return None;
         }
+        Some(match self.spacing {
+            Spacing::Centre => rel.length() - l_ij,
+            Spacing::Contact => e.dot(rel) - (l_ij * l_ij - side * side).max(0.0).sqrt(),
+        })
     }
 
     /// The speed for the smallest spacing `s` ahead and the desired speed `v0`, without
@@ -563,6 +586,42 @@ mod tests {
             jupedsim().spacing_to(Vec2::new(1.0, 0.3), e, 0.4),
             Cfsm::spacing(Vec2::new(1.0, 0.3), e, 0.4)
         );
+    }
+
+    #[test]
+    fn a_narrower_path_passes_a_graze_and_keeps_a_line_ahead() {
+        let e = Vec2::X;
+        for spacing in [Spacing::Centre, Spacing::Contact] {
+            let full = Cfsm {
+                spacing,
+                ..Cfsm::default()
+            };
+            let narrow = Cfsm {
+                path_width: 0.6,
+                ..full
+            };
+            // Straight ahead (a line in single file): the same spacing.
+            for x in [0.45f32, 1.0, 1.7] {
+                let rel = Vec2::new(x, 0.0);
+                assert_eq!(narrow.spacing_to(rel, e, 0.4), full.spacing_to(rel, e, 0.4));
+            }
+            // Within 0.6 l: counted, by the same rule.
+            let rel = Vec2::new(1.0, 0.2);
+            assert_eq!(narrow.spacing_to(rel, e, 0.4), full.spacing_to(rel, e, 0.4));
+            assert!(narrow.spacing_to(rel, e, 0.4).is_some());
+            // A graze, 0.3 to the side of 0.4: it stops the full path only.
+            let rel = Vec2::new(1.0, 0.3);
+            assert!(full.spacing_to(rel, e, 0.4).is_some());
+            assert_eq!(narrow.spacing_to(rel, e, 0.4), None);
+        }
+        for bad in [0.0, -0.5, 1.01, f32::NAN, f32::INFINITY] {
+            let m = Cfsm {
+                path_width: bad,
+                ..Cfsm::default()
+            };
+            let e = m.validate().unwrap_err().to_string();
+            assert!(e.contains("path_width"), "{bad}: {e}");
+        }
     }
 
     #[test]

@@ -130,9 +130,9 @@ impl Cfsm {
         dist: &[f32],
     ) -> (f32, f32) {
         if self.spacing == Spacing::Contact {
-            min_spacing_blocks::<true>(e, nb, dist)
+            min_spacing_blocks::<true>(e, nb, dist, self.path_width)
         } else {
-            min_spacing_blocks::<false>(e, nb, dist)
+            min_spacing_blocks::<false>(e, nb, dist, self.path_width)
         }
     }
 }
@@ -169,12 +169,15 @@ pub(crate) fn behind_lanes((ex, ey): (f32, f32), nb: &Neighbours) -> f32 {
     behind.into_iter().sum()
 }
 
-/// [`Cfsm::min_spacing_lanes`] for one kind of spacing (`CONTACT`: [`Spacing::Contact`]).
+/// [`Cfsm::min_spacing_lanes`] for one kind of spacing (`CONTACT`: [`Spacing::Contact`]) and
+/// the path's half-width `width` as a fraction of `l_ij` ([`Cfsm::path_width`]; at 1 the
+/// product is `l_ij` exactly).
 #[inline(always)]
 fn min_spacing_blocks<const CONTACT: bool>(
     (ex, ey): (f32, f32),
     nb: &Neighbours,
     dist: &[f32],
+    width: f32,
 ) -> (f32, f32) {
     let mut best = [f32::INFINITY; LANES];
     let mut behind = [0.0f32; LANES];
@@ -189,7 +192,8 @@ fn min_spacing_blocks<const CONTACT: bool>(
             let along = ex * x + ey * y;
             let side = (-ey * x + ex * y).abs();
             let real = (l as f32) < left;
-            let ahead = real & ((x != 0.0) | (y != 0.0)) & (along >= 0.0) & (side <= reach[l]);
+            let ahead =
+                real & ((x != 0.0) | (y != 0.0)) & (along >= 0.0) & (side <= reach[l] * width);
             let s = if CONTACT {
                 along - (reach[l] * reach[l] - side * side).max(0.0).sqrt()
             } else {
@@ -334,6 +338,7 @@ mod tests {
         dist: &[f32],
     ) -> (f32, f32) {
         let contact = cf.spacing == Spacing::Contact;
+        let width = cf.path_width;
         let mut best = [f32::INFINITY; LANES];
         let mut behind = [0.0f32; LANES];
         let mut left = nb.count as f32;
@@ -345,7 +350,8 @@ mod tests {
                 let along = ex * x + ey * y;
                 let side = (-ey * x + ex * y).abs();
                 let real = (l as f32) < left;
-                let ahead = real & ((x != 0.0) | (y != 0.0)) & (along >= 0.0) & (side <= reach[l]);
+                let ahead =
+                    real & ((x != 0.0) | (y != 0.0)) & (along >= 0.0) & (side <= reach[l] * width);
                 let s = if contact {
                     along - (reach[l] * reach[l] - side * side).max(0.0).sqrt()
                 } else {
@@ -372,10 +378,15 @@ mod tests {
             let n = rx.len();
             let mut got = [vec![f32::NAN; n], vec![f32::NAN; n], vec![f32::NAN; n]];
             let mut want = [vec![0.0; n], vec![0.0; n], vec![0.0; n]];
-            for (anisotropy, spacing) in [(1.0, Spacing::Centre), (0.8, Spacing::Contact)] {
+            for (anisotropy, spacing, path_width) in [
+                (1.0, Spacing::Centre, 1.0),
+                (0.8, Spacing::Contact, 1.0),
+                (0.8, Spacing::Contact, 0.6),
+            ] {
                 let cf = Cfsm {
                     anisotropy,
                     spacing,
+                    path_width,
                     ..Cfsm::default()
                 };
                 for e in [Vec2::ZERO, Vec2::X, Vec2::new(-0.6, 0.8)] {
@@ -537,8 +548,15 @@ mod tests {
                 }
             }
             // The spacing is exactly the scalar minimum, whatever the direction.
-            for spacing in [Spacing::Centre, Spacing::Contact] {
-                let cf = Cfsm { spacing, ..cf };
+            let kinds = [Spacing::Centre, Spacing::Contact]
+                .into_iter()
+                .flat_map(|spacing| [1.0, 0.6].map(|path_width| (spacing, path_width)));
+            for (spacing, path_width) in kinds {
+                let cf = Cfsm {
+                    spacing,
+                    path_width,
+                    ..cf
+                };
                 for _ in 0..20 {
                     let e = Vec2::from_angle(rng.unit() * std::f32::consts::TAU);
                     let (got, behind) = cf.min_spacing_lanes((e.x, e.y), &nb, &dist);
