@@ -29,7 +29,7 @@ const NORTH: &str = "POLYGON ((200 140, 215 140, 215 184, 200 184, 200 140))";
 const SOUTH: &str = "POLYGON ((200 0, 215 0, 215 44, 200 44, 200 0))";
 /// The script's `THRONG_PARAMS`: JuPedSim's collision-free speed model.
 const PARAMS: &str = "[cfsm]\ntime_gap = 1.0\npressed_time_gap = 1.0\npressed_anisotropy = 1.0\n\
-     spacing = \"centre\"\nspeed_function = \"linear\"\n";
+     reference_speed = 0.0\npath_width = 1.0\nspacing = \"centre\"\nspeed_function = \"linear\"\n";
 
 fn arg(k: usize, default: usize) -> usize {
     std::env::args()

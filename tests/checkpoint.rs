@@ -312,7 +312,8 @@ fn trailing_bytes_another_version_and_other_files_are_named() {
             "{e}"
         );
         assert!(e.to_string().contains(&format!("version {version}")), "{e}");
-        assert!(e.to_string().contains("versions 1 to 2"), "{e}");
+        let range = format!("versions {OLDEST_VERSION} to {FORMAT_VERSION}");
+        assert!(e.to_string().contains(&range), "{e}");
     }
     let e = checkpoint_error(b"[world]\nsize = [10, 10]\n");
     assert!(matches!(e, CheckpointError::NotACheckpoint), "{e}");
@@ -766,6 +767,8 @@ fn a_version_1_file_resumes_without_the_pressed_anisotropy_as_it_would_have() {
             panic!("the bottleneck walks by the speed model");
         };
         cf.pressed_anisotropy = cf.anisotropy;
+        // And with the strip of every file before version 3.
+        cf.path_width = 1.0;
     }
     let mut world = s.build().unwrap();
     steps(&mut world, 40, s.dt);
@@ -786,8 +789,47 @@ fn a_version_1_file_resumes_without_the_pressed_anisotropy_as_it_would_have() {
     steps(&mut world, 60, s.dt);
     steps(&mut resumed, 60, s.dt);
     assert_eq!(bits(&world), bits(&resumed));
-    // Written again, it is a version 2 file that keeps the value.
+    // Written again, it is a file of this version that keeps the value.
     let again = saved(&resumed);
     assert_eq!(again[8..12], FORMAT_VERSION.to_le_bytes());
     assert_eq!(pressed(&World::load(&again[..]).unwrap()), (1.0, 1.0));
+}
+
+#[test]
+fn a_version_2_file_resumes_with_the_strip_it_stepped_with() {
+    // A version 2 world stepped with the paper's strip, path width 1.
+    let mut s = scenario::builtin("bottleneck")
+        .unwrap()
+        .with_agents(60)
+        .unwrap();
+    for g in &mut s.groups {
+        let ped = g.params.pedestrian.as_mut().unwrap();
+        let throng::ped::ModelParams::Cfsm(cf) = &mut ped.params else {
+            panic!("the bottleneck walks by the speed model");
+        };
+        cf.path_width = 1.0;
+    }
+    let mut world = s.build().unwrap();
+    steps(&mut world, 40, s.dt);
+    let bytes = saved(&world);
+    let width = |w: &World| match w.groups()[0].pedestrian.unwrap().params {
+        throng::ped::ModelParams::Cfsm(cf) => cf.path_width,
+        _ => unreachable!(),
+    };
+    // A file of this version without the key takes the default.
+    let new = crafted(&bytes, |v| without_key(v, "path_width"));
+    assert_eq!(
+        width(&World::load(&new[..]).unwrap()),
+        throng::ped::Cfsm::default().path_width
+    );
+    assert_ne!(throng::ped::Cfsm::default().path_width, 1.0);
+    // A version 2 file takes the strip and steps to the same bits.
+    let mut old = bytes.clone();
+    old[8..12].copy_from_slice(&2u32.to_le_bytes());
+    let old = crafted(&old, |v| without_key(v, "path_width"));
+    let mut resumed = World::load(&old[..]).unwrap();
+    assert_eq!(width(&resumed), 1.0);
+    steps(&mut world, 60, s.dt);
+    steps(&mut resumed, 60, s.dt);
+    assert_eq!(bits(&world), bits(&resumed));
 }

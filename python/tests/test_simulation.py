@@ -107,9 +107,10 @@ def test_params_set_the_speed_model_as_jupedsim_has_it():
         return sim.positions()
 
     jupedsim = {"cfsm": {"time_gap": 1.0, "pressed_time_gap": 1.0, "pressed_anisotropy": 1.0,
+                         "reference_speed": 0.0, "path_width": 1.0,
                          "spacing": "centre", "speed_function": "linear"}}
     assert np.array_equal(crowd(None), crowd({}))
-    # A longer time gap walks the packed crowd more slowly.
+    # The paper's strip and gap between discs walk the packed crowd more slowly than the defaults.
     assert crowd(jupedsim)[:, 0].mean() < crowd(None)[:, 0].mean()
     with pytest.raises(throng.ThrongError, match="time_gp"):
         throng.Simulation(HALL, params={"cfsm": {"time_gp": 1.0}})
@@ -156,7 +157,7 @@ def test_model_parameters_per_agent_walk_as_params_for_everyone_would():
     assert np.array_equal(own.positions(), everyone.positions())
     assert not np.array_equal(own.positions(), plain.positions())
     assert np.all(own.agent_params("time_gap") == np.float32(1.1))
-    assert np.all(plain.agent_params("time_gap") == np.float32(0.6))
+    assert np.all(plain.agent_params("time_gap") == np.float32(1.0))
     assert np.all(np.isnan(plain.agent_params("tau")))
 
     # One per agent, then changed between steps.

@@ -178,7 +178,7 @@ def test_threads_per_task():
 def test_validate_runs_report_the_case_and_its_errors_per_bin():
     # The bottleneck against the experiments per width, with and without the speed model's
     # pressure from behind: the rows say by how much each width misses.
-    gap = {"cfsm.time_gap": 0.6, "cfsm.pressed_time_gap": 0.35}
+    gap = {"cfsm.time_gap": 1.0, "cfsm.pressed_time_gap": 0.4}
     report = throng.validate("exp-bottleneck-width", quick=True, params=gap)
     assert report["id"] == "exp-bottleneck-width"
     errors = report["errors"]
@@ -190,10 +190,10 @@ def test_validate_runs_report_the_case_and_its_errors_per_bin():
             {
                 "validate": "exp-bottleneck-width",
                 "quick": True,
-                "pedestrian.cfsm.time_gap": 0.6,
+                "pedestrian.cfsm.time_gap": 1.0,
                 "pedestrian.cfsm.pressed_time_gap": g,
             }
-            for g in (0.35, 0.6)
+            for g in (0.4, 1.0)
         ]
     )
     assert list(df.columns[-6:]) == list(throng.VALIDATE_METRICS)

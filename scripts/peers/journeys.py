@@ -75,6 +75,7 @@ LATTICE = 1.8  # m between neighbours along x and y
 # throng's speed model set to JuPedSim's: spacing between centres less the radii, speed
 # min(v0, s / T) with T = 1 s, no pressure terms (throng's defaults are calibrated otherwise).
 THRONG_PARAMS = {"cfsm": {"time_gap": 1.0, "pressed_time_gap": 1.0, "pressed_anisotropy": 1.0,
+                          "reference_speed": 0.0, "path_width": 1.0,
                           "spacing": "centre", "speed_function": "linear"}}
 V0, RADIUS, DT = 1.2, 0.2, 0.01
 

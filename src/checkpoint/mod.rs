@@ -55,8 +55,9 @@ pub const MAGIC: [u8; 8] = *b"THRONGCK";
 ///
 /// Version 2 added the speed model's `pressed_anisotropy`. A version 1 file has none, and its
 /// worlds stepped as if it equalled `anisotropy`: they are read so, and resume as they would
-/// have.
-pub const FORMAT_VERSION: u32 = 2;
+/// have. Version 3 added its `path_width`, whose default is not 1: files before it are read
+/// with 1, the strip those worlds stepped with.
+pub const FORMAT_VERSION: u32 = 3;
 
 /// The oldest version this build reads.
 pub const OLDEST_VERSION: u32 = 1;
@@ -241,9 +242,7 @@ fn load(reader: impl Read) -> Result<(World, Option<RunInfo>)> {
     if let Some(run) = &decoded.run {
         run.validate()?;
     }
-    if version < 2 {
-        decoded.world.without_pressed_anisotropy();
-    }
+    decoded.world.as_of_version(version);
     let world = decoded.world.restore()?;
     Ok((world, decoded.run))
 }

@@ -12,16 +12,18 @@
 //! half-width `l_ij` along `e_i`. A first-order model: the result is a velocity.
 //!
 //! The paper and JuPedSim measure the spacing as `d_ij - l_ij` and take
-//! `V(s) = min(v0, max(0, s / T))` with `T = 1 s`, without the two pressure terms below: `{
-//! spacing = "centre", speed_function = "linear", time_gap = 1, pressed_time_gap = 1,
-//! pressed_anisotropy = 1 }` reproduces them. throng's defaults are calibrated against the
-//! Juelich experiments (the `exp-*` cases of docs/VALIDATION.md, by a sweep of
-//! `examples/python/calibrate.py`): the spacing is the distance to contact along `e_i`
-//! ([`Spacing::Contact`]), `V(s) = v0 tanh(s / (v0 T))` ([`SpeedFunction::Smooth`]), `T = 0.6 s`
-//! and the pressure from behind below: of the sweep's parameter sets, the one with the smallest
-//! error against the experiments that keeps the speeds within 15% of Weidmann's curve (RiMEA 4).
-//! `time_gap = 0.8, range_neighbour = 0.15` fits the Juelich corridors better and Weidmann's
-//! curve, which lies above them, worse.
+//! `V(s) = min(v0, max(0, s / T))` with `T = 1 s`, without the pressure terms, the reference
+//! speed and the path width below: `{ spacing = "centre", speed_function = "linear", time_gap
+//! = 1, pressed_time_gap = 1, pressed_anisotropy = 1, reference_speed = 0, path_width = 1 }`
+//! reproduces them. throng's defaults are calibrated against the Juelich experiments (the
+//! `exp-*` cases of docs/VALIDATION.md): the spacing is the distance to contact along `e_i`
+//! ([`Spacing::Contact`]), `V(s) = v0 tanh(s / (v0 T))` ([`SpeedFunction::Smooth`]), `T = 1 s`
+//! (the single-file runs' time gap) at the single-file runs' free speed 1.13 m/s and scaled
+//! by `1.13 / v0` for others ([`Cfsm::reference_speed`]), a path 0.8 times the two radii wide
+//! ([`Cfsm::path_width`]) and the pressure from behind below. With the paper's strip a crowd
+//! in two dimensions walks 15 to 25% below the experiments at `T = 1` while single file fits;
+//! the narrower path brings the corridors, the counterflow and Weidmann's curve (RiMEA 4) to
+//! them without moving single file.
 //!
 //! Pressure from behind: a pedestrian with more of the crowd behind than ahead (at the front of
 //! a queue, in the mouth of a bottleneck) accepts a shorter time gap. Of the `n` agents within
@@ -83,7 +85,7 @@ use crate::error::{Result, in_range, non_negative, positive};
 #[serde(default, deny_unknown_fields)]
 pub struct Cfsm {
     /// The time gap `T`, s (> 0): the slope of the speed function at zero spacing is `1 / T`.
-    /// Default: 0.6 (JuPedSim: 1).
+    /// Default: 1 (as JuPedSim), at [`Cfsm::reference_speed`].
     pub time_gap: f32,
     /// The time gap `T_p` under full pressure from behind, s (in `(0, time_gap]`; equal to
     /// `time_gap` for no pressure term, as in JuPedSim). Keep `dt <= pressed_time_gap` for the
@@ -138,7 +140,8 @@ pub struct Cfsm {
     /// pedestrian with the desired speed `v0` takes them times `reference_speed / v0`, so
     /// that its speed relative to its desired speed is one function of the spacing for all:
     /// pedestrians keep a distance rather than a time (Weidmann's `v / v0` as one function
-    /// of the density). Default: 0 (as JuPedSim).
+    /// of the density). Default: 1.13, the free speed of the Juelich single-file runs, from
+    /// which the default time gap is taken (JuPedSim: 0).
     pub reference_speed: f32,
     /// The half-width of the path a pedestrian keeps clear ahead, as a fraction of `l_ij` (in
     /// `(0, 1]`): only a neighbour within `path_width * l_ij` of the line along `e_i` counts
@@ -146,8 +149,9 @@ pub struct Cfsm {
     /// [`Spacing::Contact`]). At 1 (the paper's strip) a neighbour whose body grazes the path
     /// stops a pedestrian as one straight ahead does; below 1 a pedestrian walks past a
     /// graze, leaving the shoulder contact to the repulsion, as people turn a shoulder or
-    /// sway to pass. A line of people in single file is not changed. Default: 1 (as
-    /// JuPedSim).
+    /// sway to pass. A line of people in single file is not changed. Default: 0.8 (JuPedSim:
+    /// 1; below about 0.75 the grazes the repulsion resolves make the results depend on the
+    /// time step, docs/VALIDATION.md).
     pub path_width: f32,
 }
 
@@ -198,7 +202,7 @@ pub const PRESSURE_MIN_COUNT: f32 = 4.0;
 impl Default for Cfsm {
     fn default() -> Self {
         Cfsm {
-            time_gap: 0.6,
+            time_gap: 1.0,
             pressed_time_gap: 0.4,
             pressure_onset: 0.15,
             pressure_span: 0.15,
@@ -212,8 +216,8 @@ impl Default for Cfsm {
             sidestep: false,
             anisotropy: 1.0,
             pressed_anisotropy: 0.0,
-            reference_speed: 0.0,
-            path_width: 1.0,
+            reference_speed: 1.13,
+            path_width: 0.8,
         }
     }
 }
@@ -414,7 +418,10 @@ impl Cfsm {
         }
         Some(match self.spacing {
             Spacing::Centre => rel.length() - l_ij,
-            Spacing::Contact => e.dot(rel) - (l_ij * l_ij - side * side).max(0.0).sqrt(),
+            Spacing::Contact => {
+                let wide = side * (1.0 / self.path_width);
+                e.dot(rel) - (l_ij * l_ij - wide * wide).max(0.0).sqrt()
+            }
         })
     }
 
@@ -508,6 +515,17 @@ mod tests {
             pressed_time_gap: 1.0,
             spacing: Spacing::Centre,
             speed_function: SpeedFunction::Linear,
+            path_width: 1.0,
+            ..Cfsm::default()
+        }
+    }
+
+    /// The defaults with the time gaps 0.6 and 0.4 s for every desired speed (no reference
+    /// speed), as the hand computations below take them.
+    fn plain_gaps() -> Cfsm {
+        Cfsm {
+            time_gap: 0.6,
+            reference_speed: 0.0,
             ..Cfsm::default()
         }
     }
@@ -522,7 +540,7 @@ mod tests {
 
     #[test]
     fn smooth_speed_by_hand() {
-        let m = Cfsm::default();
+        let m = plain_gaps();
         // v0 tanh(s / (v0 T)): 1.34 tanh(0.6 / 0.804) = 0.848.
         assert!((m.speed(0.6, 1.34) - 1.34 * (0.6f32 / 0.804).tanh()).abs() < 1e-6);
         assert!((m.speed(0.6, 1.34) - 0.848).abs() < 1e-3);
@@ -572,7 +590,10 @@ mod tests {
 
     #[test]
     fn contact_spacing_is_the_walk_to_touching() {
-        let m = Cfsm::default();
+        let m = Cfsm {
+            path_width: 1.0,
+            ..Cfsm::default()
+        };
         let e = Vec2::X;
         // Straight ahead: as the centre rule.
         assert_eq!(m.spacing_to(Vec2::new(1.0, 0.0), e, 0.4), Some(0.6));
@@ -594,6 +615,7 @@ mod tests {
         for spacing in [Spacing::Centre, Spacing::Contact] {
             let full = Cfsm {
                 spacing,
+                path_width: 1.0,
                 ..Cfsm::default()
             };
             let narrow = Cfsm {
@@ -605,15 +627,33 @@ mod tests {
                 let rel = Vec2::new(x, 0.0);
                 assert_eq!(narrow.spacing_to(rel, e, 0.4), full.spacing_to(rel, e, 0.4));
             }
-            // Within 0.6 l: counted, by the same rule.
-            let rel = Vec2::new(1.0, 0.2);
-            assert_eq!(narrow.spacing_to(rel, e, 0.4), full.spacing_to(rel, e, 0.4));
-            assert!(narrow.spacing_to(rel, e, 0.4).is_some());
             // A graze, 0.3 to the side of 0.4: it stops the full path only.
             let rel = Vec2::new(1.0, 0.3);
             assert!(full.spacing_to(rel, e, 0.4).is_some());
             assert_eq!(narrow.spacing_to(rel, e, 0.4), None);
         }
+        // Within the path, 0.2 to the side: the centre rule as before; the walk to contact with
+        // a body 0.6 as wide, 1 - sqrt(0.16 - (0.2 / 0.6)^2) = 0.7789 m, which runs
+        // continuously to the centre distance ahead at the path's edge.
+        let rel = Vec2::new(1.0, 0.2);
+        let centre = Cfsm {
+            spacing: Spacing::Centre,
+            path_width: 0.6,
+            ..Cfsm::default()
+        };
+        assert_eq!(centre.spacing_to(rel, e, 0.4), Cfsm::spacing(rel, e, 0.4));
+        let contact = Cfsm {
+            spacing: Spacing::Contact,
+            path_width: 0.6,
+            ..Cfsm::default()
+        };
+        let s = contact.spacing_to(rel, e, 0.4).unwrap();
+        assert!(
+            (s - (1.0 - (0.16f32 - 0.04 / 0.36).sqrt())).abs() < 1e-6,
+            "{s}"
+        );
+        let edge = contact.spacing_to(Vec2::new(1.0, 0.2399), e, 0.4).unwrap();
+        assert!((edge - 1.0).abs() < 0.02, "{edge}");
         for bad in [0.0, -0.5, 1.01, f32::NAN, f32::INFINITY] {
             let m = Cfsm {
                 path_width: bad,
@@ -626,7 +666,7 @@ mod tests {
 
     #[test]
     fn pressure_by_hand() {
-        let m = Cfsm::default();
+        let m = plain_gaps();
         // An even crowd: no pressure, the time gap T.
         assert_eq!(m.pressure(10.0, 20.0), 0.0);
         assert_eq!(m.time_gap_at(0.0), 0.6);
@@ -687,7 +727,7 @@ mod tests {
             m
         };
         for (m, key) in [
-            (with(|m| m.pressed_time_gap = 0.7), "pressed_time_gap"),
+            (with(|m| m.pressed_time_gap = 1.2), "pressed_time_gap"),
             (with(|m| m.pressed_time_gap = 0.0), "pressed_time_gap"),
             (with(|m| m.pressure_onset = f32::NAN), "pressure_onset"),
             (with(|m| m.pressure_onset = 1.0), "pressure_onset"),

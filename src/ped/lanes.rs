@@ -179,6 +179,8 @@ fn min_spacing_blocks<const CONTACT: bool>(
     dist: &[f32],
     width: f32,
 ) -> (f32, f32) {
+    // The side offset scaled to the path's width (exactly the offset at width 1).
+    let to_width = 1.0 / width;
     let mut best = [f32::INFINITY; LANES];
     let mut behind = [0.0f32; LANES];
     let mut left = nb.count as f32;
@@ -191,11 +193,12 @@ fn min_spacing_blocks<const CONTACT: bool>(
             let (x, y) = (rx[l], ry[l]);
             let along = ex * x + ey * y;
             let side = (-ey * x + ex * y).abs();
+            let wide = side * to_width;
             let real = (l as f32) < left;
             let ahead =
                 real & ((x != 0.0) | (y != 0.0)) & (along >= 0.0) & (side <= reach[l] * width);
             let s = if CONTACT {
-                along - (reach[l] * reach[l] - side * side).max(0.0).sqrt()
+                along - (reach[l] * reach[l] - wide * wide).max(0.0).sqrt()
             } else {
                 dist[l] - reach[l]
             };
@@ -339,6 +342,7 @@ mod tests {
     ) -> (f32, f32) {
         let contact = cf.spacing == Spacing::Contact;
         let width = cf.path_width;
+        let to_width = 1.0 / width;
         let mut best = [f32::INFINITY; LANES];
         let mut behind = [0.0f32; LANES];
         let mut left = nb.count as f32;
@@ -349,11 +353,12 @@ mod tests {
                 let (x, y) = (rx[l], ry[l]);
                 let along = ex * x + ey * y;
                 let side = (-ey * x + ex * y).abs();
+                let wide = side * to_width;
                 let real = (l as f32) < left;
                 let ahead =
                     real & ((x != 0.0) | (y != 0.0)) & (along >= 0.0) & (side <= reach[l] * width);
                 let s = if contact {
-                    along - (reach[l] * reach[l] - side * side).max(0.0).sqrt()
+                    along - (reach[l] * reach[l] - wide * wide).max(0.0).sqrt()
                 } else {
                     dist[l] - reach[l]
                 };

@@ -303,10 +303,10 @@ impl ModelParams {
     /// ```
     /// use throng::ped::{Model, ModelParams};
     /// let p = ModelParams::new(Model::Cfsm);
-    /// assert_eq!(p.value("time_gap"), Some(0.6));
+    /// assert_eq!(p.value("time_gap"), Some(1.0));
     /// assert_eq!(p.value("tau"), None);
-    /// let q = p.with_value("time_gap", 1.0).unwrap();
-    /// assert_eq!(q.value("time_gap"), Some(1.0));
+    /// let q = p.with_value("time_gap", 0.8).unwrap();
+    /// assert_eq!(q.value("time_gap"), Some(0.8));
     /// assert!(p.with_value("time_gap", -1.0).is_err());
     /// ```
     #[must_use]
