@@ -754,9 +754,9 @@ fn without_key(v: &mut ciborium::Value, key: &str) {
     }
 }
 
-#[test]
-fn a_version_1_file_resumes_without_the_pressed_anisotropy_as_it_would_have() {
-    // A version 1 world stepped with the anisotropy the same under pressure as without.
+/// The built-in bottleneck with 60 agents, the speed model's parameters of every group changed
+/// by `tweak`, after 40 steps, and its step.
+fn bottleneck_of_an_older_version(tweak: fn(&mut throng::ped::Cfsm)) -> (World, f32) {
     let mut s = scenario::builtin("bottleneck")
         .unwrap()
         .with_agents(60)
@@ -766,12 +766,21 @@ fn a_version_1_file_resumes_without_the_pressed_anisotropy_as_it_would_have() {
         let throng::ped::ModelParams::Cfsm(cf) = &mut ped.params else {
             panic!("the bottleneck walks by the speed model");
         };
-        cf.pressed_anisotropy = cf.anisotropy;
-        // And with the strip of every file before version 3.
-        cf.path_width = 1.0;
+        tweak(cf);
     }
     let mut world = s.build().unwrap();
     steps(&mut world, 40, s.dt);
+    (world, s.dt)
+}
+
+#[test]
+fn a_version_1_file_resumes_without_the_pressed_anisotropy_as_it_would_have() {
+    // A version 1 world stepped with the anisotropy the same under pressure as without, and
+    // with the strip of every file before version 3.
+    let (mut world, dt) = bottleneck_of_an_older_version(|cf| {
+        cf.pressed_anisotropy = cf.anisotropy;
+        cf.path_width = 1.0;
+    });
     let bytes = saved(&world);
     let pressed = |w: &World| match w.groups()[0].pedestrian.unwrap().params {
         throng::ped::ModelParams::Cfsm(cf) => (cf.anisotropy, cf.pressed_anisotropy),
@@ -786,8 +795,8 @@ fn a_version_1_file_resumes_without_the_pressed_anisotropy_as_it_would_have() {
     let old = crafted(&old, |v| without_key(v, "pressed_anisotropy"));
     let mut resumed = World::load(&old[..]).unwrap();
     assert_eq!(pressed(&resumed), (1.0, 1.0));
-    steps(&mut world, 60, s.dt);
-    steps(&mut resumed, 60, s.dt);
+    steps(&mut world, 60, dt);
+    steps(&mut resumed, 60, dt);
     assert_eq!(bits(&world), bits(&resumed));
     // Written again, it is a file of this version that keeps the value.
     let again = saved(&resumed);
@@ -798,19 +807,7 @@ fn a_version_1_file_resumes_without_the_pressed_anisotropy_as_it_would_have() {
 #[test]
 fn a_version_2_file_resumes_with_the_strip_it_stepped_with() {
     // A version 2 world stepped with the paper's strip, path width 1.
-    let mut s = scenario::builtin("bottleneck")
-        .unwrap()
-        .with_agents(60)
-        .unwrap();
-    for g in &mut s.groups {
-        let ped = g.params.pedestrian.as_mut().unwrap();
-        let throng::ped::ModelParams::Cfsm(cf) = &mut ped.params else {
-            panic!("the bottleneck walks by the speed model");
-        };
-        cf.path_width = 1.0;
-    }
-    let mut world = s.build().unwrap();
-    steps(&mut world, 40, s.dt);
+    let (mut world, dt) = bottleneck_of_an_older_version(|cf| cf.path_width = 1.0);
     let bytes = saved(&world);
     let width = |w: &World| match w.groups()[0].pedestrian.unwrap().params {
         throng::ped::ModelParams::Cfsm(cf) => cf.path_width,
@@ -829,7 +826,7 @@ fn a_version_2_file_resumes_with_the_strip_it_stepped_with() {
     let old = crafted(&old, |v| without_key(v, "path_width"));
     let mut resumed = World::load(&old[..]).unwrap();
     assert_eq!(width(&resumed), 1.0);
-    steps(&mut world, 60, s.dt);
-    steps(&mut resumed, 60, s.dt);
+    steps(&mut world, 60, dt);
+    steps(&mut resumed, 60, dt);
     assert_eq!(bits(&world), bits(&resumed));
 }
