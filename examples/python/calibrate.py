@@ -28,10 +28,12 @@ CASES = [
 ]
 
 GRIDS = {
+    # The time gap at the reference speed (0: as given for every desired speed) and the width
+    # of the path kept clear ahead; the grid of the defaults' calibration (docs/VALIDATION.md).
     "cfsm": {
-        "cfsm.time_gap": [0.6, 0.7, 0.8, 0.9, 1.0],
-        "cfsm.pressed_time_gap": [0.3, 0.4],
-        "cfsm.range_neighbour": [0.1, 0.15],
+        "cfsm.time_gap": [0.6, 0.8, 0.9, 1.0],
+        "cfsm.reference_speed": [0.0, 1.13],
+        "cfsm.path_width": [0.7, 0.8, 1.0],
     },
     "social_force": {
         "social_force.a": [2000.0, 4000.0],
