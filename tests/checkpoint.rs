@@ -830,3 +830,29 @@ fn a_version_2_file_resumes_with_the_strip_it_stepped_with() {
     steps(&mut resumed, 60, dt);
     assert_eq!(bits(&world), bits(&resumed));
 }
+
+#[test]
+fn an_older_file_without_the_reference_speed_reads_it_as_off() {
+    // The first version 1 files had no `reference_speed`: they stepped with the time gaps as
+    // given, 0; a file of this version without the key takes the default.
+    let (world, _) = bottleneck_of_an_older_version(|_| {});
+    let bytes = saved(&world);
+    let speed = |w: &World| match w.groups()[0].pedestrian.unwrap().params {
+        throng::ped::ModelParams::Cfsm(cf) => cf.reference_speed,
+        _ => unreachable!(),
+    };
+    let default = throng::ped::Cfsm::default().reference_speed;
+    assert_ne!(default, 0.0);
+    let new = crafted(&bytes, |v| without_key(v, "reference_speed"));
+    assert_eq!(speed(&World::load(&new[..]).unwrap()), default);
+    for version in [1u32, 2] {
+        let mut old = bytes.clone();
+        old[8..12].copy_from_slice(&version.to_le_bytes());
+        let old = crafted(&old, |v| without_key(v, "reference_speed"));
+        assert_eq!(
+            speed(&World::load(&old[..]).unwrap()),
+            0.0,
+            "version {version}"
+        );
+    }
+}

@@ -569,17 +569,19 @@ const NOT_INVARIANT: &[(&str, &str, &str)] = &[
     (
         "rimea-15-short",
         "mirrored",
-        "quickest paths: 1.5 cm at the first step (speed model), open",
+        "1.5 cm at the first step (speed model; 2.7 mm under the earlier calibration, traced \
+         to the quickest paths), open",
     ),
     (
         "rimea-15-long",
         "mirrored",
-        "quickest paths: 1.4 cm at the first step (speed model), open",
+        "1.4 cm at the first step (speed model; 3.1 mm under the earlier calibration, traced \
+         to the quickest paths), open",
     ),
     (
         "rimea-06-corner Cfsm",
         "turned",
-        "0.12 mm at frame 28, open",
+        "0.12 mm at frame 28, not traced, open",
     ),
     (
         "exp-t-junction",

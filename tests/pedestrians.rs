@@ -458,10 +458,11 @@ fn left_at_a_door_two_bodies_wide(seed: u64, tweak: fn(&mut Cfsm)) -> usize {
 }
 
 #[test]
-fn the_anisotropy_under_pressure_opens_the_arch_at_a_door_two_bodies_wide() {
-    // Under the defaults all but the last two (held by each other at the jambs, open) leave;
-    // with the paper's isotropic repulsion under pressure too, and its strip, an arch of four
-    // holds the crowd at one seed at least, so that this can fail.
+fn a_door_two_bodies_wide_holds_at_most_the_last_two() {
+    // Under the defaults all but at most the last two (held by each other at the jambs, open)
+    // leave; with the paper's isotropic repulsion under pressure too and its strip (the
+    // anisotropy under pressure and the path's width both off), an arch of four holds the
+    // crowd at one seed at least, so that this can fail.
     let seeds = 1..=3;
     let default: Vec<usize> = seeds
         .clone()

@@ -31,8 +31,9 @@ The scene (the same for both, written once with each API)
 * The model: the collision-free speed model with JuPedSim's parameters in both. JuPedSim runs
   its defaults (time gap 1 s, repulsions 8 / 0.1 m between agents and 5 / 0.02 m from walls);
   throng gets the same through Simulation(params=THRONG_PARAMS): spacing between centres less
-  the radii, speed min(v0, s / T), T = 1 s, no pressure term (its own defaults differ: time gap
-  0.6 s, spacing to contact, a smooth speed function, the pressure term). JuPedSim's neighbour
+  the radii, speed min(v0, s / T), T = 1 s, the paper's strip, no pressure term (its own
+  defaults differ: the time gap taken at 1.13 m/s, a path 0.8 bodies wide, spacing to contact,
+  a smooth speed function, the pressure term). JuPedSim's neighbour
   cut-off is 3 m, throng's 2 m; beyond 2 m the repulsion is below 1e-6 and the speed at v0.
 
 What is measured

@@ -47,6 +47,7 @@ use std::path::Path;
 use serde::{Deserialize, Serialize};
 
 use crate::error::{Error, Result};
+use crate::ped::Cfsm;
 use crate::world::World;
 
 /// The first eight bytes of every checkpoint.
@@ -56,7 +57,9 @@ pub const MAGIC: [u8; 8] = *b"THRONGCK";
 /// Version 2 added the speed model's `pressed_anisotropy`. A version 1 file has none, and its
 /// worlds stepped as if it equalled `anisotropy`: they are read so, and resume as they would
 /// have. Version 3 added its `path_width`, whose default is not 1: files before it are read
-/// with 1, the strip those worlds stepped with.
+/// with 1, the strip those worlds stepped with. Such keys are filled in by presence
+/// ([`crate::ped::Cfsm::value_when_absent`]): `reference_speed`, absent from the first
+/// version 1 files, reads as 0.
 pub const FORMAT_VERSION: u32 = 3;
 
 /// The oldest version this build reads.
@@ -237,14 +240,54 @@ fn read_payload(mut reader: impl Read) -> Result<(u32, Vec<u8>)> {
 /// Reads a checkpoint from `reader`: the world and the run's settings, if a run wrote it.
 fn load(reader: impl Read) -> Result<(World, Option<RunInfo>)> {
     let (version, payload) = read_payload(reader)?;
-    let mut decoded: Payload = ciborium::from_reader(&payload[..])
-        .map_err(|e| Error::Checkpoint(CheckpointError::Decode(e.to_string())))?;
+    let decode = |e: String| Error::Checkpoint(CheckpointError::Decode(e));
+    let decoded: Payload = if version < FORMAT_VERSION {
+        let mut v: ciborium::Value =
+            ciborium::from_reader(&payload[..]).map_err(|e| decode(e.to_string()))?;
+        with_older_keys(&mut v);
+        v.deserialized().map_err(|e| decode(e.to_string()))?
+    } else {
+        ciborium::from_reader(&payload[..]).map_err(|e| decode(e.to_string()))?
+    };
     if let Some(run) = &decoded.run {
         run.validate()?;
     }
-    decoded.world.as_of_version(version);
     let world = decoded.world.restore()?;
     Ok((world, decoded.run))
+}
+
+/// Fills in the speed model's keys that the tables of an older file lack
+/// ([`crate::ped::cfsm::ADDED_KEYS`]) with the values its worlds stepped with
+/// ([`Cfsm::value_when_absent`]), so that it resumes as it would have. By presence, not by
+/// version: `reference_speed` came within version 1. The decoder's nesting limit bounds the
+/// recursion.
+fn with_older_keys(v: &mut ciborium::Value) {
+    use ciborium::Value;
+    match v {
+        Value::Map(entries) => {
+            let has = |entries: &[(Value, Value)], key: &str| {
+                entries.iter().any(|(k, _)| k.as_text() == Some(key))
+            };
+            if Cfsm::is_its_table(entries.iter().filter_map(|(k, _)| k.as_text())) {
+                let anisotropy = entries
+                    .iter()
+                    .find(|(k, _)| k.as_text() == Some("anisotropy"))
+                    .and_then(|(_, v)| v.as_float())
+                    .unwrap_or(1.0) as f32;
+                for key in crate::ped::cfsm::ADDED_KEYS {
+                    if !has(entries, key)
+                        && let Some(x) = Cfsm::value_when_absent(key, anisotropy)
+                    {
+                        entries.push((Value::Text(key.into()), Value::Float(f64::from(x))));
+                    }
+                }
+            }
+            entries.iter_mut().for_each(|(_, v)| with_older_keys(v));
+        }
+        Value::Array(items) => items.iter_mut().for_each(with_older_keys),
+        Value::Tag(_, inner) => with_older_keys(inner),
+        _ => {}
+    }
 }
 
 /// Writes a file crash-safe; moved to [`crate::output`], which owns the rule for every output.

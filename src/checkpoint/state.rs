@@ -180,30 +180,6 @@ impl WorldState {
         }
     }
 
-    /// Every speed model parameter set of the state: the groups' and the agents' own.
-    fn cfsm_params(&mut self) -> impl Iterator<Item = &mut crate::ped::Cfsm> {
-        let params = self.groups.iter_mut().filter_map(|p| p.pedestrian.as_mut());
-        let own = self.model_params.iter_mut().map(|(_, p)| p);
-        params.chain(own).filter_map(|ped| match &mut ped.params {
-            crate::ped::ModelParams::Cfsm(cf) => Some(cf),
-            _ => None,
-        })
-    }
-
-    /// The speed model's parameters of a file of format `version`, decoded with today's
-    /// defaults for the keys it did not have, set as those worlds stepped: before version 2
-    /// `pressed_anisotropy` equal to `anisotropy`, before version 3 `path_width` 1.
-    pub(super) fn as_of_version(&mut self, version: u32) {
-        for cf in self.cfsm_params() {
-            if version < 2 {
-                cf.pressed_anisotropy = cf.anisotropy;
-            }
-            if version < 3 {
-                cf.path_width = 1.0;
-            }
-        }
-    }
-
     /// A world in this state, every part validated.
     pub(super) fn restore(self) -> Result<World> {
         at(|| "bounds".into(), self.bounds.validate())?;

@@ -51,17 +51,19 @@
 //! the validation rooms locks at the seeds measured (docs/VALIDATION.md, "The narrow door").
 //! `pressed_anisotropy = anisotropy` turns it off.
 //!
-//! Reference speed (not in the paper, off by default): with [`Cfsm::reference_speed`] `v_r > 0`
+//! Reference speed (not in the paper; 1.13 m/s by default, 0 turns it off): with
+//! [`Cfsm::reference_speed`] `v_r > 0`
 //! a pedestrian with the desired speed `v0` takes the time gaps times `v_r / v0`, so that `v /
 //! v0` is the same function of the spacing for every pedestrian, as Weidmann's fundamental
 //! diagram has `v / v0` one function of the density; pedestrians then keep a distance rather
 //! than a time.
 //!
-//! Path width (not in the paper): with [`Cfsm::path_width`] `w < 1` only a neighbour within
-//! `w l_ij` of the line along `e_i` counts for the spacing, so that a neighbour grazing the
-//! path (its body within `l_ij` but not within `w l_ij`) is passed and its contact left to the
-//! repulsion, as people turn a shoulder to pass; a line in single file is not changed. At 1
-//! the strip is the paper's.
+//! Path width (not in the paper; 0.8 by default): with [`Cfsm::path_width`] `w < 1` only a
+//! neighbour within `w l_ij` of the line along `e_i` counts for the spacing, taken as the walk
+//! to contact of a body `w` times as wide (continuous to the distance ahead at the path's
+//! edge), so that a neighbour grazing the path (its body within `l_ij` but not within `w
+//! l_ij`) is passed and its contact left to the repulsion, as people turn a shoulder to pass;
+//! a line in single file is not changed. At 1 the strip is the paper's.
 //!
 //! Sidestepping (not in the paper, off by default): a pedestrian blocked at contact ahead turns its direction by
 //! 45, then 90 degrees to either side and takes the first turn with room ahead, so that an arch
@@ -89,7 +91,7 @@ pub struct Cfsm {
     pub time_gap: f32,
     /// The time gap `T_p` under full pressure from behind, s (in `(0, time_gap]`; equal to
     /// `time_gap` for no pressure term, as in JuPedSim). Keep `dt <= pressed_time_gap` for the
-    /// model's freedom from collisions. Default: 0.4.
+    /// model's freedom from collisions (with those ahead within [`Cfsm::path_width`]). Default: 0.4.
     pub pressed_time_gap: f32,
     /// The imbalance of neighbours behind over ahead at which the pressure starts (in `[0,
     /// 1)`). Default: 0.15.
@@ -143,16 +145,71 @@ pub struct Cfsm {
     /// of the density). Default: 1.13, the free speed of the Juelich single-file runs, from
     /// which the default time gap is taken (JuPedSim: 0).
     pub reference_speed: f32,
-    /// The half-width of the path a pedestrian keeps clear ahead, as a fraction of `l_ij` (in
-    /// `(0, 1]`): only a neighbour within `path_width * l_ij` of the line along `e_i` counts
-    /// for the spacing, which it measures as before (the distance to contact under
-    /// [`Spacing::Contact`]). At 1 (the paper's strip) a neighbour whose body grazes the path
-    /// stops a pedestrian as one straight ahead does; below 1 a pedestrian walks past a
-    /// graze, leaving the shoulder contact to the repulsion, as people turn a shoulder or
-    /// sway to pass. A line of people in single file is not changed. Default: 0.8 (JuPedSim:
+    /// The half-width of the path a pedestrian keeps clear ahead, as a fraction `w` of `l_ij`
+    /// (in `[0.5, 1]`): only a neighbour within `w l_ij` of the line along `e_i` counts for
+    /// the spacing. Under [`Spacing::Contact`] the spacing is the walk to contact of a body
+    /// `w` times as wide, `x - sqrt(l_ij^2 - (y / w)^2)`, which runs continuously to the
+    /// distance ahead `x` at the path's edge; under [`Spacing::Centre`] it is `d_ij - l_ij`
+    /// as before. At 1 (the paper's strip) a neighbour whose body grazes the path stops a
+    /// pedestrian as one straight ahead does; below 1 a pedestrian walks past a graze, and
+    /// the repulsion alone keeps the two bodies apart, as people turn a shoulder or sway to
+    /// pass: the model is then free of collisions with those straight ahead, not with those
+    /// it grazes. A line of people in single file is not changed. Default: 0.8 (JuPedSim:
     /// 1; below about 0.75 the grazes the repulsion resolves make the results depend on the
     /// time step, docs/VALIDATION.md).
     pub path_width: f32,
+}
+
+/// The keys added to the speed model's table after its first release. A table written without
+/// one of them (a checkpoint of an older build) stepped as [`Cfsm::value_when_absent`] gives,
+/// which is not always the default; a table written today names every key.
+pub const ADDED_KEYS: [&str; 3] = ["pressed_anisotropy", "reference_speed", "path_width"];
+
+impl Cfsm {
+    /// The value an older table without the added key `key` ([`ADDED_KEYS`]) stepped with, given
+    /// its `anisotropy`: `pressed_anisotropy` equal to the anisotropy (no such term),
+    /// `reference_speed` 0 (the time gaps as given) and `path_width` 1 (the paper's strip);
+    /// `None` for any other key.
+    #[must_use]
+    pub fn value_when_absent(key: &str, anisotropy: f32) -> Option<f32> {
+        match key {
+            "pressed_anisotropy" => Some(anisotropy),
+            "reference_speed" => Some(0.0),
+            "path_width" => Some(1.0),
+            _ => None,
+        }
+    }
+
+    /// The speed model's TOML `table` written by an older build with every key of
+    /// [`ADDED_KEYS`] it lacks filled in as [`Cfsm::value_when_absent`] gives (a saved
+    /// `params=` table of the Python `Simulation`).
+    pub fn fill_absent_keys(table: &mut toml::Table) {
+        let anisotropy = match table.get("anisotropy") {
+            Some(toml::Value::Float(v)) => *v as f32,
+            Some(toml::Value::Integer(v)) => *v as f32,
+            _ => 1.0,
+        };
+        for key in ADDED_KEYS {
+            if !table.contains_key(key)
+                && let Some(x) = Cfsm::value_when_absent(key, anisotropy)
+            {
+                table.insert(key.into(), toml::Value::Float(f64::from(x)));
+            }
+        }
+    }
+
+    /// Whether a table with these keys is one of the speed model's (it has the keys every
+    /// version of it had: `time_gap` and `pressure_onset`).
+    #[must_use]
+    pub fn is_its_table<'a>(mut keys: impl Iterator<Item = &'a str>) -> bool {
+        let (mut gap, mut onset) = (false, false);
+        keys.all(|k| {
+            gap |= k == "time_gap";
+            onset |= k == "pressure_onset";
+            true
+        });
+        gap && onset
+    }
 }
 
 /// [`Cfsm::weight`] for the anisotropy `lambda`.
@@ -291,13 +348,12 @@ impl Cfsm {
             1e3,
             "[0, 1e3]",
         )?;
-        positive("pedestrian.cfsm.path_width", self.path_width)?;
         in_range(
             "pedestrian.cfsm.path_width",
             self.path_width,
-            0.0,
+            0.5,
             1.0,
-            "(0, 1]",
+            "[0.5, 1]",
         )?;
         check_cutoff("pedestrian.cfsm.cutoff", self.cutoff)
     }
@@ -654,7 +710,7 @@ mod tests {
         );
         let edge = contact.spacing_to(Vec2::new(1.0, 0.2399), e, 0.4).unwrap();
         assert!((edge - 1.0).abs() < 0.02, "{edge}");
-        for bad in [0.0, -0.5, 1.01, f32::NAN, f32::INFINITY] {
+        for bad in [0.0, 0.49, -0.5, 1.01, f32::NAN, f32::INFINITY, 1e-40] {
             let m = Cfsm {
                 path_width: bad,
                 ..Cfsm::default()
@@ -662,6 +718,28 @@ mod tests {
             let e = m.validate().unwrap_err().to_string();
             assert!(e.contains("path_width"), "{bad}: {e}");
         }
+    }
+
+    #[test]
+    fn an_older_table_gets_the_values_it_stepped_with_and_a_new_one_keeps_its_own() {
+        let mut old: toml::Table =
+            toml::from_str("time_gap = 0.6\npressure_onset = 0.15\nanisotropy = 0.9").unwrap();
+        assert!(Cfsm::is_its_table(old.keys().map(String::as_str)));
+        Cfsm::fill_absent_keys(&mut old);
+        let cf: Cfsm = old.try_into().unwrap();
+        assert_eq!(
+            (cf.pressed_anisotropy, cf.reference_speed, cf.path_width),
+            (0.9, 0.0, 1.0)
+        );
+        let mut new: toml::Table =
+            toml::from_str(&toml::to_string(&Cfsm::default()).unwrap()).unwrap();
+        Cfsm::fill_absent_keys(&mut new);
+        assert_eq!(new.try_into::<Cfsm>().unwrap(), Cfsm::default());
+        assert!(!Cfsm::is_its_table(["time_gap", "tau"].into_iter()));
+        for key in ADDED_KEYS {
+            assert!(Cfsm::value_when_absent(key, 0.5).is_some(), "{key}");
+        }
+        assert_eq!(Cfsm::value_when_absent("time_gap", 0.5), None);
     }
 
     #[test]

@@ -311,9 +311,16 @@ impl PySimulation {
             let pedestrian = if table.is_empty() {
                 from_groups(&world)
             } else {
-                let t: PedestrianTable = toml::from_str(table).map_err(|e| {
+                let unreadable = |e: String| {
                     invalid("path", format!("the checkpoint's params= do not read: {e}"))
-                })?;
+                };
+                let mut raw: toml::Table =
+                    toml::from_str(table).map_err(|e| unreadable(e.to_string()))?;
+                // A table saved by an older build steps with the values it had then.
+                if let Some(toml::Value::Table(cf)) = raw.get_mut("cfsm") {
+                    throng::ped::Cfsm::fill_absent_keys(cf);
+                }
+                let t: PedestrianTable = raw.try_into().map_err(|e| unreadable(e.to_string()))?;
                 t.validate().or_raise()?;
                 t
             };
