@@ -806,8 +806,20 @@ fn a_version_1_file_resumes_without_the_pressed_anisotropy_as_it_would_have() {
 
 #[test]
 fn a_version_2_file_resumes_with_the_strip_it_stepped_with() {
-    // A version 2 world stepped with the paper's strip, path width 1.
+    // A version 2 world stepped with the paper's strip, path width 1, its groups' and the
+    // first agent's own parameters (a longer time gap) alike.
     let (mut world, dt) = bottleneck_of_an_older_version(|cf| cf.path_width = 1.0);
+    let first = world.agents().id(0);
+    let own = match world.agent_model_params(first).unwrap() {
+        Some(throng::ped::ModelParams::Cfsm(cf)) => throng::ped::Cfsm {
+            time_gap: 1.3,
+            ..cf
+        },
+        _ => unreachable!(),
+    };
+    world
+        .set_agent_model_params(first, Some(throng::ped::ModelParams::Cfsm(own)))
+        .unwrap();
     let bytes = saved(&world);
     let width = |w: &World| match w.groups()[0].pedestrian.unwrap().params {
         throng::ped::ModelParams::Cfsm(cf) => cf.path_width,
@@ -826,6 +838,10 @@ fn a_version_2_file_resumes_with_the_strip_it_stepped_with() {
     let old = crafted(&old, |v| without_key(v, "path_width"));
     let mut resumed = World::load(&old[..]).unwrap();
     assert_eq!(width(&resumed), 1.0);
+    assert_eq!(
+        resumed.agent_model_params(first).unwrap(),
+        Some(throng::ped::ModelParams::Cfsm(own))
+    );
     steps(&mut world, 60, dt);
     steps(&mut resumed, 60, dt);
     assert_eq!(bits(&world), bits(&resumed));
