@@ -50,8 +50,9 @@ pub enum Error {
         /// The value given.
         dt: f64,
     },
-    /// A number lay outside the range it must lie in.
-    #[error("{name} must lie in {range}, got {value}")]
+    /// A number lay outside the range it must lie in (a value read as `f32` is printed as
+    /// its shortest `f32` form: 0.3, not 0.30000001192092896).
+    #[error("{name} must lie in {range}, got {}", shortest(*value))]
     OutOfRange {
         /// The parameter's name.
         name: &'static str,
@@ -330,6 +331,20 @@ pub fn positive(name: &'static str, value: f32) -> Result<f32> {
     }
 }
 
+/// `value` as written: the shortest form of the `f32` it is exactly, else of the `f64`; with
+/// an exponent beyond 1e16 and below 1e-6 (1e300, not three hundred digits).
+fn shortest(value: f64) -> String {
+    let narrow = value as f32;
+    let exact = f64::from(narrow) == value;
+    let huge_or_tiny = value != 0.0 && !(1e-6..1e16).contains(&value.abs());
+    match (exact, huge_or_tiny) {
+        (true, false) => narrow.to_string(),
+        (true, true) => format!("{narrow:e}"),
+        (false, false) => value.to_string(),
+        (false, true) => format!("{value:e}"),
+    }
+}
+
 /// Checks that `value` is finite and lies in `[lo, hi]`.
 ///
 /// # Errors
@@ -417,4 +432,35 @@ pub enum CheckpointError {
         /// What is wrong.
         reason: String,
     },
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn out_of_range_values_print_as_written() {
+        let msg = |value: f64| {
+            Error::OutOfRange {
+                name: "k",
+                value,
+                range: "[0.5, 1]",
+            }
+            .to_string()
+        };
+        // An f32 read from a file: its shortest form, not its f64 expansion.
+        assert_eq!(msg(f64::from(0.3f32)), "k must lie in [0.5, 1], got 0.3");
+        assert!(
+            in_range("k", 0.3, 0.5, 1.0, "[0.5, 1]")
+                .unwrap_err()
+                .to_string()
+                .ends_with("got 0.3")
+        );
+        // An f64 that no f32 equals keeps its own form.
+        assert_eq!(msg(0.1), "k must lie in [0.5, 1], got 0.1");
+        assert_eq!(msg(1e300), "k must lie in [0.5, 1], got 1e300");
+        assert_eq!(msg(2.5), "k must lie in [0.5, 1], got 2.5");
+        assert_eq!(msg(f64::from(1e20f32)), "k must lie in [0.5, 1], got 1e20");
+        assert_eq!(msg(-3e-9), "k must lie in [0.5, 1], got -3e-9");
+    }
 }
