@@ -58,7 +58,7 @@ pub const MAGIC: [u8; 8] = *b"THRONGCK";
 /// worlds stepped as if it equalled `anisotropy`: they are read so, and resume as they would
 /// have. Version 3 added its `path_width`, whose default is not 1: files before it are read
 /// with 1, the strip those worlds stepped with. Such keys are filled in by presence
-/// ([`crate::ped::Cfsm::value_when_absent`]): `reference_speed`, absent from the first
+/// ([`crate::ped::Cfsm::absent_keys`]): `reference_speed`, absent from the first
 /// version 1 files, reads as 0.
 pub const FORMAT_VERSION: u32 = 3;
 
@@ -256,31 +256,19 @@ fn load(reader: impl Read) -> Result<(World, Option<RunInfo>)> {
     Ok((world, decoded.run))
 }
 
-/// Fills in the speed model's keys that the tables of an older file lack
-/// ([`crate::ped::cfsm::ADDED_KEYS`]) with the values its worlds stepped with
-/// ([`Cfsm::value_when_absent`]), so that it resumes as it would have. By presence, not by
-/// version: `reference_speed` came within version 1. The decoder's nesting limit bounds the
-/// recursion.
+/// Fills in the speed model's keys that the tables of an older file lack with the values its
+/// worlds stepped with ([`Cfsm::absent_keys`]), so that it resumes as it would have. By
+/// presence, not by version: `reference_speed` came within version 1. The decoder's nesting
+/// limit bounds the recursion.
 fn with_older_keys(v: &mut ciborium::Value) {
     use ciborium::Value;
     match v {
         Value::Map(entries) => {
-            let has = |entries: &[(Value, Value)], key: &str| {
-                entries.iter().any(|(k, _)| k.as_text() == Some(key))
-            };
-            if Cfsm::is_its_table(entries.iter().filter_map(|(k, _)| k.as_text())) {
-                let anisotropy = entries
-                    .iter()
-                    .find(|(k, _)| k.as_text() == Some("anisotropy"))
-                    .and_then(|(_, v)| v.as_float())
-                    .unwrap_or(1.0) as f32;
-                for key in crate::ped::cfsm::ADDED_KEYS {
-                    if !has(entries, key)
-                        && let Some(x) = Cfsm::value_when_absent(key, anisotropy)
-                    {
-                        entries.push((Value::Text(key.into()), Value::Float(f64::from(x))));
-                    }
-                }
+            let value = |key: &str| entries.iter().find(|(k, _)| k.as_text() == Some(key));
+            let anisotropy = value("anisotropy").and_then(|(_, v)| v.as_float());
+            let absent = Cfsm::absent_keys(|k| value(k).is_some(), anisotropy.map(|a| a as f32));
+            for (key, x) in absent {
+                entries.push((Value::Text(key.into()), Value::Float(f64::from(x))));
             }
             entries.iter_mut().for_each(|(_, v)| with_older_keys(v));
         }

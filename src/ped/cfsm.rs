@@ -160,55 +160,41 @@ pub struct Cfsm {
     pub path_width: f32,
 }
 
-/// The keys added to the speed model's table after its first release. A table written without
-/// one of them (a checkpoint of an older build) stepped as [`Cfsm::value_when_absent`] gives,
-/// which is not always the default; a table written today names every key.
-pub const ADDED_KEYS: [&str; 3] = ["pressed_anisotropy", "reference_speed", "path_width"];
-
 impl Cfsm {
-    /// The value an older table without the added key `key` ([`ADDED_KEYS`]) stepped with, given
-    /// its `anisotropy`: `pressed_anisotropy` equal to the anisotropy (no such term),
-    /// `reference_speed` 0 (the time gaps as given) and `path_width` 1 (the paper's strip);
-    /// `None` for any other key.
+    /// The keys a speed model's table written by an older build lacks, each with the value its
+    /// worlds stepped with, which is not always today's default: `pressed_anisotropy` equal to
+    /// the anisotropy (no such term), `reference_speed` 0 (the time gaps as given) and
+    /// `path_width` 1 (the paper's strip). `has` tells whether the table names a key and
+    /// `anisotropy` is its anisotropy, if named. Empty for a table that is not the speed
+    /// model's (one without `time_gap` and `pressure_onset`, which every version had) and for
+    /// one written today, which names every key.
     #[must_use]
-    pub fn value_when_absent(key: &str, anisotropy: f32) -> Option<f32> {
-        match key {
-            "pressed_anisotropy" => Some(anisotropy),
-            "reference_speed" => Some(0.0),
-            "path_width" => Some(1.0),
-            _ => None,
+    pub fn absent_keys(
+        has: impl Fn(&str) -> bool,
+        anisotropy: Option<f32>,
+    ) -> Vec<(&'static str, f32)> {
+        if !(has("time_gap") && has("pressure_onset")) {
+            return Vec::new();
         }
+        let added = [
+            ("pressed_anisotropy", anisotropy.unwrap_or(1.0)),
+            ("reference_speed", 0.0),
+            ("path_width", 1.0),
+        ];
+        added.into_iter().filter(|(k, _)| !has(k)).collect()
     }
 
-    /// The speed model's TOML `table` written by an older build with every key of
-    /// [`ADDED_KEYS`] it lacks filled in as [`Cfsm::value_when_absent`] gives (a saved
-    /// `params=` table of the Python `Simulation`).
+    /// The speed model's TOML `table` (a saved `params=` table of the Python `Simulation`)
+    /// with the keys an older build did not write filled in ([`Cfsm::absent_keys`]).
     pub fn fill_absent_keys(table: &mut toml::Table) {
         let anisotropy = match table.get("anisotropy") {
-            Some(toml::Value::Float(v)) => *v as f32,
-            Some(toml::Value::Integer(v)) => *v as f32,
-            _ => 1.0,
+            Some(toml::Value::Float(v)) => Some(*v as f32),
+            Some(toml::Value::Integer(v)) => Some(*v as f32),
+            _ => None,
         };
-        for key in ADDED_KEYS {
-            if !table.contains_key(key)
-                && let Some(x) = Cfsm::value_when_absent(key, anisotropy)
-            {
-                table.insert(key.into(), toml::Value::Float(f64::from(x)));
-            }
+        for (key, x) in Cfsm::absent_keys(|k| table.contains_key(k), anisotropy) {
+            table.insert(key.into(), toml::Value::Float(f64::from(x)));
         }
-    }
-
-    /// Whether a table with these keys is one of the speed model's (it has the keys every
-    /// version of it had: `time_gap` and `pressure_onset`).
-    #[must_use]
-    pub fn is_its_table<'a>(mut keys: impl Iterator<Item = &'a str>) -> bool {
-        let (mut gap, mut onset) = (false, false);
-        keys.all(|k| {
-            gap |= k == "time_gap";
-            onset |= k == "pressure_onset";
-            true
-        });
-        gap && onset
     }
 }
 
@@ -724,7 +710,6 @@ mod tests {
     fn an_older_table_gets_the_values_it_stepped_with_and_a_new_one_keeps_its_own() {
         let mut old: toml::Table =
             toml::from_str("time_gap = 0.6\npressure_onset = 0.15\nanisotropy = 0.9").unwrap();
-        assert!(Cfsm::is_its_table(old.keys().map(String::as_str)));
         Cfsm::fill_absent_keys(&mut old);
         let cf: Cfsm = old.try_into().unwrap();
         assert_eq!(
@@ -735,11 +720,9 @@ mod tests {
             toml::from_str(&toml::to_string(&Cfsm::default()).unwrap()).unwrap();
         Cfsm::fill_absent_keys(&mut new);
         assert_eq!(new.try_into::<Cfsm>().unwrap(), Cfsm::default());
-        assert!(!Cfsm::is_its_table(["time_gap", "tau"].into_iter()));
-        for key in ADDED_KEYS {
-            assert!(Cfsm::value_when_absent(key, 0.5).is_some(), "{key}");
-        }
-        assert_eq!(Cfsm::value_when_absent("time_gap", 0.5), None);
+        // A table that is not the speed model's gets nothing.
+        let other = |k: &str| ["time_gap", "tau"].contains(&k);
+        assert!(Cfsm::absent_keys(other, None).is_empty());
     }
 
     #[test]
