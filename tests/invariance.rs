@@ -239,30 +239,37 @@ fn bottleneck_means(model: Model, every: u32) -> (f64, f64, usize) {
     (t, j, stuck)
 }
 
-/// The bottleneck's mean flow and mean count left inside over `SEEDS` seeds with
+/// The bottleneck's mean flow and mean count left inside over `seeds` seeds with
 /// `reorder_every` `every`.
-fn bottleneck_flow_and_inside(model: Model, every: u32) -> (f64, f64) {
-    const SEEDS: u64 = 4;
+fn bottleneck_flow_and_inside(model: Model, every: u32, seeds: u64) -> (f64, f64) {
     let (mut j, mut inside) = (0.0, 0.0);
-    for seed in 0..SEEDS {
+    for seed in 0..seeds {
         let (_, left, flow) = bottleneck_in_layout(model, every, seed);
-        j += flow / SEEDS as f64;
-        inside += left as f64 / SEEDS as f64;
+        j += flow / seeds as f64;
+        inside += left as f64 / seeds as f64;
     }
     (j, inside)
 }
 
 /// The long size of the macroscopic test, for the social force model (`--ignored`, about two
 /// minutes): its bottleneck does not always empty at 1.2 m, so the flow and the number left
-/// inside (means over four seeds) agree, within 2% of the flow and of the 200 pedestrians.
+/// inside agree, within 2% of the flow and of the 200 pedestrians. Means over 32 seeds: a
+/// single run's flow at 1.2 m lies within about 4% of the mean (1.86, 1.76 and 1.72 1/s at
+/// seeds 0 to 2), and means over four and over eight seeds differed between layouts by 2.4%
+/// and 2.1%, by chance alone.
 #[test]
-#[ignore = "long: the social force model's bottleneck over four seeds and four layouts"]
+#[ignore = "long: the social force model's bottleneck over 32 seeds and four layouts"]
 fn the_social_force_bottleneck_flows_alike_in_every_layout() {
     let mut failures = Vec::new();
     let model = Model::SocialForce;
-    let (j0, inside0) = bottleneck_flow_and_inside(model, 0);
+    const SEEDS: u64 = 32;
+    let (j0, inside0) = bottleneck_flow_and_inside(model, 0, SEEDS);
     for every in [1, 4, 16] {
-        let (j, inside) = bottleneck_flow_and_inside(model, every);
+        let (j, inside) = bottleneck_flow_and_inside(model, every, SEEDS);
+        eprintln!(
+            "reorder_every {every}: flow {j:.3} against {j0:.3} 1/s, {inside:.2} against \
+             {inside0:.2} left inside"
+        );
         if !((j / j0 - 1.0).abs() <= 0.02 && (inside - inside0).abs() <= 0.02 * 200.0) {
             failures.push(format!(
                 "{model:?}, reorder_every {every}: flow {j:.3} against {j0:.3} 1/s, {inside:.1} \
@@ -562,18 +569,13 @@ const NOT_INVARIANT: &[(&str, &str, &str)] = &[
         "ORCA: 0.50 mm at the first step, open",
     ),
     (
-        "rimea-15-corner SocialForce",
-        "turned",
-        "quickest paths: 5.6 mm at frame 17, open",
-    ),
-    (
-        "rimea-15-short",
+        "rimea-15-short Cfsm",
         "mirrored",
         "1.5 cm at the first step (speed model; 2.7 mm under the earlier calibration, traced \
          to the quickest paths), open",
     ),
     (
-        "rimea-15-long",
+        "rimea-15-long Cfsm",
         "mirrored",
         "1.4 cm at the first step (speed model; 3.1 mm under the earlier calibration, traced \
          to the quickest paths), open",
@@ -584,9 +586,9 @@ const NOT_INVARIANT: &[(&str, &str, &str)] = &[
         "0.12 mm at frame 28, not traced, open",
     ),
     (
-        "exp-t-junction",
+        "exp-t-junction Cfsm",
         "translated",
-        "0.13 mm at frame 8 (speed model), 1.5 cm at frame 26 (social force), open",
+        "0.13 mm at frame 8, open",
     ),
 ];
 

@@ -544,3 +544,49 @@ pedestrian = { premovement = { min = 1, max = 4 } }
         assert!(e.contains(key), "{line}: {e}");
     }
 }
+
+/// Under the social force model a waiting pedestrian has no social repulsion of its own: nine
+/// standing 0.8 m apart (0.4 m between bodies, where the repulsion is 29 N) do not move before
+/// their time, and two whose bodies overlap are still pushed apart by the body force.
+#[test]
+fn waiting_pedestrians_are_moved_only_by_contact_under_the_social_force_model() {
+    let scene = |spacing: f32, count: usize| {
+        format!(
+            r#"
+name = "wait"
+seed = 3
+dt = 0.01
+[[groups]]
+count = {count}
+spawn = {{ kind = "grid", origin = [0, 0], spacing = [{spacing}, {spacing}], columns = 3 }}
+model = "kinematic"
+max_speed = 2
+radius = 0.2
+steering = {{ behaviours = [{{ kind = "seek", target = {{ point = [100, 0] }} }}] }}
+pedestrian = {{ model = "social_force", premovement = {{ min = 50, max = 50 }} }}
+"#
+        )
+    };
+    let largest_move = |text: &str| {
+        let mut w = Scenario::from_toml(text, "t.toml")
+            .unwrap()
+            .build()
+            .unwrap();
+        let start: std::collections::HashMap<AgentId, Vec2> = (0..w.len())
+            .map(|i| (w.agents().id(i), w.agents().position(i)))
+            .collect();
+        for _ in 0..200 {
+            w.step(0.01).unwrap();
+        }
+        (0..w.len())
+            .map(|i| w.agents().position(i).distance(start[&w.agents().id(i)]))
+            .fold(0.0f32, f32::max)
+    };
+    let apart = largest_move(&scene(0.8, 9));
+    assert!(apart == 0.0, "a waiting pedestrian moved {apart} m");
+    let touching = largest_move(&scene(0.3, 2));
+    assert!(
+        touching > 0.02,
+        "overlapping bodies moved only {touching} m"
+    );
+}

@@ -64,8 +64,9 @@ fn json_holds_every_check_and_the_verdict() {
 
 #[test]
 fn a_failing_check_exits_non_zero_naming_it() {
-    // The social force model at the papers' parameters clogs the bottleneck, below the
-    // experiments' band (docs/VALIDATION.md): the run reports it and fails.
+    // The social force model at the 2000 paper's repulsion (2000 N over 0.08 m, isotropic)
+    // squeezes bodies through the bottleneck at twice the experiments' band
+    // (docs/VALIDATION.md): the run reports it and fails.
     let o = assert_one_line_failure(
         &[
             "validate",
@@ -75,6 +76,12 @@ fn a_failing_check_exits_non_zero_naming_it() {
             "2",
             "--pedestrian-model",
             "social_force",
+            "--param",
+            "social_force.a=2000",
+            "--param",
+            "social_force.b=0.08",
+            "--param",
+            "social_force.lambda=1",
         ],
         "bottleneck: J/b at b = 1.2 m",
     );

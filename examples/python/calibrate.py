@@ -5,8 +5,11 @@ usage: python examples/python/calibrate.py MODEL OUT.csv [--full] [--dask]
 MODEL is ``cfsm`` or ``social_force``. Every combination of the grid below runs the ``exp-*``
 cases of ``throng validate`` (and RiMEA 4, the fundamental diagram against Weidmann's) through
 ``throng.sweep``, one row per case and parameter set, written to OUT.csv; the parameter sets are
-then ranked by the mean over the cases of the mean absolute relative error per bin, and the best
-ten printed. ``--full`` runs the cases at their full size (default: ``quick``); ``--dask`` maps
+then ranked by the checks they pass over all the cases (the validation's own criteria: a bin
+within 15% of the experiment's, a RiMEA criterion), ties broken by the mean over the ``exp-*``
+cases of the mean absolute relative error per bin, and the best ten printed. The count comes
+first because the mean is ruled by the worst case: a set that misses one experiment by 300% and
+meets the others is a better default than one that misses all of them by 50%. ``--full`` runs the cases at their full size (default: ``quick``); ``--dask`` maps
 the runs over a ``dask.distributed.LocalCluster`` of one worker per core. One parameter set per
 model, not per case: that is what a default is.
 """
@@ -25,6 +28,7 @@ CASES = [
     "exp-t-junction",
     "exp-bottleneck-width",
     "rimea-04",
+    "bottleneck",
 ]
 
 GRIDS = {
@@ -35,10 +39,13 @@ GRIDS = {
         "cfsm.reference_speed": [0.0, 1.13],
         "cfsm.path_width": [0.7, 0.8, 1.0],
     },
+    # The agents' repulsion: its strength (N, on 80 kg), range and anisotropy, from the 2000
+    # paper's strong, short repulsion towards the soft, long one of Johansson, Helbing and
+    # Shukla's fit to video tracks (0.42 m/s^2, that is 34 N, over 1.65 m, lambda 0.12).
     "social_force": {
-        "social_force.a": [2000.0, 4000.0],
-        "social_force.b": [0.08, 0.2, 0.3],
-        "social_force.lambda": [0.3, 1.0],
+        "social_force.a": [40.0, 80.0, 160.0, 2000.0],
+        "social_force.b": [0.2, 0.4, 0.8],
+        "social_force.lambda": [0.1, 0.3],
     },
 }
 
@@ -71,17 +78,20 @@ def main() -> None:
     df.to_csv(out, index=False)
     keys = [f"pedestrian.{k}" for k in grid]
     exp = df[df["validate"].str.startswith("exp-")]
-    ranked = (
-        exp.groupby(keys)
-        .agg(
-            mean_error=("mean_abs_error", "mean"),
-            worst=("max_abs_error", "max"),
-            cases_passed=("pass", "sum"),
-        )
-        .sort_values("mean_error")
+    errors = exp.groupby(keys).agg(
+        mean_error=("mean_abs_error", "mean"),
+        worst=("max_abs_error", "max"),
+    )
+    checks = df.groupby(keys).agg(
+        checks_passed=("checks_passed", "sum"),
+        checks=("checks", "sum"),
+        cases_passed=("pass", "sum"),
     )
     rimea = df[df["validate"] == "rimea-04"].set_index(keys)["pass"].rename("rimea_04")
-    print(ranked.join(rimea).head(10).to_string())
+    ranked = checks.join(errors).join(rimea).sort_values(
+        ["checks_passed", "mean_error"], ascending=[False, True]
+    )
+    print(ranked.head(10).to_string())
 
 
 if __name__ == "__main__":

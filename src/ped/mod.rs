@@ -191,9 +191,11 @@ impl DesiredSpeed {
 /// Pre-movement times: how long after the start of the run (world time 0, the alarm) each
 /// pedestrian waits before it walks, drawn per agent from the uniform distribution on
 /// `[min, max]` s (RiMEA test 5 uses 10 to 100 s). A waiting pedestrian has no preferred
-/// velocity: it stands (the social force model still lets others push it). Drawn from the agent's
-/// counter-based stream, so the same for any spawn order or thread count; agents added after
-/// their time walk at once.
+/// velocity: it stands. Under the social force model it has no social repulsion either (the
+/// repulsion is a pedestrian's motive to keep its distance, and a waiting one has no motives
+/// yet): others move it only by contact, through the body force and the friction. Drawn from
+/// the agent's counter-based stream, so the same for any spawn order or thread count; agents
+/// added after their time walk at once.
 #[derive(Clone, Copy, Debug, PartialEq, Serialize, Deserialize)]
 #[serde(deny_unknown_fields)]
 pub struct Premovement {

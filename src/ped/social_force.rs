@@ -31,7 +31,8 @@ use serde::{Deserialize, Serialize};
 use super::{away, check_cutoff, exp_capped};
 use crate::error::{Result, in_range, non_negative, positive};
 
-/// The social force model's parameters; defaults from Helbing, Farkas and Vicsek 2000.
+/// The social force model's parameters; defaults from Helbing, Farkas and Vicsek 2000 but for the
+/// agents' repulsion (`a`, `b`, `lambda`), calibrated against the Juelich experiments.
 #[derive(Clone, Copy, Debug, PartialEq, Serialize, Deserialize)]
 #[serde(default, deny_unknown_fields)]
 pub struct SocialForce {
@@ -39,10 +40,11 @@ pub struct SocialForce {
     pub mass: f32,
     /// Relaxation time of the driving term, s (> 0). Default: 0.5.
     pub tau: f32,
-    /// Strength of the repulsion between agents, N (>= 0). Default: 2000.
-    pub a: f32,
-    /// Range of the repulsion between agents, m (> 0). Default: 0.2 (the 2000 paper: 0.08),
+    /// Strength of the repulsion between agents, N (>= 0). Default: 80 (the 2000 paper: 2000),
     /// from the calibration against the Juelich experiments (docs/VALIDATION.md).
+    pub a: f32,
+    /// Range of the repulsion between agents, m (> 0). Default: 0.4 (the 2000 paper: 0.08),
+    /// from the same calibration.
     pub b: f32,
     /// Strength of the repulsion of walls, N (>= 0). Default: 2000.
     pub a_wall: f32,
@@ -53,7 +55,7 @@ pub struct SocialForce {
     /// Sliding friction constant, kg/(m s) (>= 0). Default: 2.4e5.
     pub kappa: f32,
     /// Anisotropy: the weight of the repulsion of an agent straight behind, in [0, 1]
-    /// (1: isotropic, as in the 2000 paper). Default: 0.3, from the same calibration.
+    /// (1: isotropic, as in the 2000 paper). Default: 0.1, from the same calibration.
     pub lambda: f32,
     /// Agents and walls farther than this from an agent's centre are ignored, m (> 0).
     /// Default: 2.
@@ -65,13 +67,13 @@ impl Default for SocialForce {
         SocialForce {
             mass: 80.0,
             tau: 0.5,
-            a: 2000.0,
-            b: 0.2,
+            a: 80.0,
+            b: 0.4,
             a_wall: 2000.0,
             b_wall: 0.08,
             k: 1.2e5,
             kappa: 2.4e5,
-            lambda: 0.3,
+            lambda: 0.1,
             cutoff: 2.0,
         }
     }
@@ -192,8 +194,9 @@ mod tests {
 
     #[test]
     fn pair_force_by_hand_apart_and_in_contact() {
-        // The 2000 paper's parameters (isotropic, B = 0.08 m).
+        // The 2000 paper's parameters (isotropic, A = 2000 N, B = 0.08 m).
         let p = SocialForce {
+            a: 2000.0,
             b: 0.08,
             lambda: 1.0,
             ..SocialForce::default()

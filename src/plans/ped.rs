@@ -503,11 +503,8 @@ fn agent(
         (Vec2::ZERO, 0.0)
     };
     // Before its pre-movement time a pedestrian does not walk.
-    let (e0, v0) = if ped.waits(view.seed, a.ids[i].0, view.time) {
-        (Vec2::ZERO, 0.0)
-    } else {
-        (e0, v0)
-    };
+    let waiting = ped.waits(view.seed, a.ids[i].0, view.time);
+    let (e0, v0) = if waiting { (Vec2::ZERO, 0.0) } else { (e0, v0) };
     let (count, n) = gather(view, grid, avx2, i, pos, ped.cutoff(), b);
     #[cfg(feature = "oracle")]
     crate::oracle::record(crate::oracle::Seen {
@@ -521,6 +518,15 @@ fn agent(
 
     let chosen_velocity = match &ped.params {
         ModelParams::SocialForce(sf) => {
+            // The social repulsion is a pedestrian's own motive to keep its distance, and a
+            // waiting one has no motives yet: only the body force and the friction of contact
+            // move it.
+            let still = SocialForce {
+                a: 0.0,
+                a_wall: 0.0,
+                ..*sf
+            };
+            let sf = if waiting { &still } else { sf };
             let touching = fill(a, radii, i, b, (count, n), true);
             let force = social_force_sum(sf, b, count, n, vel, e0, dt, touching);
             let mut walls = Vec2::ZERO;
