@@ -155,6 +155,15 @@ fn choices_change_only_for_an_exit_quicker_by_the_switching_gain() {
 /// as a cost: `Err` names what went wrong when anybody stays inside or leaves through the
 /// other door.
 fn allocated_escape_routes(seed: Option<u64>, cost: Option<f32>) -> Result<(), String> {
+    allocated_escape_routes_of(seed, cost, "{}")
+}
+
+/// [`allocated_escape_routes`] with `pedestrian` as both crowds' pedestrian table.
+fn allocated_escape_routes_of(
+    seed: Option<u64>,
+    cost: Option<f32>,
+    pedestrian: &str,
+) -> Result<(), String> {
     let mut text = two_doors(
         "euclidean",
         40,
@@ -177,6 +186,7 @@ pedestrian = {}
             &format!("\nclearance = 0.2\nclearance_cost = {cost}\n"),
         );
     }
+    let text = text.replace("pedestrian = {}", &format!("pedestrian = {pedestrian}"));
     let mut s = Scenario::from_toml(&text, "t.toml").unwrap();
     if let Some(seed) = seed {
         s.seed = seed;
@@ -223,10 +233,11 @@ fn allocated_escape_routes_are_kept() {
     allocated_escape_routes(None, Some(4.0)).unwrap();
 }
 
-/// The same with the clearance as walls, at the file's seed and seeds 0 to 29. Fails: of 30
-/// seeds, 2 lock and at 5 a pedestrian crossing in front of the other crowd's door is pushed
-/// into it by that crowd and carried out; the clearance, rounded to whole 0.25 m cells, leaves
-/// the doors' mouths 0.5 m wide for the centres (docs/VALIDATION.md, "The narrow door").
+/// The same with the clearance as walls, at the file's seed and seeds 0 to 29. Fails: at 3 of
+/// 31 runs (seeds 0, 22 and 26) a pedestrian crossing in front of the other crowd's door is
+/// pushed into it by that crowd and carried out (while a wall's corner was counted twice, 2
+/// also locked and 5 were pushed); the clearance, rounded to whole 0.25 m cells, leaves the
+/// doors' mouths 0.5 m wide for the centres (docs/VALIDATION.md, "The narrow door").
 #[test]
 #[ignore = "with the clearance as walls, pedestrians pushed out through the other crowd's door (docs/VALIDATION.md)"]
 fn allocated_escape_routes_are_kept_with_the_clearance_as_walls() {
@@ -252,20 +263,17 @@ fn locked_seeds(cost: Option<f32>) -> Vec<String> {
         .collect()
 }
 
-/// Nobody stays inside at any of ten seeds with the clearance as a cost. With the clearance as
-/// walls some do (seed 5; seeds 5 and 15 of 30 from 0): the clearance, rounded to whole
-/// 0.25 m cells, leaves the mouth of a door 0.5 m wide for the centres, too narrow for two
-/// pedestrians of one crowd pressing in from either side, who then hold each other off
-/// (docs/VALIDATION.md, "The narrow door"). The walls' run is the check that this test can
-/// fail.
+/// Nobody stays inside at any of ten seeds, with the clearance as a cost or as walls. As walls,
+/// rounded to whole 0.25 m cells, it leaves the mouth of a door 0.5 m wide for the centres;
+/// while a wall's corner was counted twice (once by each wall meeting there), two pedestrians
+/// of one crowd pressing in from either side held each other off at the jambs and locked the
+/// door (seed 5 of these; docs/VALIDATION.md, "The narrow door"), which fails this test.
 #[test]
-fn the_door_never_locks_with_the_clearance_as_a_cost() {
-    let locked = locked_seeds(Some(4.0));
-    assert!(locked.is_empty(), "{}", locked.join("; "));
-    assert!(
-        !locked_seeds(None).is_empty(),
-        "no lock with the clearance as walls either: the scene no longer tests the door"
-    );
+fn the_door_never_locks_with_the_clearance_as_a_cost_or_as_walls() {
+    for cost in [Some(4.0), None] {
+        let locked = locked_seeds(cost);
+        assert!(locked.is_empty(), "cost {cost:?}: {}", locked.join("; "));
+    }
 }
 
 /// Everyone out through their own door at every seed, with the clearance as a cost. Of seeds 0

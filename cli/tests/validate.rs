@@ -65,8 +65,8 @@ fn json_holds_every_check_and_the_verdict() {
 #[test]
 fn a_failing_check_exits_non_zero_naming_it() {
     // The social force model at the 2000 paper's repulsion (2000 N over 0.08 m, isotropic)
-    // squeezes bodies through the bottleneck at twice the experiments' band
-    // (docs/VALIDATION.md): the run reports it and fails.
+    // squeezes bodies through the bottleneck: J/b about 3.8 at 1.2 m against the band of 1.5 to
+    // 2.1 persons/(m s) (docs/VALIDATION.md, "Calibration"): the run reports it and fails.
     let o = assert_one_line_failure(
         &[
             "validate",

@@ -20,8 +20,11 @@
 //! acceleration (the speed model's `(v_new - v) / dt`), within the group's `max_speed` and
 //! `max_acceleration`, which stay hard limits. The models need a small time step: 0.01 s is
 //! JuPedSim's default and what the pedestrian scenarios use; the social force model's body
-//! forces are stiff (`k = 1.2e5 kg/s^2`) and the integration is stable for `dt <= 0.02 s` at its
-//! default parameters.
+//! forces are stiff (`k = 1.2e5 kg/s^2`) and the integration was found stable for `dt <= 0.02 s`
+//! at the 2000 paper's parameters, whose repulsion presses bodies harder than the default's.
+//!
+//! Walls act from their closest points, a corner once: a wall whose closest point is an end it
+//! shares with a nearer wall is skipped, so a body beside a door's jamb is not repelled twice.
 //!
 //! Invariants: every term is finite for any finite input, including zero distance (a
 //! deterministic direction from the two ids) and overlap; pair terms between equal agents are
@@ -191,9 +194,10 @@ impl DesiredSpeed {
 /// Pre-movement times: how long after the start of the run (world time 0, the alarm) each
 /// pedestrian waits before it walks, drawn per agent from the uniform distribution on
 /// `[min, max]` s (RiMEA test 5 uses 10 to 100 s). A waiting pedestrian has no preferred
-/// velocity: it stands. Under the social force model it has no social repulsion either (the
-/// repulsion is a pedestrian's motive to keep its distance, and a waiting one has no motives
-/// yet): others move it only by contact, through the body force and the friction. Drawn from
+/// velocity: it stands. Under the social force model it has no social repulsion either, from
+/// agents or walls (the repulsion is a pedestrian's motive to keep its distance, and a waiting
+/// one has no motives yet): others move it only by contact, through the body force and the
+/// friction. Drawn from
 /// the agent's counter-based stream, so the same for any spawn order or thread count; agents
 /// added after their time walk at once.
 #[derive(Clone, Copy, Debug, PartialEq, Serialize, Deserialize)]

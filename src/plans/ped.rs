@@ -28,6 +28,7 @@ use super::out::{STEER_CHUNK, SteerOut};
 use super::pack::{Packed, pack_block};
 use super::view::SteerView;
 use crate::agents::Agents;
+use crate::obstacles::Wall;
 use crate::ped::cfsm::{BLOCKED_SPACING, SIDESTEP_WALL_MARGIN};
 use crate::ped::lanes::{LANES, Neighbours, behind_lanes, lane_sum};
 use crate::ped::own::own;
@@ -67,6 +68,8 @@ struct Buffers {
     fy: Vec<f32>,
     walls: Vec<u32>,
     circles: Vec<u32>,
+    /// The walls within reach: index, closest point, and whether that point is an end.
+    near_walls: Vec<(u32, Vec2, bool)>,
 }
 
 thread_local! {
@@ -133,6 +136,13 @@ fn requests(
 /// Calls `f(d, normal)` for every wall and circle within `r` of `pos`, in index order: `d` runs
 /// from the obstacle's closest point to `pos`, `normal` is the direction to use when `d` is zero
 /// (a wall's normal is only worked out then; otherwise `normal` is `Vec2::Y`, unused).
+///
+/// A corner is one point of the boundary, not one per wall: a wall whose closest point is an
+/// end it shares with another wall within reach is skipped when that other wall's closest point
+/// lies inside it (at least as near, since the corner is on it too) or is the same corner and
+/// the other wall comes first. So a body beside a door's jamb is repelled by the wall it faces
+/// and not again by the end of the wall round the corner, and a body in the wedge outside a
+/// corner by that corner once.
 #[inline(always)]
 fn for_each_wall(
     view: &SteerView,
@@ -149,18 +159,35 @@ fn for_each_wall(
         .broadphase()
         .near(pos, r, &mut b.circles, &mut b.walls);
     let r_sq = r * r;
+    b.near_walls.clear();
     for &w in &b.walls {
         let wall = obstacles.walls()[w as usize];
-        let d = pos - wall.closest_point(pos);
-        if d.length_squared() <= r_sq {
-            // The models use the normal only where `d.length() <= 1e-6`.
-            let normal = if d.length() > 1e-6 {
-                Vec2::Y
-            } else {
-                (wall.b - wall.a).perp().normalize_or(Vec2::Y)
-            };
-            f(d, normal);
+        let (c, at_end) = closest_on(wall, pos);
+        if (pos - c).length_squared() <= r_sq {
+            b.near_walls.push((w, c, at_end));
         }
+    }
+    for (k, &(w, c, at_end)) in b.near_walls.iter().enumerate() {
+        let corner_counted = at_end
+            && b.near_walls
+                .iter()
+                .enumerate()
+                .any(|(m, &(v, cv, v_at_end))| {
+                    let other = obstacles.walls()[v as usize];
+                    m != k && (other.a == c || other.b == c) && (!v_at_end || (cv == c && m < k))
+                });
+        if corner_counted {
+            continue;
+        }
+        let wall = obstacles.walls()[w as usize];
+        let d = pos - c;
+        // The models use the normal only where `d.length() <= 1e-6`.
+        let normal = if d.length() > 1e-6 {
+            Vec2::Y
+        } else {
+            (wall.b - wall.a).perp().normalize_or(Vec2::Y)
+        };
+        f(d, normal);
     }
     for &c in &b.circles {
         let circle = obstacles.circles()[c as usize];
@@ -171,6 +198,25 @@ fn for_each_wall(
         if gap <= r {
             f(n * gap, n);
         }
+    }
+}
+
+/// The point of `wall` closest to `p` ([`Wall::closest_point`]'s), and whether it is one of the
+/// wall's ends (then exactly that end).
+#[inline(always)]
+fn closest_on(wall: Wall, p: Vec2) -> (Vec2, bool) {
+    let ab = wall.b - wall.a;
+    let len_sq = ab.length_squared();
+    if len_sq == 0.0 {
+        return (wall.a, true);
+    }
+    let t = (p - wall.a).dot(ab) / len_sq;
+    if t <= 0.0 {
+        (wall.a, true)
+    } else if t >= 1.0 {
+        (wall.b, true)
+    } else {
+        (wall.a + ab * t, false)
     }
 }
 
@@ -518,15 +564,20 @@ fn agent(
 
     let chosen_velocity = match &ped.params {
         ModelParams::SocialForce(sf) => {
-            // The social repulsion is a pedestrian's own motive to keep its distance, and a
-            // waiting one has no motives yet: only the body force and the friction of contact
-            // move it.
-            let still = SocialForce {
-                a: 0.0,
-                a_wall: 0.0,
-                ..*sf
+            // The social repulsion (from agents and from walls) is a pedestrian's own motive to
+            // keep its distance, and a waiting one has no motives yet: only the body force and
+            // the friction of contact move it.
+            let still;
+            let sf = if waiting {
+                still = SocialForce {
+                    a: 0.0,
+                    a_wall: 0.0,
+                    ..*sf
+                };
+                &still
+            } else {
+                sf
             };
-            let sf = if waiting { &still } else { sf };
             let touching = fill(a, radii, i, b, (count, n), true);
             let force = social_force_sum(sf, b, count, n, vel, e0, dt, touching);
             let mut walls = Vec2::ZERO;
