@@ -3,15 +3,16 @@
 usage: python examples/python/calibrate.py MODEL OUT.csv [--full] [--dask]
 
 MODEL is ``cfsm`` or ``social_force``. Every combination of the grid below runs the ``exp-*``
-cases of ``throng validate`` (and RiMEA 4, the fundamental diagram against Weidmann's) through
-``throng.sweep``, one row per case and parameter set, written to OUT.csv; the parameter sets are
-then ranked by the checks they pass over all the cases (the validation's own criteria: a bin
-within 15% of the experiment's, a RiMEA criterion), ties broken by the mean over the ``exp-*``
-cases of the mean absolute relative error per bin, and the best ten printed. The count comes
-first because the mean is ruled by the worst case: a set that misses one experiment by 300% and
-meets the others is a better default than one that misses all of them by 50%. ``--full`` runs the cases at their full size (default: ``quick``); ``--dask`` maps
-the runs over a ``dask.distributed.LocalCluster`` of one worker per core. One parameter set per
-model, not per case: that is what a default is.
+cases of ``throng validate`` (and RiMEA 4, the fundamental diagram against Weidmann's, and the
+``bottleneck`` case) through ``throng.sweep``, one row per case and parameter set, written to
+OUT.csv; the parameter sets are then ranked by the checks they pass over all the cases (the
+validation's own criteria: a bin within 15% of the experiment's, a RiMEA criterion), ties
+broken by the mean over the ``exp-*`` cases of the mean absolute relative error per bin, and
+the best ten printed. The count comes first because the mean is ruled by the worst case: a set
+that misses one experiment by 300% and meets the others is a better default than one that
+misses all of them by 50%. ``--full`` runs the cases at their full size (default: ``quick``);
+``--dask`` maps the runs over a ``dask.distributed.LocalCluster`` of one worker per core. One
+parameter set per model, not per case: that is what a default is.
 """
 
 from __future__ import annotations
@@ -65,7 +66,12 @@ def main() -> None:
         if s.get("cfsm.pressed_time_gap", 0) <= s.get("cfsm.time_gap", 1e9)
     ]
     runs = [
-        {"validate": case, "quick": quick, "model": model, **{f"pedestrian.{k}": v for k, v in s.items()}}
+        {
+            "validate": case,
+            "quick": quick,
+            "model": model,
+            **{f"pedestrian.{k}": v for k, v in s.items()},
+        }
         for s in sets
         for case in CASES
     ]
