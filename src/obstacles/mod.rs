@@ -57,6 +57,27 @@ impl Wall {
         let t = ((p - self.a).dot(ab) / len_sq).clamp(0.0, 1.0);
         self.a + ab * t
     }
+
+    /// The point of the segment closest to `p`, and whether it is one of the ends: then exactly
+    /// that end (where [`Wall::closest_point`] may round `a + (b - a) * 1` off `b`), so that walls
+    /// meeting at a corner can be matched by their shared end.
+    #[inline]
+    #[must_use]
+    pub fn closest_point_or_end(&self, p: Vec2) -> (Vec2, bool) {
+        let ab = self.b - self.a;
+        let len_sq = ab.length_squared();
+        if len_sq == 0.0 {
+            return (self.a, true);
+        }
+        let t = (p - self.a).dot(ab) / len_sq;
+        if t <= 0.0 {
+            (self.a, true)
+        } else if t >= 1.0 {
+            (self.b, true)
+        } else {
+            (self.a + ab * t, false)
+        }
+    }
 }
 
 /// Where segment `p0 -> p1` first meets segment `q0 -> q1`: `(t along p, point)`, or `None`.

@@ -28,7 +28,6 @@ use super::out::{STEER_CHUNK, SteerOut};
 use super::pack::{Packed, pack_block};
 use super::view::SteerView;
 use crate::agents::Agents;
-use crate::obstacles::Wall;
 use crate::ped::cfsm::{BLOCKED_SPACING, SIDESTEP_WALL_MARGIN};
 use crate::ped::lanes::{LANES, Neighbours, behind_lanes, lane_sum};
 use crate::ped::own::own;
@@ -162,7 +161,7 @@ fn for_each_wall(
     b.near_walls.clear();
     for &w in &b.walls {
         let wall = obstacles.walls()[w as usize];
-        let (c, at_end) = closest_on(wall, pos);
+        let (c, at_end) = wall.closest_point_or_end(pos);
         if (pos - c).length_squared() <= r_sq {
             b.near_walls.push((w, c, at_end));
         }
@@ -198,25 +197,6 @@ fn for_each_wall(
         if gap <= r {
             f(n * gap, n);
         }
-    }
-}
-
-/// The point of `wall` closest to `p` ([`Wall::closest_point`]'s), and whether it is one of the
-/// wall's ends (then exactly that end).
-#[inline(always)]
-fn closest_on(wall: Wall, p: Vec2) -> (Vec2, bool) {
-    let ab = wall.b - wall.a;
-    let len_sq = ab.length_squared();
-    if len_sq == 0.0 {
-        return (wall.a, true);
-    }
-    let t = (p - wall.a).dot(ab) / len_sq;
-    if t <= 0.0 {
-        (wall.a, true)
-    } else if t >= 1.0 {
-        (wall.b, true)
-    } else {
-        (wall.a + ab * t, false)
     }
 }
 
