@@ -14,7 +14,8 @@
 //! 2. during **steering**, `follow_field` samples its channel's flow at the agent's position
 //!    (read only, [`FieldSet::follow`]), `choose_exit` its chosen channel's;
 //! 3. **after_move** (the `fields` phase, after integration and the world's bounds): every agent
-//!    whose move would end inside a wall cell of any field slides along the free axis or stays
+//!    whose move would end inside a wall cell of any field slides along the free axis (at a
+//!    wall cell's corner, along the axis whose cell face the move reaches first) or stays
 //!    where it was, and loses the velocity component into the wall (on a torus the move is the
 //!    short hop across the seam, and wall lookups wrap); grid walkers take their discrete step;
 //!    agents on a goal of the channel they follow are marked arrived.
@@ -241,6 +242,38 @@ impl<'a> Walls<'a> {
         self.corner_free(self.cell(a), cb)
     }
 
+    /// The axis to slide along when a move by `step` from `from` ends in a wall cell diagonal
+    /// to `from`'s with both orthogonal cells open: the move leaves `from`'s cell across the
+    /// face it reaches first, so it meets the wall cell's face across the other axis and
+    /// keeps its motion along the first. At the corner itself the larger component is kept,
+    /// and a move exactly along the diagonal stops (`None`): no axis is preferred to the
+    /// other, so that the rule is the same in a turned or mirrored scene.
+    fn first_face(&self, from: Vec2, step: Vec2) -> Option<Axis> {
+        let from = if self.bounds.is_torus() {
+            self.bounds.wrap(from)
+        } else {
+            from
+        };
+        let (u, du) = match self.inverse {
+            Some(inv) => ((from - self.origin) * inv, step * inv),
+            None => ((from - self.origin) / self.cell_size, step / self.cell_size),
+        };
+        let within = u - u.floor();
+        let left = |f: f32, d: f32| if d > 0.0 { 1.0 - f } else { f };
+        // Crossing times along each axis, compared without dividing: `left.x / |du.x|` against
+        // `left.y / |du.y|`.
+        let tx = left(within.x, du.x) * du.y.abs();
+        let ty = left(within.y, du.y) * du.x.abs();
+        let (ax, ay) = (du.x.abs(), du.y.abs());
+        if tx < ty || tx == ty && ax > ay {
+            Some(Axis::X)
+        } else if ty < tx || ay > ax {
+            Some(Axis::Y)
+        } else {
+            None
+        }
+    }
+
     /// Whether a step from cell `a` to cell `b` is allowed at corners: a diagonal change needs
     /// one of the two orthogonal cells free (anything else passes).
     #[inline]
@@ -350,6 +383,13 @@ impl<'a> Walls<'a> {
     }
 }
 
+/// An axis of the field's raster.
+#[derive(Clone, Copy, PartialEq, Eq, Debug)]
+enum Axis {
+    X,
+    Y,
+}
+
 /// The non-penetration rule for one agent: the position and velocity after moving from `prev`
 /// towards `p` without entering a wall.
 fn resolve(walls: &Walls, prev: Vec2, p: Vec2, mut v: Vec2) -> (Vec2, Vec2) {
@@ -374,12 +414,20 @@ fn resolve(walls: &Walls, prev: Vec2, p: Vec2, mut v: Vec2) -> (Vec2, Vec2) {
         }
         let slide_x = Vec2::new(to.x, cur.y);
         let slide_y = Vec2::new(cur.x, to.y);
-        if step.x != 0.0 && walls.can_move(cur, slide_x) {
+        let along_x = step.x != 0.0 && walls.can_move(cur, slide_x);
+        let along_y = step.y != 0.0 && walls.can_move(cur, slide_y);
+        // Either slide is open only where the move meets a wall cell's corner: the face it
+        // reaches first decides, which a turned or mirrored scene reaches first too.
+        let along = match (along_x, along_y) {
+            (true, true) => walls.first_face(cur, step),
+            (x, y) => x.then_some(Axis::X).or(y.then_some(Axis::Y)),
+        };
+        if along == Some(Axis::X) {
             cur = slide_x;
             v.y = 0.0;
             step.y = 0.0;
             d.y = cur.y - prev.y;
-        } else if step.y != 0.0 && walls.can_move(cur, slide_y) {
+        } else if along == Some(Axis::Y) {
             cur = slide_y;
             v.x = 0.0;
             step.x = 0.0;
@@ -871,6 +919,74 @@ mod tests {
             Vec2::new(2.0, 3.0),
         );
         assert_eq!((p, v), (Vec2::new(0.7, 0.9), Vec2::new(2.0, 0.0)));
+    }
+
+    #[test]
+    fn a_move_onto_a_wall_corner_slides_along_the_face_it_reaches_first() {
+        let g = grid("..\n.#\n");
+        let bits = wall_bits(&g);
+        let walls = Walls::of(&g, &bits, Bounds::Open);
+        let v = Vec2::new(3.0, 3.0);
+        // Across x first (a third of the way), then into the wall cell's upper face: keeps x.
+        let (p, w) = resolve(&walls, Vec2::new(0.9, 0.8), Vec2::new(1.2, 1.1), v);
+        assert_eq!((p, w), (Vec2::new(1.2, 0.8), Vec2::new(3.0, 0.0)));
+        // The same move mirrored across the diagonal: keeps y.
+        let (p, w) = resolve(&walls, Vec2::new(0.8, 0.9), Vec2::new(1.1, 1.2), v);
+        assert_eq!((p, w), (Vec2::new(0.8, 1.2), Vec2::new(0.0, 3.0)));
+        // Through the corner point itself: the larger component is kept; along the diagonal
+        // neither is.
+        let (p, _) = resolve(&walls, Vec2::new(0.9, 0.9), Vec2::new(1.3, 1.2), v);
+        assert_eq!(p, Vec2::new(1.3, 0.9));
+        let (p, w) = resolve(&walls, Vec2::new(0.875, 0.875), Vec2::new(1.125, 1.125), v);
+        assert_eq!((p, w), (Vec2::new(0.875, 0.875), Vec2::ZERO));
+    }
+
+    /// The wall rule has no preferred axis: on the transposed map, the transposed move ends
+    /// at the transposed position with the transposed velocity, bit for bit.
+    #[test]
+    fn the_wall_rule_commutes_with_transposing_the_map() {
+        use rand::{RngExt, SeedableRng};
+        let g = OccupancyGrid::caves(24, 24, 0.5, 5).unwrap();
+        let text = |transpose: bool| {
+            let mut t = String::new();
+            for y in 0..24 {
+                for x in 0..24 {
+                    let (cx, cy) = if transpose { (y, x) } else { (x, y) };
+                    t.push(if g.cells()[cy * 24 + cx].is_free() {
+                        '.'
+                    } else {
+                        '#'
+                    });
+                }
+                t.push('\n');
+            }
+            t
+        };
+        let (a, b) = (grid(&text(false)), grid(&text(true)));
+        let (wa, wb) = (wall_bits(&a), wall_bits(&b));
+        let (walls, turned) = (
+            Walls::of(&a, &wa, Bounds::Open),
+            Walls::of(&b, &wb, Bounds::Open),
+        );
+        let t = |p: Vec2| Vec2::new(p.y, p.x);
+        let mut rng = rand_chacha::ChaCha8Rng::seed_from_u64(3);
+        let mut slid = 0;
+        for _ in 0..50_000 {
+            let prev = Vec2::new(rng.random_range(0.0..24.0), rng.random_range(0.0..24.0));
+            if walls.in_wall(prev) {
+                continue;
+            }
+            let p = prev + Vec2::new(rng.random_range(-0.6..0.6), rng.random_range(-0.6..0.6));
+            let v = Vec2::new(rng.random_range(-2.0..2.0), rng.random_range(-2.0..2.0));
+            let (q, w) = resolve(&walls, prev, p, v);
+            assert_eq!(
+                (t(q), t(w)),
+                resolve(&turned, t(prev), t(p), t(v)),
+                "{prev} -> {p}"
+            );
+            slid += usize::from(q != p && q != prev);
+        }
+        assert!(slid > 500, "{slid}");
     }
 
     /// The fast path changes nothing: where it keeps a move, [`resolve`] keeps it too.
