@@ -569,16 +569,11 @@ const NOT_INVARIANT: &[(&str, &str, &str)] = &[
         "ORCA: 0.50 mm at the first step, open",
     ),
     (
-        "rimea-15-short Cfsm",
-        "mirrored",
-        "1.5 cm at the first step (speed model; 2.7 mm under the earlier calibration, traced \
-         to the quickest paths), open",
-    ),
-    (
         "rimea-15-long Cfsm",
         "mirrored",
-        "1.4 cm at the first step (speed model; 3.1 mm under the earlier calibration, traced \
-         to the quickest paths), open",
+        "1.4 mm at the first step (speed model): a cell of the quickest paths whose two lower \
+         diagonal neighbours are equally near and whose own descent climbs; the step must go to \
+         one of them to descend, and no rule picks it alike in a mirror",
     ),
     (
         "rimea-06-corner Cfsm",

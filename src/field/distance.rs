@@ -279,7 +279,9 @@ impl DistanceField {
 
     /// The unit direction of steepest descent at padded cell `p` (the upwind negative gradient:
     /// per axis, towards the nearer of the two neighbours when it is nearer than `p`), or zero on
-    /// goals, walls and unreachable cells.
+    /// goals, walls and unreachable cells. On a ridge, where both neighbours along an axis are
+    /// equally near and nearer than `p`, that axis has no descent (zero, as the central
+    /// difference gives), so that no sense is preferred: a mirrored field descends mirrored.
     pub(crate) fn descent(&self, p: usize) -> Vec2 {
         let t = self.distance[p];
         if t == 0.0 || !t.is_finite() {
@@ -288,10 +290,10 @@ impl DistanceField {
         let s = self.lattice.stride;
         let axis = |minus: usize, plus: usize| {
             let (m, pl) = (self.distance[minus], self.distance[plus]);
-            if pl <= m {
+            if pl < m {
                 if pl < t { t - pl } else { 0.0 }
-            } else if m < t {
-                m - t
+            } else if m < pl {
+                if m < t { m - t } else { 0.0 }
             } else {
                 0.0
             }
@@ -332,6 +334,29 @@ mod tests {
             })
             .collect();
         OccupancyGrid::from_cells(w, h, cells).unwrap()
+    }
+
+    /// On a ridge (both neighbours along an axis equally near) the descent has no component
+    /// along that axis, and a mirrored field descends mirrored, bit for bit.
+    #[test]
+    fn the_descent_prefers_no_sense_on_a_ridge() {
+        let grid = OccupancyGrid::new(9, 9).unwrap();
+        let mut f = DistanceField::fast_marching(&grid, &[(4, 0)]).unwrap();
+        let l = f.lattice;
+        // Travel times rising with y, and higher towards the middle column: a ridge at x = 4.
+        for y in 0..9 {
+            for x in 0..9 {
+                let across = 4.0 - (x as f32 - 4.0).abs();
+                f.distance[l.index(x, y)] = 1.0 + y as f32 + 0.3 * across;
+            }
+        }
+        for y in 1..8 {
+            assert_eq!(f.descent(l.index(4, y)), Vec2::new(0.0, -1.0), "({y})");
+            for x in 1..8 {
+                let (a, b) = (f.descent(l.index(x, y)), f.descent(l.index(8 - x, y)));
+                assert_eq!(b, Vec2::new(-a.x, a.y), "({x}, {y})");
+            }
+        }
     }
 
     #[test]
@@ -453,8 +478,17 @@ mod tests {
                             .iter()
                             .any(|&q| f.distance[q] < d);
                         prop_assert!(nearer, "({}, {}) has no nearer neighbour", x, y);
+                        // A unit vector, or zero where along each axis the two neighbours are
+                        // equally near (a ridge) or neither is nearer.
                         let v = f.descent(p);
-                        prop_assert!((v.length() - 1.0).abs() < 1e-4);
+                        let flat = |a: usize, b: usize| {
+                            let (m, pl) = (f.distance[a], f.distance[b]);
+                            m == pl || m >= d && pl >= d
+                        };
+                        prop_assert!(
+                            (v.length() - 1.0).abs() < 1e-4
+                                || v == Vec2::ZERO && flat(p - 1, p + 1) && flat(p - l.stride, p + l.stride)
+                        );
                     }
                 }
             }
