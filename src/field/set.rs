@@ -249,15 +249,7 @@ impl<'a> Walls<'a> {
     /// and a move exactly along the diagonal stops (`None`): no axis is preferred to the
     /// other, so that the rule is the same in a turned or mirrored scene.
     fn first_face(&self, from: Vec2, step: Vec2) -> Option<Axis> {
-        let from = if self.bounds.is_torus() {
-            self.bounds.wrap(from)
-        } else {
-            from
-        };
-        let (u, du) = match self.inverse {
-            Some(inv) => ((from - self.origin) * inv, step * inv),
-            None => ((from - self.origin) / self.cell_size, step / self.cell_size),
-        };
+        let (u, du) = (self.raster(from), self.cells(step));
         let within = u - u.floor();
         let left = |f: f32, d: f32| if d > 0.0 { 1.0 - f } else { f };
         // Crossing times along each axis, compared without dividing: `left.x / |du.x|` against
@@ -293,17 +285,28 @@ impl<'a> Walls<'a> {
     /// [`cell_of`] as a row-major cell index.
     #[inline]
     fn cell(&self, p: Vec2) -> Option<usize> {
+        super::occupancy::cell_coords(self.raster(p), self.width, self.height)
+            .map(|(x, y)| y * self.width + x)
+    }
+
+    /// World point `p` (wrapped into the world on a torus) in cell units from the origin.
+    #[inline]
+    fn raster(&self, p: Vec2) -> Vec2 {
         let p = if self.bounds.is_torus() {
             self.bounds.wrap(p)
         } else {
             p
         };
-        let d = p - self.origin;
-        let u = match self.inverse {
+        self.cells(p - self.origin)
+    }
+
+    /// World vector `d` in cell units.
+    #[inline]
+    fn cells(&self, d: Vec2) -> Vec2 {
+        match self.inverse {
             Some(inv) => d * inv,
             None => d / self.cell_size,
-        };
-        super::occupancy::cell_coords(u, self.width, self.height).map(|(x, y)| y * self.width + x)
+        }
     }
 
     #[inline]
